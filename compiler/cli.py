@@ -1,0 +1,124 @@
+"""``pendc`` command line: a thin layer over the Python API.
+
+Every command turns bad input into one ``pendc: error: ...`` line on stderr and
+exit status 2; nothing is half-written (outputs go through a temporary file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from .errors import PendcError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line, like every other error."""
+
+    def error(self, message):
+        raise PendcError(f"{self.prog}: {message}")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
+    return value
+
+
+def _state(text: str) -> tuple:
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 4:
+        raise argparse.ArgumentTypeError(f"expected four numbers x,dx,theta,dtheta, got {text!r}")
+    return values
+
+
+def _emit_json(obj) -> None:
+    json.dump(obj, sys.stdout, indent=2, sort_keys=False)
+    sys.stdout.write("\n")
+
+
+def cmd_derive(args) -> int:
+    from .model.provenance import derive_parameters, derived_to_json, format_derived_table
+
+    derived = derive_parameters()
+    if args.json:
+        _emit_json(derived_to_json(derived))
+    else:
+        sys.stdout.write(format_derived_table(derived))
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    from .model.modelfile import load_model
+    from .sim.measurements import format_csv, read_measurements
+    from .atomic import write_atomic
+    from .sim.simulator import Simulator
+
+    model = load_model(args.model)
+    data = read_measurements(args.input, required=("t", "u"))
+    for w in data.warnings:
+        print(f"pendc: warning: {w}", file=sys.stderr)
+    sim = Simulator(model, dt=args.dt, method=args.method)
+    result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
+    meta = {"generator": "pendc simulate", "model": model.source, "method": args.method,
+            "dt": repr(args.dt), "quantized": str(bool(args.quantize)).lower()}
+    text = format_csv(result.columns(), meta)
+    if args.output in (None, "-"):
+        sys.stdout.write(text)
+    else:
+        write_atomic(args.output, text)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="pendc", description="Compiler and identification workbench for HIL plant models.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    p = sub.add_parser("derive", help="recompute the thesis' parameters from its raw measurements")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_derive)
+
+    p = sub.add_parser("simulate", help="float simulation of a model on an input file")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--input", required=True, help="CSV with columns t,u")
+    p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default stdout")
+    p.add_argument("--dt", type=_positive_float, default=1e-6, help="integration step in s (default 1e-6)")
+    p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
+    p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0)")
+    p.add_argument("--quantize", action="store_true", help="quantise x and theta to x4 encoder counts")
+    p.set_defaults(func=cmd_simulate)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            return 2
+        return args.func(args)
+    except PendcError as exc:
+        print(f"pendc: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # unwritable output folder, disk full, ...
+        print(f"pendc: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("pendc: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

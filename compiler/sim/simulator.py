@@ -1,0 +1,93 @@
+"""Float reference simulator of any plant model.
+
+Fixed step (default 1 us forward Euler, the thesis' hardware integrator; RK4
+selectable), zero-order-hold input, the velocity clamp after every step, and
+optional encoder quantisation of the outputs. The right-hand side is compiled
+once per model structure (see :mod:`pendc.sim.kernel`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from .encoders import quantize_theta, quantize_x
+from .kernel import load_kernel
+
+METHODS = ("euler", "rk4")
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """Simulated trajectory at the input's sample times.
+
+    ``states`` maps each state name (``x``, ``dx``, ``theta``, ``dtheta`` and any
+    extra state such as ``F_m``) to an array the length of ``t``.
+    """
+
+    t: np.ndarray
+    u: np.ndarray
+    states: dict
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.states[name]
+
+    def columns(self) -> dict:
+        """``t, u, x, theta, dx, dtheta`` in the column order of the CLI's output file."""
+        return {"t": self.t, "u": self.u, **{k: self.states[k] for k in ("x", "theta", "dx", "dtheta")}}
+
+
+class Simulator:
+    """Simulate ``model`` on sampled inputs.
+
+    >>> sim = Simulator(load_model(), dt=1e-6, method="euler")
+    >>> res = sim(t, u)                       # starts at rest in the centre
+    >>> res = sim(t, u, x0=(0, 0, 0.1, 0))    # (x, dx, theta, dtheta)
+    >>> res = sim(t, u, params={"b_x": 900})  # same compiled kernel, new values
+
+    ``quantize=True`` rounds x and theta to the ×4 encoder counts (2.5 um, 0.314 mrad),
+    counted from the initial state as the real encoders do.
+    """
+
+    def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler"):
+        if method not in METHODS:
+            raise PendcError(f"unknown integration method '{method}' (choose {' or '.join(METHODS)})")
+        if not (np.isfinite(dt) and 0 < dt <= 1e-2):
+            raise PendcError(f"step dt must be in (0, 0.01] s, got {dt}")
+        self.model = model
+        self.dt = float(dt)
+        self.method = method
+        self.state_names = tuple(s.name for s in model.equations.states)
+        self._kernel = load_kernel(model.equations)
+
+    def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
+        t = np.ascontiguousarray(t, dtype=np.float64)
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        if t.ndim != 1 or t.shape != u.shape or t.size < 1:
+            raise PendcError("t and u must be 1-D arrays of the same, non-zero length")
+        if t.size > 1 and not np.all(np.diff(t) > 0):
+            raise PendcError("sample times must be strictly increasing")
+        s0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=np.float64)
+        if s0.shape != (4,) or not np.all(np.isfinite(s0)):
+            raise PendcError("initial state must be four finite numbers (x, dx, theta, dtheta)")
+        model = self.model.with_params(params) if params else self.model
+        p = np.asarray(model.parameter_vector(), dtype=np.float64)
+        out, valid = self._kernel.simulate(t, u, s0, p, self.dt, self.method == "rk4")
+        if valid < t.size:
+            raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
+        states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
+        if quantize:
+            states["x"] = quantize_x(states["x"])
+            states["theta"] = quantize_theta(states["theta"])
+        return SimResult(t=t, u=u, states=states)
+
+    run = __call__
+
+
+def simulate(model: PlantModel, t, u, x0=None, dt: float = 1e-6, method: str = "euler",
+             quantize: bool = False) -> SimResult:
+    """One-shot convenience wrapper around :class:`Simulator`."""
+    return Simulator(model, dt=dt, method=method)(t, u, x0=x0, quantize=quantize)
