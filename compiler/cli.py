@@ -79,6 +79,23 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_stimulus(args) -> int:
+    from .atomic import write_atomic
+    from .sim.measurements import format_csv
+    from .sim.stimuli import named_stimuli
+
+    stimuli = named_stimuli()
+    if args.name not in stimuli:
+        raise PendcError(f"unknown stimulus '{args.name}' (known: {', '.join(stimuli)})")
+    t, u = stimuli[args.name]
+    text = format_csv({"t": t, "u": u}, {"generator": "pendc stimulus", "stimulus": args.name})
+    if args.output in (None, "-"):
+        sys.stdout.write(text)
+    else:
+        write_atomic(args.output, text)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pendc", description="Compiler and identification workbench for HIL plant models.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -96,6 +113,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0)")
     p.add_argument("--quantize", action="store_true", help="quantise x and theta to x4 encoder counts")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("stimulus", help="write one of the standard input signals as a t,u CSV")
+    p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")
+    p.add_argument("-o", "--output", help="output CSV; default stdout")
+    p.set_defaults(func=cmd_stimulus)
     return parser
 
 

@@ -257,7 +257,7 @@ def build_equations(model: PlantModel) -> Equations:
         )
     else:
         friction = moving
-    F_fric = bind("F_fric", friction)
+    F_fric = bind("F_fric", friction) if friction != 0 else friction
 
     F_cart = bind("F_cart", F_act + F_fric + sum((e.cart_force(s) for e in effects), sp.Integer(0)))
     tau = bind("tau_pend", sum((e.pendulum_torque(s) for e in effects), sp.Integer(0)))

@@ -1,0 +1,73 @@
+"""Model files: the shipped thesis models, round trips and clear errors."""
+
+from pathlib import Path
+
+import pytest
+
+from pendc.errors import PendcError
+from pendc.model.modelfile import default_model_path, dumps_model, load_model, parse_model, save_model
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_default_is_table_14():
+    m = load_model()
+    assert default_model_path() == ROOT / "models" / "sct_thesis_final.toml"
+    v = m.parameter_values()
+    assert v["b_x"] == 877.31327 and v["alpha"] == 260.78841 and v["V_off"] == 5.264616
+    assert v["mu_c"] == 0.1331798 and v["mu_s"] == 0.1035951 and v["gamma"] == 1.0
+    assert list(m.effects) == ["drive", "viscous_cart", "stribeck_cart", "viscous_pendulum", "velocity_limit"]
+
+
+def test_initial_is_table_3():
+    v = load_model(ROOT / "models" / "sct_thesis_initial.toml").parameter_values()
+    assert v["b_x"] == 155.1574 and v["alpha"] == 51.525 and v["mu_s"] == 0.03709 and v["b_theta"] == 0.01
+
+
+def test_round_trip_is_exact_and_deterministic(tmp_path):
+    m = load_model()
+    path = tmp_path / "m.toml"
+    save_model(m, path, meta={"note": 'has "quotes"', "fit_x": 97.5})
+    again = load_model(path)
+    assert again == m
+    assert dumps_model(again) == dumps_model(m)
+
+
+def test_effect_order_in_the_file_does_not_matter():
+    a = parse_model('[plant]\ng=9.8\nM=100.0\nm=0.5\nL=0.1\nI=0.006\n[effects.viscous_cart]\nb_x=1.0\n'
+                    '[effects.drive]\nalpha=50.0\nV_off=5.0\n')
+    b = parse_model('[plant]\ng=9.8\nM=100.0\nm=0.5\nL=0.1\nI=0.006\n[effects.drive]\nalpha=50.0\nV_off=5.0\n'
+                    '[effects.viscous_cart]\nb_x=1.0\n')
+    assert a == b and list(a.effects) == list(b.effects)
+
+
+PLANT = "[plant]\ng=9.8\nM=100.0\nm=0.5\nL=0.1\nI=0.006\n"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("this is = = not toml", "not valid TOML"),
+    ("[effects.drive]\nalpha=1.0\nV_off=5.0\n", "missing \\[plant\\]"),
+    (PLANT.replace("I=0.006\n", ""), "lacks I"),
+    (PLANT + "J=1.0\n", "unknown constant"),
+    (PLANT.replace("M=100.0", "M=-1.0"), "must be positive"),
+    (PLANT + "[effects.frobnicate]\nx=1.0\n", "unknown effect 'frobnicate'"),
+    (PLANT + "[effects.drive]\nalpha=1.0\nV_off=5.0\nbeta=2.0\n", "no parameter 'beta'"),
+    (PLANT + "[unknown]\n", "unknown top-level"),
+    (PLANT + "[fit]\nfree = ['nope']\n", "unknown parameter 'nope'"),
+    (PLANT + "[fit]\nfree = 3\n", "list of parameter names"),
+])
+def test_bad_model_files(text, message):
+    with pytest.raises(PendcError, match=message) as info:
+        parse_model(text, source="bad.toml")
+    assert "\n" not in str(info.value) and "bad.toml" in str(info.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(PendcError, match="not found"):
+        load_model(tmp_path / "none.toml")
+
+
+def test_save_into_missing_folder_writes_nothing(tmp_path):
+    with pytest.raises(PendcError, match="does not exist"):
+        save_model(load_model(), tmp_path / "no" / "m.toml")
+    assert not (tmp_path / "no").exists()
