@@ -1,0 +1,24 @@
+"""pendc: compiler and identification workbench for hardware-in-the-loop plant models.
+
+The main objects, importable from here::
+
+    load_model, parse_model, save_model   model files (TOML)
+    PlantModel, Equations                 rigid body + effects, and its sympy equations
+    CATALOGUE                             the effect classes by name
+    Simulator, simulate                   compiled float simulation
+    stimuli                               standard input signals
+    PendcError                            the exception for bad input
+"""
+
+from .errors import PendcError
+from .model.effects import CATALOGUE
+from .model.modelfile import load_model, parse_model, save_model
+from .model.plant import Equations, PlantModel
+from .sim import stimuli
+from .sim.simulator import SimResult, Simulator, simulate
+
+__all__ = [
+    "PendcError", "CATALOGUE", "load_model", "parse_model", "save_model", "Equations", "PlantModel",
+    "stimuli", "SimResult", "Simulator", "simulate",
+]
+__version__ = "0.1.0"
