@@ -22,8 +22,9 @@ from ..atomic import write_atomic
 from ..errors import PendcError
 
 REQUIRED = ("t", "u", "x", "theta")
-_META = re.compile(r"#\s*([A-Za-z_][\w.\-]*)\s*:\s*(.*?)\s*$")
-_DEG_NAME = re.compile(r"theta\W*_?\W*(deg|degree|degrees)\W*$", re.IGNORECASE)
+_KEY = r"[A-Za-z_][\w.\-]*"  # one word, so prose like '# Run 3 on rig B: ok' is not metadata
+_META = re.compile(rf"#\s*({_KEY})\s*:\s*(.*?)\s*$")
+_DEG_NAME = re.compile(r"theta\W*_?\W*deg(rees?)?\W*$", re.IGNORECASE)
 _DEG_UNITS = {"deg", "degree", "degrees", "°"}
 FIT_WINDOW = 0.010  # s, for initial_state's velocity estimate
 MAX_RAD_RATE = 60.0  # rad/s; the pendulum never exceeds ~8π ≈ 25 rad/s (II.56)
@@ -49,6 +50,7 @@ class Measurement:
         _check_finite(self.source, name, values, self.first_line)
         return values
 
+    # Optional columns: the array, or None when the file has no such column.
     x = property(lambda self: self.columns.get("x"), doc="Cart position (m) or None.")
     theta = property(lambda self: self.columns.get("theta"), doc="Pendulum angle (rad) or None.")
     dx = property(lambda self: self.columns.get("dx"), doc="Cart velocity (m/s) or None.")
@@ -165,7 +167,7 @@ def format_csv(columns: dict, meta: dict | None = None) -> str:
     out = []
     for key, value in (meta or {}).items():
         value = str(value)
-        if not re.fullmatch(r"[A-Za-z_][\w.\-]*", str(key)) or "\n" in value or "\r" in value:
+        if not re.fullmatch(_KEY, str(key)) or "\n" in value or "\r" in value:
             raise PendcError(f"format_csv: metadata {key!r}: {value!r} cannot be written as a '# key: value' line")
         out.append(f"# {key}: {value.strip()}")
     names = [str(n) for n in columns]
@@ -213,7 +215,7 @@ def _parse_rows(source: str, data: list, names: list, first: int) -> np.ndarray:
         if data[k].startswith("#"):
             raise PendcError(f"{source}: line {first + k}: comment line among the data; comments must come before the header")
         what = "blank line" if not data[k].strip() else f"{commas[k] + 1} fields"
-        raise PendcError(f"{source}: line {first + k}: {what} in the data, expected {len(names)} fields ({', '.join(names)})")
+        raise PendcError(f"{source}: line {first + k}: {what}, expected {len(names)} fields ({', '.join(names)})")
     try:
         return np.loadtxt(data, delimiter=",", dtype=np.float64, comments=None, ndmin=2)
     except ValueError as exc:
@@ -237,7 +239,8 @@ def _check_time(source: str, t: np.ndarray, first: int) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0.0)
     if bad.size:
         k = int(bad[0]) + 1
-        kind = f"duplicate time t = {t[k]!r}" if t[k] == t[k - 1] else f"time decreases from {t[k - 1]!r} to {t[k]!r}"
+        a, b = float(t[k - 1]), float(t[k])
+        kind = f"duplicate time t = {b!r}" if a == b else f"time decreases from {a!r} to {b!r}"
         raise PendcError(f"{source}: line {first + k}: {kind}; t must be strictly increasing")
 
 
