@@ -1,0 +1,96 @@
+"""The command line: outputs, and one-line errors with exit status 2 for bad input."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pendc.cli import main
+from pendc.sim.measurements import format_csv, read_measurements
+
+
+def run(capsys, *argv):
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_derive_json(capsys):
+    rc, out, _ = run(capsys, "derive", "--json")
+    assert rc == 0
+    d = json.loads(out)["derived"]
+    assert set(d) == {"L", "I", "alpha", "M", "M_mfr_1096", "mu_s", "mu_s_left", "mu_s_right",
+                      "mu_c_pairwise", "b_x_pairwise", "mu_c_lstsq", "b_x_lstsq"}
+    assert d["M"]["value"] == pytest.approx(103.205, rel=5e-5)
+    assert d["M_mfr_1096"]["value"] == pytest.approx(103.787, rel=5e-5)
+    assert d["mu_c_pairwise"]["value"] == pytest.approx(0.0263, rel=5e-3)
+    assert d["b_x_pairwise"]["value"] == pytest.approx(139.6, rel=5e-3)
+    for entry in d.values():
+        assert set(entry) >= {"value", "thesis", "rel_diff", "note"}
+
+
+def test_derive_table(capsys):
+    rc, out, _ = run(capsys, "derive")
+    assert rc == 0 and "mu_c_pairwise" in out
+
+
+def test_stimulus_then_simulate(tmp_path, capsys):
+    stim = tmp_path / "in.csv"
+    out = tmp_path / "out.csv"
+    assert run(capsys, "stimulus", "steps", "-o", str(stim))[0] == 0
+    rc, _, err = run(capsys, "simulate", "--input", str(stim), "-o", str(out), "--dt", "1e-5")
+    assert rc == 0, err
+    res = read_measurements(out)
+    assert list(res.columns) == ["t", "u", "x", "theta", "dx", "dtheta"]
+    assert np.array_equal(res.t, read_measurements(stim, required=("t", "u")).t)
+    assert res.x.max() > 0.05            # the +0.8 V step moves the cart left
+    rc, _, _ = run(capsys, "simulate", "--input", str(stim), "-o", str(out), "--dt", "1e-5",
+                   "--method", "rk4", "--quantize", "--x0", "0,0,0.2,0")
+    q = read_measurements(out)
+    assert q.theta[0] == 0.2 and rc == 0
+
+
+def _one_line_error(capsys, *argv, match):
+    rc, out, err = run(capsys, *argv)
+    assert rc == 2
+    assert err.count("\n") == 1 and err.startswith("pendc: error: ")
+    assert match in err
+    return err
+
+
+def test_bad_arguments(tmp_path, capsys):
+    stim = tmp_path / "in.csv"
+    stim.write_text(format_csv({"t": np.arange(5) * 1e-3, "u": np.full(5, 5.0)}))
+    _one_line_error(capsys, "nonsense", match="invalid choice")
+    _one_line_error(capsys, "simulate", match="--input")
+    _one_line_error(capsys, "simulate", "--input", str(stim), "--dt", "abc", match="--dt")
+    _one_line_error(capsys, "simulate", "--input", str(stim), "--method", "rk5", match="--method")
+    _one_line_error(capsys, "simulate", "--input", str(stim), "--x0", "1,2", match="four numbers")
+    _one_line_error(capsys, "simulate", "--input", str(tmp_path / "none.csv"), match="not found")
+    _one_line_error(capsys, "simulate", "--input", str(stim), "--model", str(tmp_path / "m.toml"),
+                    match="not found")
+    _one_line_error(capsys, "stimulus", "sawtooth", match="unknown stimulus")
+
+
+def test_bad_files_leave_no_output(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,u\n0,5\n0,5\n")
+    out = tmp_path / "out.csv"
+    _one_line_error(capsys, "simulate", "--input", str(bad), "-o", str(out), match="time")
+    assert not out.exists()
+    model = tmp_path / "m.toml"
+    model.write_text("[plant]\ng = 9.8\n")
+    good = tmp_path / "in.csv"
+    good.write_text("t,u\n0,5\n0.001,5\n")
+    _one_line_error(capsys, "simulate", "--input", str(good), "--model", str(model), "-o", str(out),
+                    match="lacks")
+    _one_line_error(capsys, "simulate", "--input", str(good), "-o", str(tmp_path / "no" / "o.csv"),
+                    match="does not exist")
+    assert {p.name for p in tmp_path.iterdir()} == {"bad.csv", "m.toml", "in.csv"}  # no temp files left
+
+
+def test_voltage_warning_is_not_an_error(tmp_path, capsys):
+    stim = tmp_path / "in.csv"
+    stim.write_text("t,u\n0,11\n0.001,11\n")
+    rc, out, err = run(capsys, "simulate", "--input", str(stim), "--dt", "1e-5")
+    assert rc == 0 and "warning" in err and "0-10 V" in err
