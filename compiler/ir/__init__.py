@@ -1,0 +1,1 @@
+"""The dataflow IR: nodes, Q-formats, graph, verifier and interpreters."""

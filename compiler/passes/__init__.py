@@ -1,0 +1,1 @@
+"""Compiler passes, called in order by pendc.passes.pipeline."""

@@ -1,0 +1,339 @@
+"""Lower a plant model's sympy equations into the dataflow IR (untyped).
+
+The hardware step is the thesis' (IV.4-IV.7): forward-Euler integrators, one
+register per state, ``s[n+1] = s[n] + dt * s'[n]``, the cart velocity clamped after
+integration. Everything else follows from the structure of the equations:
+
+* Sums are split into terms; in each term the factors that are smooth functions of a
+  single variable (``cos(theta)``, ``1/k(theta)``, the Stribeck exponential of
+  ``|dx|``) are gathered, and terms with the same remaining factors are summed into
+  one table: ``ddx = F_cart*T1(theta) + dtheta**2*T2(theta) + T3(theta) + tau*T4(theta)``.
+  No divider is ever emitted and each table is the exact coefficient, not a product of
+  rounded tables.
+* Non-smooth operations are structural: ``Abs`` and multiply-by-``sign`` become
+  sign-bit slice + negate + mux (IV.2-IV.8), ``Piecewise``/``Min``/``Max`` become
+  compare + mux chains.
+* The angle is kept continuous (unwrapped), as measurements and the float model
+  have it; tables of theta are periodic and addressed by theta in *turns*
+  (theta / 2pi), whose fraction bits are the position within one revolution, so
+  wrapping costs nothing and the state never jumps.
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy as sp
+
+from ..errors import PendcError
+from ..ir.graph import Graph
+from ..ir.nodes import Kind, make
+from ..model.plant import PlantModel
+from .lower_encoders import CART_BAND, PEND_BAND, lower_encoder
+
+_NONSMOOTH = (sp.Abs, sp.sign, sp.Piecewise, sp.Min, sp.Max)
+MEANING = {
+    "u": "driver input voltage (V)", "x": "cart position (m)", "dx": "cart velocity (m/s)",
+    "theta": "pendulum angle from hanging down (rad)", "dtheta": "pendulum angular velocity (rad/s)",
+    "F_m": "drive force after the motor lag (N)", "F_in": "drive force on the cart (N)",
+    "F_fric": "cart friction without the viscous part (N)", "F_cart": "generalized force on the cart (N)",
+    "tau_pend": "torque at the pivot (N*m)", "ddx": "cart acceleration (m/s^2)",
+    "ddtheta": "pendulum angular acceleration (rad/s^2)", "theta_turns": "pendulum angle in turns",
+}
+
+
+class _Lowerer:
+    """Turns sympy expressions into nodes, sharing structurally equal subexpressions."""
+
+    def __init__(self, variables: dict):
+        self.variables = dict(variables)      # sympy Symbol -> node name
+        self.nodes: list = []
+        self.memo: dict = {}                  # expression -> node name
+        self.placeholders: dict = {}          # Dummy -> non-smooth expression it stands for
+        self.opaque_of: dict = {}
+        self.used_names: set = set(variables.values())
+        self.theta = next((s for s in variables if s.name == "theta"), None)
+
+    def fresh(self, hint: str) -> str:
+        base = "".join(c if c.isalnum() or c == "_" else "_" for c in hint).strip("_") or "n"
+        name, i = base, 1
+        while name in self.used_names:
+            i += 1
+            name = f"{base}_{i}"
+        self.used_names.add(name)
+        return name
+
+    def emit(self, kind, inputs, hint, meaning="", **params) -> str:
+        name = self.fresh(hint)
+        self.nodes.append(make(name, kind, inputs, meaning=meaning, **params))
+        return name
+
+    def const(self, value: float) -> str:
+        key = ("const", float(value))
+        if key not in self.memo:
+            text = repr(float(value)).replace("-", "m").replace(".", "p").replace("+", "")
+            self.memo[key] = self.emit(Kind.CONST, [], f"c_{text}", value=float(value))
+        return self.memo[key]
+
+    # -- classification -------------------------------------------------------------
+    def opaque(self, e):
+        """``e`` with every outermost non-smooth subexpression replaced by a placeholder symbol."""
+        if isinstance(e, _NONSMOOTH):
+            if e not in self.opaque_of:
+                arg = e.args[0] if len(e.args) == 1 else None
+                label = {sp.Abs: "abs", sp.sign: "sgn"}.get(type(e), "pw")
+                if arg is not None and arg.is_Symbol:
+                    label += f"_{arg.name}"
+                d = sp.Dummy(label, real=True)
+                self.opaque_of[e] = d
+                self.placeholders[d] = e
+            return self.opaque_of[e]
+        if not e.args:
+            return e
+        return e.func(*[self.opaque(a) for a in e.args])
+
+    @staticmethod
+    def smooth_single(factor):
+        """The variable of a factor that is a non-polynomial smooth function of one variable, else None."""
+        free = factor.free_symbols
+        if len(free) == 1:
+            (v,) = free
+            if not factor.is_polynomial(v):
+                return v
+        return None
+
+    # -- lowering ----------------------------------------------------------------------
+    def value(self, e, hint: str = "t", meaning: str = "") -> str:
+        e = sp.sympify(e)
+        if e in self.memo:
+            return self.memo[e]
+        name = self._value(e, hint, meaning)
+        self.memo[e] = name
+        return name
+
+    def _value(self, e, hint, meaning):
+        if e.is_Number:
+            return self.const(float(e))
+        if e in self.variables:
+            return self.variables[e]
+        if e in self.placeholders:
+            return self.value(self.placeholders[e], hint)
+        if isinstance(e, sp.Piecewise):
+            return self.piecewise(e.args, hint, meaning)
+        if isinstance(e, (sp.Min, sp.Max)):
+            a, rest = e.args[0], e.func(*e.args[1:]) if len(e.args) > 2 else e.args[1]
+            na, nb = self.value(a), self.value(rest)
+            op = "lt" if isinstance(e, sp.Min) else "gt"
+            sel = self.emit(Kind.COMPARE, [na, nb], f"{hint}_sel", op=op)
+            return self.emit(Kind.MUX, [sel, nb, na], hint, meaning)
+        if isinstance(e, sp.Abs):
+            a = self.value(e.args[0], f"{hint}_arg")
+            return self.emit(Kind.MUX, [self.sign_bit(a), a, self.negated(a)], f"abs_{a}", meaning or f"|{a}|")
+        if isinstance(e, sp.sign):
+            return self.times_sign(self.const(1.0), e.args[0], hint)
+        return self.sum_of_terms(self.opaque(e), hint, meaning)
+
+    def times_sign(self, y: str, arg, hint: str) -> str:
+        """y * sgn(arg) with sgn(0) = 0: sign-bit slice, negate and two muxes."""
+        a = self.value(arg)
+        zero = self.value_key(("iszero", a), lambda: self.emit(Kind.COMPARE, [a, self.const(0.0)],
+                                                                   f"{a}_is_zero", op="eq"))
+        signed = self.emit(Kind.MUX, [self.sign_bit(a), y, self.negated(y)], f"{hint}_signed")
+        return self.emit(Kind.MUX, [zero, signed, self.const(0.0)], hint, f"{y} * sgn({a})")
+
+    def sign_bit(self, a: str) -> str:
+        return self.value_key(("signbit", a), lambda: self.emit(Kind.SLICE, [a], f"{a}_sign", hi=-1, lo=-1))
+
+    def negated(self, a: str) -> str:
+        return self.value_key(("neg", a), lambda: self.emit(Kind.NEG, [a], f"{a}_neg"))
+
+    def value_key(self, key, build):
+        if key not in self.memo:
+            self.memo[key] = build()
+        return self.memo[key]
+
+    def condition(self, c) -> str:
+        if c is sp.true:
+            return self.const(1.0)
+        if isinstance(c, sp.core.relational.Relational):
+            lhs, rhs = c.lhs, c.rhs
+            ops = {sp.StrictLessThan: "lt", sp.LessThan: "le", sp.StrictGreaterThan: "gt",
+                   sp.GreaterThan: "ge", sp.Equality: "eq", sp.Unequality: "ne"}
+            op = ops[type(c)]
+            # |a| > 0 is a != 0: one comparator instead of abs + compare
+            if isinstance(lhs, sp.Abs) and rhs == 0 and op == "gt":
+                return self.emit(Kind.COMPARE, [self.value(lhs.args[0]), self.const(0.0)], "moving", op="ne")
+            return self.emit(Kind.COMPARE, [self.value(lhs), self.value(rhs)], "cond", op=op)
+        raise PendcError(f"cannot lower condition {c}")
+
+    def piecewise(self, args, hint, meaning) -> str:
+        (expr, cond), rest = args[0], args[1:]
+        if cond is sp.true or not rest:
+            return self.value(expr, hint)
+        otherwise = self.piecewise(rest, f"{hint}_else", "")
+        sel = self.condition(cond)
+        return self.emit(Kind.MUX, [sel, otherwise, self.value(expr, f"{hint}_then")], hint, meaning)
+
+    def table(self, expr, var, hint: str) -> str:
+        """A LUT node for ``expr`` (a smooth function of ``var``)."""
+        v = sp.Symbol("v", real=True)
+        if var == self.theta and _periodic(expr, var):
+            source = self.value_key("theta_turns", lambda: self.emit(
+                Kind.GAIN, [self.variables[var]], "theta_turns", MEANING["theta_turns"], value=1.0 / (2 * math.pi)))
+            text = sp.sstr(expr.subs(var, 2 * sp.pi * v))
+            key = ("lut", source, text)
+            return self.value_key(key, lambda: self.emit(
+                Kind.LUT, [source], f"{hint}_lut", f"{sp.sstr(expr)} by theta", expr=text, lo=0.0, hi=1.0,
+                periodic=True, addr_bits=10, interpolate=True))
+        source = self.value(self.placeholders.get(var, var))
+        text = sp.sstr(expr.subs(var, v))
+        return self.value_key(("lut", source, text), lambda: self.emit(
+            Kind.LUT, [source], f"{hint}_lut", f"{sp.sstr(expr.subs(var, sp.Symbol(source)))}", expr=text,
+            lo=None, hi=None, periodic=False, addr_bits=10, interpolate=True))
+
+    def sum_of_terms(self, e, hint, meaning) -> str:
+        groups: dict = {}
+        for term in sp.Add.make_args(sp.expand(e)):
+            coeff, factors = term.as_coeff_mul(rational=False)
+            table_factors, rest = [], []
+            for f in factors:
+                (table_factors if self.smooth_single(f) is not None else rest).append(f)
+            variables = {self.smooth_single(f) for f in table_factors}
+            if len(variables) > 1:
+                raise PendcError(f"cannot lower term {term}: smooth functions of several variables "
+                                 f"({', '.join(sorted(map(str, variables)))})")
+            key = (variables.pop() if variables else None, sp.Mul(*rest))
+            groups[key] = groups.get(key, sp.Integer(0)) + coeff * sp.Mul(*table_factors)
+        # a constant coefficient is a function of any variable: fold it into the one table
+        # that multiplies the same factors, so c*sgn(dx) + T(|dx|)*sgn(dx) is one table
+        for var, rest in list(groups):
+            tables = [k for k in groups if k[1] == rest and k[0] is not None]
+            if var is None and len(tables) == 1:
+                groups[tables[0]] += groups.pop((None, rest))
+        acc = None
+        keys = list(groups)
+        for i, (var, rest) in enumerate(keys):
+            coeff = groups[(var, rest)]
+            part_hint = f"{hint}_{_slug(rest)}" if rest != 1 else f"{hint}_0"
+            negative = False
+            if var is not None:
+                table = self.table(coeff, var, part_hint)
+                part = table if rest == 1 else self.product(self._factors(rest), part_hint, table=table)
+            elif rest == 1:
+                part = self.const(float(coeff))
+            else:
+                negative = float(coeff) < 0
+                part = self.product(self._factors(rest), part_hint, gain=abs(float(coeff)))
+            name_hint, m = (hint, meaning) if i == len(keys) - 1 else (f"{hint}_acc", "")
+            if acc is None:
+                acc = self.emit(Kind.NEG, [part], name_hint, m) if negative else part
+            else:
+                acc = self.emit(Kind.SUB if negative else Kind.ADD, [acc, part], name_hint, m)
+        return acc if acc is not None else self.const(0.0)
+
+    def _factors(self, rest):
+        out = []
+        for f in sp.Mul.make_args(rest):
+            base, exp = f.as_base_exp()
+            if exp.is_Integer and exp > 0:
+                out += [base] * int(exp)
+            else:
+                raise PendcError(f"cannot lower factor {self.placeholders.get(f, f)} (no dividers in hardware)")
+        return out
+
+    def product(self, factors, hint, gain: float = 1.0, table: str | None = None) -> str:
+        """Multiply factors; variables first (so dtheta**2 is shared), then the table, then the
+        constant; sign factors become muxes, not multipliers."""
+        signs = [f for f in factors if isinstance(self.placeholders.get(f), sp.sign)]
+        plain = sorted((f for f in factors if f not in signs), key=sp.default_sort_key)
+        acc = None
+        for i, f in enumerate(plain):
+            node = self.value(f, hint)
+            if acc is None:
+                acc = node
+            else:
+                key = ("prod", sp.Mul(*plain[: i + 1]))
+                acc = self.value_key(key, lambda a=acc, n=node: self.emit(
+                    Kind.MUL, [a, n], f"{hint}_prod"))
+        if table is not None:
+            acc = table if acc is None else self.emit(Kind.MUL, [acc, table], f"{hint}_term")
+        if acc is None:
+            acc = self.const(1.0)
+        if gain != 1.0:
+            acc = self.emit(Kind.GAIN, [acc], f"{hint}_gain", value=gain)
+        for s in signs:
+            acc = self.times_sign(acc, self.placeholders[s].args[0], f"{hint}_sgn")
+        return acc
+
+
+def _periodic(expr, var) -> bool:
+    f = sp.lambdify(var, expr, "math")
+    points = [0.1 + 0.77 * i for i in range(9)]
+    try:
+        return all(math.isclose(f(p), f(p + 2 * math.pi), rel_tol=1e-9, abs_tol=1e-12) for p in points)
+    except (ValueError, ZeroDivisionError, OverflowError):
+        return False
+
+
+def _slug(expr) -> str:
+    return "_".join(sorted(str(s.name) for s in expr.free_symbols))[:40] or "term"
+
+
+def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> Graph:
+    """The untyped IR graph of one model step of ``dt`` seconds (forward Euler, IV.4-IV.7).
+
+    Outputs: the four states and, with ``encoders``, the four encoder channel levels.
+    """
+    eq = model.equations
+    if eq.delay is not None:
+        raise PendcError("effect 'input_delay' has no hardware form yet (it needs a delay-line memory)")
+    values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
+    u = eq.input
+    variables = {u: "u", **{s: s.name for s in eq.states}}
+    low = _Lowerer(variables)
+    low.nodes.append(make("u", Kind.INPUT, port="u", max_abs=10.0, meaning=MEANING["u"]))
+
+    inlined: dict = {}
+    for sym, expr in eq.assignments:
+        expr = expr.subs(values).subs(inlined)
+        free = expr.free_symbols
+        if not free or free == {low.theta}:
+            inlined[sym] = expr          # constants and functions of theta alone go into tables
+            continue
+        node = low.value(expr, sym.name, MEANING.get(sym.name, ""))
+        if node != sym.name and sym.name not in low.used_names:
+            node = low.emit(Kind.CAST, [node], sym.name, MEANING.get(sym.name, ""))
+        low.variables[sym] = node
+        low.memo[sym] = node
+
+    nxt = {}
+    increments = {}
+    for state, deriv in zip(eq.states, eq.derivatives):
+        d = low.value(deriv.subs(values).subs(inlined), f"d_{state.name}")
+        inc = low.emit(Kind.GAIN, [d], f"{state.name}_inc", f"{state.name} increment per step", value=float(dt))
+        increments[state.name] = inc
+        total = low.emit(Kind.ADD, [state.name, inc], f"{state.name}_sum")
+        if state.name == "dx" and eq.velocity_bound is not None:
+            vmax = float(eq.velocity_bound.subs(values))
+            total = _clamp(low, total, vmax)
+        nxt[state.name] = total
+    initial = {s.name: 0.0 for s in eq.states}
+    regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=MEANING.get(s.name, s.name))
+            for s in eq.states]
+    outputs = [(s, s) for s in ("x", "dx", "theta", "dtheta")]
+    nodes = regs + low.nodes
+    if encoders:
+        for prefix, state, band, what in (("enc_x", "x", CART_BAND, "cart"), ("enc_theta", "theta", PEND_BAND, "pendulum")):
+            enc_nodes, levels = lower_encoder(prefix, increments[state], band, what)
+            nodes += enc_nodes
+            outputs += [(f"{prefix}_a", levels["a"]), (f"{prefix}_b", levels["b"])]
+    return Graph.build("pendulum_core", nodes, outputs, info=(("dt", float(dt)), ("model", model.source)))
+
+
+def _clamp(low: _Lowerer, value: str, bound: float) -> str:
+    """Velocity saturation after integration (thesis Fig. III.2): two compares, two muxes."""
+    hi, lo = low.const(bound), low.const(-bound)
+    over = low.emit(Kind.COMPARE, [value, hi], "dx_over", op="gt")
+    under = low.emit(Kind.COMPARE, [value, lo], "dx_under", op="lt")
+    upper = low.emit(Kind.MUX, [over, value, hi], "dx_upper")
+    return low.emit(Kind.MUX, [under, upper, lo], "dx_next", "cart velocity after the clamp (m/s)")

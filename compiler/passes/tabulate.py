@@ -1,0 +1,64 @@
+"""LUT tabulation: give every table its domain and size, and, once formats are known, its contents.
+
+Two steps, because the grid depends on the input's fixed-point format:
+
+* :func:`tabulate_luts` (before Q-formats) fixes each non-periodic table's domain from
+  the simulated range of its input plus a margin, and records the largest |value|
+  the function takes on that domain, so the output format holds every entry.
+* :func:`fill_lut_tables` (after Q-formats) picks the grid step as a power of two of
+  input LSBs (the address is then a plain bit field) and quantises the entries.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..ir import lut as lut_sem
+from ..ir.graph import Graph
+from ..ir.nodes import Kind
+from .ranges import Ranges
+
+
+def tabulate_luts(graph: Graph, ranges: Ranges, margin: float = 0.125, addr_bits: int | None = None) -> Graph:
+    """Set ``lo``/``hi`` of non-periodic LUTs from ``ranges`` (widened by ``margin`` of the
+    largest |input|; inputs never negative keep lo = 0) and ``fmax``, the largest
+    |f| on the domain. ``addr_bits`` overrides every table's size."""
+
+    def one(node):
+        if node.kind is not Kind.LUT:
+            return node
+        p = dict(node.params)
+        if addr_bits is not None:
+            p["addr_bits"] = addr_bits
+        if not p["periodic"]:
+            src = node.inputs[0]
+            seen_lo, seen_hi = ranges.lo.get(src, 0.0), ranges.hi.get(src, 0.0)
+            reach = max(abs(seen_lo), abs(seen_hi), 1e-9) * (1.0 + margin)
+            p["lo"] = 0.0 if seen_lo >= 0.0 else -reach
+            p["hi"] = reach
+        grid = np.linspace(p["lo"], p["hi"], 64 * (1 << p["addr_bits"]) + 1)
+        values = lut_sem.evaluate(p["expr"], grid)
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"LUT '{node.name}': {p['expr']} is not finite on [{p['lo']}, {p['hi']}]")
+        p["fmax"] = float(np.max(np.abs(values)))
+        return node.with_params(**p)
+
+    return graph.map_nodes(one)
+
+
+def fill_lut_tables(graph: Graph) -> Graph:
+    """Fill ``shift`` and ``table`` of every LUT from its input's and its own Q-format."""
+
+    def one(node):
+        if node.kind is not Kind.LUT:
+            return node
+        p = dict(node.params)
+        fin = graph[node.inputs[0]].qformat
+        shift = lut_sem.grid_shift(p["lo"], p["hi"], p["addr_bits"], fin)
+        if p["periodic"] and (1 << (p["addr_bits"] + shift)) != round(np.ldexp(p["hi"] - p["lo"], fin.frac)):
+            raise ValueError(f"LUT '{node.name}': period {p['hi'] - p['lo']} is not 2**k LSBs of {fin}")
+        table = lut_sem.fill_table(p["expr"], p["lo"], p["addr_bits"], shift, fin, node.qformat,
+                                   p["interpolate"], p["periodic"])
+        return node.with_params(shift=shift, table=table)
+
+    return graph.map_nodes(one)
