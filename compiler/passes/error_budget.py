@@ -1,0 +1,139 @@
+"""Error budget: run bit-accurate against float and buy precision where the error is too large.
+
+The thesis assigned 32 bits everywhere by rule; whether that is enough only shows when
+the fixed-point model runs against its real-number twin for seconds (numerics notes:
+integrators at 1 us accumulate their rounding). This pass does exactly that on the
+typed graph over check stimuli and, while a state's error exceeds its budget,
+
+1. widens the state accumulators (register, sum and increment) by 8 fraction bits —
+   the outputs keep their meaning, the registers just carry guard bits; then
+2. enlarges the tables whose linear-interpolation error is largest (one address bit
+   quarters that error).
+
+The float twin is the same graph in real arithmetic with exact table functions, so the
+measured error is the fixed-point implementation's alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..ir import lut as lut_sem
+from ..ir.graph import Graph
+from ..ir.nodes import Kind
+from ..sim.stimuli import chirp, swing_up
+from .ranges import per_step
+
+STATES = ("x", "dx", "theta", "dtheta")
+WIDEN_STEP = 8
+MAX_WIDEN = 24
+MAX_ADDR_BITS = 13
+
+
+class BudgetError(ValueError):
+    """The check run overflowed: a range problem that more fraction bits cannot fix."""
+
+
+@dataclass(frozen=True)
+class ErrorReport:
+    """``errors[stimulus][state]`` = max |fixed - float| over the check horizon (final graph);
+    ``node_errors[node]`` = max |fixed - float| of every node (sampled); ``actions`` lists
+    what each round changed; ``met`` tells whether every budget holds."""
+
+    budgets: dict
+    errors: dict
+    node_errors: dict
+    widened: dict
+    addr_bits: dict
+    actions: tuple
+    met: bool
+    seconds: float
+
+    def to_json(self) -> dict:
+        return dict(self.__dict__, actions=list(self.actions))
+
+
+def check_stimuli(seconds: float) -> dict:
+    """The issue's low-frequency chirp and the swing-up-like input, cut to ``seconds``."""
+    return {"chirp": chirp(duration=max(seconds, 0.01)), "swing_up": swing_up(duration=max(seconds, 0.01))}
+
+
+def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "compiled",
+                        every: int = 1000) -> tuple[dict, dict]:
+    """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|."""
+    from ..ir.compiled import CompiledGraph
+    nodes = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
+    fixed, flt = CompiledGraph(graph, "fixed"), CompiledGraph(graph, "float")
+    errors, node_errors = {}, {n: 0.0 for n in nodes}
+    for name, (t, u) in stimuli.items():
+        steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
+        a = fixed.run({"u": steps})
+        if a.overflows:
+            node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
+            raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
+                              f"training ranges do not cover it (raise margin_bits or override its range)")
+        b = flt.run({"u": steps})
+        errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
+                        for s in STATES}
+        sa = fixed.run({"u": steps}, every=every, record=nodes)
+        sb = flt.run({"u": steps}, every=every, record=nodes)
+        for n in nodes:
+            lsb = graph[n].qformat.lsb
+            diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb - np.asarray(sb.outputs[n], np.float64))
+            node_errors[n] = max(node_errors[n], float(np.max(diff)) if diff.size else 0.0)
+    return errors, node_errors
+
+
+def interpolation_error(node, fin) -> float:
+    """Largest |table(v) - f(v)| of a typed LUT (input format ``fin``) at its segment midpoints."""
+    p = dict(node.params)
+    xs = lut_sem.grid_points(p["lo"], p["addr_bits"], p["shift"], fin, p["interpolate"])
+    ys = lut_sem.evaluate(p["expr"], xs)
+    mids = 0.5 * (xs[:-1] + xs[1:]) if p["interpolate"] else xs
+    approx = 0.5 * (ys[:-1] + ys[1:]) if p["interpolate"] else ys
+    return float(np.max(np.abs(approx - lut_sem.evaluate(p["expr"], mids))))
+
+
+def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: str = "compiled",
+                      max_rounds: int = 8):
+    """Call ``typed(widen, addr_bits)`` -> typed graph until every state in ``budgets`` is within
+    its budget on the check stimuli. Returns (graph, ErrorReport)."""
+    stimuli = check_stimuli(seconds)
+    widen: dict = {}
+    addr: dict = {}
+    actions = []
+    for _ in range(max_rounds):
+        graph = typed(dict(widen), dict(addr))
+        errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine)
+        worst = {s: max(errors[k][s] for k in errors) for s in budgets}
+        over = [s for s in budgets if worst[s] > budgets[s]]
+        if not over:
+            break
+        current = widen.get("x", 0)
+        if current < MAX_WIDEN:
+            for s in STATES:
+                widen[s] = current + WIDEN_STEP
+            actions.append(f"{', '.join(over)} over budget: state accumulators +{WIDEN_STEP} fraction bits")
+            continue
+        luts = [n for n in graph.of_kind(Kind.LUT) if n.param("addr_bits") < MAX_ADDR_BITS]
+        if not luts:
+            actions.append(f"{', '.join(over)} over budget and no remedy left")
+            break
+        errs = {n.name: _relative_interp_error(graph, n) for n in luts}
+        worst_lut = max(errs.values())
+        grown = sorted(n for n, e in errs.items() if e >= worst_lut / 4)
+        for n in grown:
+            addr[n] = graph[n].param("addr_bits") + 1
+        actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
+    met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
+    report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
+                         addr_bits={n.name: n.param("addr_bits") for n in graph.of_kind(Kind.LUT)},
+                         actions=tuple(actions), met=met, seconds=seconds)
+    return graph, report
+
+
+def _relative_interp_error(graph: Graph, node) -> float:
+    scale = max(node.param("fmax", 0.0), 1e-300)
+    return interpolation_error(node, graph[node.inputs[0]].qformat) / scale

@@ -1,0 +1,132 @@
+"""The compiler pipeline: every pass, in order, as plain calls in one function.
+
+    lower -> fold constants -> eliminate common subexpressions -> ranges
+          -> tabulate LUTs -> Q-formats -> fill tables -> error budget -> resources
+
+The verifier runs between passes. Options come from :class:`BuildOptions`, which a
+model file's ``[hardware]`` table can set (see :func:`options_from_model`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+from ..errors import PendcError
+from ..ir.graph import Graph, GraphError
+from ..ir.verify import verify
+from ..model.plant import PlantModel
+from ..sim.stimuli import named_stimuli
+from .eliminate_common import eliminate_common_subexpressions
+from .error_budget import BudgetError, ErrorReport, meet_error_budget
+from .fold_constants import fold_constants
+from .lower import lower_model
+from .qformats import assign_qformats
+from .ranges import Ranges, analyze_ranges
+from .resources import Resources, estimate_resources
+from .tabulate import fill_lut_tables, tabulate_luts
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """Knobs of the hardware build. ``training_scale`` shortens the training stimuli
+    (tests use it); ``ranges`` / ``qformats`` are per-node overrides."""
+
+    dt: float = 1e-6
+    width: int = 32
+    margin_bits: int = 1
+    lut_addr_bits: int = 10
+    lut_margin: float = 0.125
+    training_scale: float = 1.0
+    check_seconds: float = 2.0
+    budget_x: float = 2.5e-6 / 2      # half an encoder count over the check horizon
+    budget_theta: float = 3.14e-4 / 2
+    error_budget: bool = True
+    ranges: dict = field(default_factory=dict)
+    qformats: dict = field(default_factory=dict)
+    engine: str = "compiled"
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """Everything the compiler produced: the typed graph and the evidence behind it."""
+
+    model: PlantModel
+    options: BuildOptions
+    untyped: Graph
+    graph: Graph
+    ranges: Ranges
+    error: ErrorReport | None
+    resources: Resources
+
+
+def training_stimuli(scale: float = 1.0) -> dict:
+    """The range-analysis stimuli (swing-up-like, chirps, steps, full-scale random), optionally shortened."""
+    out = {}
+    for name, (t, u) in named_stimuli().items():
+        n = max(2, int(round(len(t) * scale)))
+        out[name] = (t[:n], u[:n])
+    return out
+
+
+def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
+    """Build options from the model file's ``[hardware]`` table, then keyword overrides."""
+    known = {f.name for f in fields(BuildOptions)}
+    table = dict(getattr(model, "hardware", {}) or {})
+    unknown = set(table) - known
+    if unknown:
+        raise PendcError(f"[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
+                         f"(known: {', '.join(sorted(known))})")
+    table.update({k: v for k, v in overrides.items() if v is not None})
+    try:
+        return BuildOptions(**table)
+    except TypeError as exc:
+        raise PendcError(f"bad [hardware] option: {exc}") from None
+
+
+def _checked(graph: Graph, stage: str, typed: bool = False) -> Graph:
+    try:
+        verify(graph, typed=typed)
+    except GraphError as exc:
+        raise PendcError(f"internal compiler error after {stage}: {exc}") from None
+    return graph
+
+
+def compile_model(model: PlantModel, options: BuildOptions | None = None) -> BuildResult:
+    """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
+    opt = options or options_from_model(model)
+    graph = _checked(lower_model(model, dt=opt.dt), "lower_model")
+    graph = _checked(fold_constants(graph), "fold_constants")
+    graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
+    untyped = graph
+    _require_nodes(graph, opt.ranges, "range")
+    _require_nodes(graph, opt.qformats, "Q-format")
+    ranges = analyze_ranges(graph, training_stimuli(opt.training_scale), opt.dt, overrides=opt.ranges,
+                            engine=opt.engine)
+    graph = _checked(tabulate_luts(graph, ranges, margin=opt.lut_margin, addr_bits=opt.lut_addr_bits),
+                     "tabulate_luts")
+
+    def typed(widen: dict, addr_bits: dict) -> Graph:
+        g = graph.map_nodes(lambda n: n.with_params(addr_bits=addr_bits[n.name]) if n.name in addr_bits else n)
+        g = tabulate_luts(g, ranges, margin=opt.lut_margin) if addr_bits else g
+        g = assign_qformats(g, ranges, width=opt.width, margin_bits=opt.margin_bits,
+                            overrides=opt.qformats, widen=widen)
+        return _checked(fill_lut_tables(g), "assign_qformats/fill_lut_tables", typed=True)
+
+    if opt.error_budget:
+        seconds = min(opt.check_seconds, 5.0 * opt.training_scale)  # never check beyond what trained the ranges
+        try:
+            final, error = meet_error_budget(typed, {"x": opt.budget_x, "theta": opt.budget_theta},
+                                             opt.dt, seconds, engine=opt.engine)
+        except BudgetError as exc:
+            raise PendcError(str(exc)) from None
+    else:
+        final, error = typed({}, {}), None
+    return BuildResult(model=model, options=opt, untyped=untyped, graph=_checked(final, "error budget", True),
+                       ranges=ranges, error=error, resources=estimate_resources(final))
+
+
+def _require_nodes(graph: Graph, table: dict, what: str) -> None:
+    unknown = sorted(set(table) - set(graph.by_name))
+    if unknown:
+        raise PendcError(f"[hardware] {what} override names unknown node(s) {', '.join(unknown)}; "
+                         f"see 'pendc report qformat' for the node names")
