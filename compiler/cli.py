@@ -67,10 +67,30 @@ def cmd_simulate(args) -> int:
     data = read_measurements(args.input, required=("t", "u"))
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
-    sim = Simulator(model, dt=args.dt, method=args.method)
-    result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
-    meta = {"generator": "pendc simulate", "model": model.source, "method": args.method,
-            "dt": repr(args.dt), "quantized": str(bool(args.quantize)).lower()}
+    if args.fixed:
+        from .golden import GoldenModel
+        from .sim.encoders import quantize_theta, quantize_x
+
+        if args.x0 is not None or args.method != "euler":
+            raise PendcError("--fixed runs the hardware model: it starts from reset and uses its own "
+                             "1-step Euler integrator (no --x0, no --method)")
+        build = _build(model, args)
+        run = GoldenModel(build.graph, build.options.dt)(data.t, data.u)
+        result = run.result
+        if args.quantize:
+            result.states["x"] = quantize_x(result.states["x"])
+            result.states["theta"] = quantize_theta(result.states["theta"])
+        if run.overflows:
+            node, step = min(run.overflows.items(), key=lambda kv: kv[1])
+            print(f"pendc: warning: node '{node}' left its Q-format range at t = {step * build.options.dt:.6g} s "
+                  f"({len(run.overflows)} node(s) overflowed)", file=sys.stderr)
+        method, dt = "fixed-point (bit-accurate)", build.options.dt
+    else:
+        sim = Simulator(model, dt=args.dt, method=args.method)
+        result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
+        method, dt = args.method, args.dt
+    meta = {"generator": "pendc simulate", "model": model.source, "method": method,
+            "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
     text = format_csv(result.columns(), meta)
     if args.output in (None, "-"):
         sys.stdout.write(text)
@@ -96,6 +116,39 @@ def cmd_stimulus(args) -> int:
     return 0
 
 
+def _build(model, args):
+    from .build_cache import compile_cached
+    from .passes.pipeline import options_from_model
+
+    options = options_from_model(model)
+    if getattr(args, "progress", True):
+        print("pendc: compiling the model (range analysis and error budget; cached afterwards)...",
+              file=sys.stderr)
+    return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False))
+
+
+def cmd_report(args) -> int:
+    from .model.modelfile import load_model
+    from . import reports
+
+    model = load_model(args.model)
+    build = _build(model, args)
+    if args.what == "qformat":
+        report = reports.qformat_report(build)
+        if args.drift:
+            from .sim.stimuli import chirp, swing_up
+            report["drift"] = reports.drift_report(build, {"chirp": chirp(), "swing_up": swing_up()})
+        text = reports.format_qformat_report(report)
+    else:
+        report = reports.resources_report(build)
+        text = reports.format_resources_report(report)
+    if args.json:
+        _emit_json(report)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pendc", description="Compiler and identification workbench for HIL plant models.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -112,7 +165,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
     p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0)")
     p.add_argument("--quantize", action="store_true", help="quantise x and theta to x4 encoder counts")
+    p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
+    p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("report", help="reports on the compiled model: qformat or resources")
+    p.add_argument("what", choices=("qformat", "resources"))
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--drift", action="store_true", help="qformat: also measure fixed-vs-float drift on the "
+                   "full 20 s chirp and 5 s swing-up")
+    p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("stimulus", help="write one of the standard input signals as a t,u CSV")
     p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")

@@ -16,7 +16,7 @@ from ..atomic import write_atomic
 from ..errors import PendcError
 from .plant import PlantModel
 
-TOP_LEVEL = ("plant", "effects", "fit", "meta")
+TOP_LEVEL = ("plant", "effects", "fit", "meta", "hardware")
 
 
 def default_model_path() -> Path:
@@ -52,7 +52,11 @@ def parse_model(text: str, source: str = "<model>") -> PlantModel:
     free = fit.get("free", [])
     if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
         raise PendcError(f"{source}: [fit] free must be a list of parameter names")
-    return PlantModel(plant=doc["plant"], effects=doc.get("effects", {}), free=tuple(free), source=source)
+    hardware = doc.get("hardware", {})
+    if not isinstance(hardware, dict):
+        raise PendcError(f"{source}: [hardware] must be a table")
+    return PlantModel(plant=doc["plant"], effects=doc.get("effects", {}), free=tuple(free), source=source,
+                      hardware=hardware)
 
 
 def _number(v: float) -> str:
@@ -79,7 +83,23 @@ def dumps_model(model: PlantModel, meta: dict | None = None) -> str:
         lines += [f"{k} = {_number(v)}" for k, v in params.items()]
     if model.free:
         lines += ["", "[fit]", "free = [" + ", ".join(_string(p) for p in model.free) + "]"]
+    scalars = {k: v for k, v in model.hardware.items() if not isinstance(v, dict)}
+    tables = {k: v for k, v in model.hardware.items() if isinstance(v, dict)}
+    if scalars:
+        lines += ["", "[hardware]"] + [f"{k} = {_value(v)}" for k, v in scalars.items()]
+    for name, table in tables.items():
+        lines += ["", f"[hardware.{name}]"] + [f"{k} = {_value(v)}" for k, v in table.items()]
     return "\n".join(lines) + "\n"
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return _number(v)
+    return _string(str(v))
 
 
 def save_model(model: PlantModel, path: str | os.PathLike, meta: dict | None = None) -> None:

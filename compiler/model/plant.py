@@ -68,14 +68,17 @@ class PlantModel:
     """Rigid-body constants, active effects with their parameter values, and fit settings.
 
     ``effects`` maps effect name to ``{parameter: value}``; it is kept in catalogue
-    order so that equal models produce identical equations and kernels. Construction
-    validates everything and raises :class:`PendcError` with a one-line reason.
+    order so that equal models produce identical equations and kernels. ``hardware``
+    holds the model file's ``[hardware]`` table (build options and per-node range or
+    Q-format overrides) untouched. Construction validates everything and raises
+    :class:`PendcError` with a one-line reason.
     """
 
     plant: dict
     effects: dict
     free: tuple = ()
     source: str = field(default="", compare=False)
+    hardware: dict = field(default_factory=dict)   # compiler options; the compiler validates them
 
     def __post_init__(self):
         plant = _validate_plant(self.plant, self.source)

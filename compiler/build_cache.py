@@ -1,0 +1,69 @@
+"""On-disk cache of compiler results, so a second ``pendc build``/``report``/``simulate --fixed``
+of the same model with the same options and the same compiler does not redo range
+analysis and the error budget (about half a minute).
+
+The key is a hash of the model file's canonical text, the build options and the source
+of the compiler itself; any change to one of them is a miss. Entries are pickles written
+atomically; an unreadable entry is ignored and rebuilt.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+from .model.modelfile import dumps_model
+from .model.plant import PlantModel
+from .passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
+
+_PACKAGE = Path(__file__).resolve().parent
+
+
+def _cache_root() -> Path:
+    root = os.environ.get("PENDC_CACHE_DIR")
+    path = (Path(root) if root else Path.home() / ".cache" / "pendc") / "builds"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    except OSError:
+        path = Path(tempfile.gettempdir()) / "pendc-builds"
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+
+
+def _compiler_digest() -> str:
+    h = hashlib.sha256()
+    for sub in ("ir", "passes", "model"):
+        for f in sorted((_PACKAGE / sub).glob("*.py")):
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def build_key(model: PlantModel, options: BuildOptions) -> str:
+    text = dumps_model(model) + repr(sorted(getattr(model, "hardware", {}).items())) + repr(options)
+    return hashlib.sha256((text + _compiler_digest()).encode()).hexdigest()[:24]
+
+
+def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_cache: bool = True) -> BuildResult:
+    """:func:`pendc.passes.pipeline.compile_model`, memoised on disk."""
+    options = options or options_from_model(model)
+    path = _cache_root() / f"build_{build_key(model, options)}.pickle"
+    if use_cache and path.exists():
+        try:
+            with path.open("rb") as fh:
+                cached = pickle.load(fh)
+            return replace(cached, model=model)
+        except Exception:  # a stale or truncated entry is just a miss
+            pass
+    result = compile_model(model, options)
+    if use_cache:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".build.")
+        with os.fdopen(fd, "wb") as fh:
+            pickle.dump(replace(result, model=None), fh)
+        os.replace(tmp, path)
+    return result

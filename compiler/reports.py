@@ -1,0 +1,129 @@
+"""Reports on a compiled model: Q-formats with their evidence, resources, and error drift.
+
+Each report is a plain dict (what ``--json`` prints) plus a text rendering of it.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from .ir.nodes import Kind
+from .passes.pipeline import BuildResult
+from .passes.qformats import thesis_format
+
+# spec §5: the thesis' formats and the two maxima it prints
+THESIS = {
+    "x": {"format": "FIX32_31"}, "dx": {"format": "FIX32_31"},
+    "ddx": {"format": "FIX32_26", "max": 18.39},
+    "theta": {"format": "FIX32_28"}, "dtheta": {"format": "FIX32_26"},
+    "ddtheta": {"format": "FIX32_24", "max": 83.21},
+}
+DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0)
+
+
+def _unit(meaning: str) -> str:
+    m = re.search(r"\(([A-Za-z/^*0-9.]+)\)\s*$", meaning or "")  # "(m/s^2)", not "(F_in)"
+    return m.group(1) if m else ""
+
+
+def qformat_report(build: BuildResult) -> dict:
+    """Per node: meaning, simulated max, thesis max/format where it printed one, chosen format,
+    LSB in physical units and max |error| against float on the check stimuli."""
+    g = build.graph
+    errors = build.error.node_errors if build.error else {}
+    nodes = []
+    for n in g.nodes:
+        if n.kind is Kind.CONST:
+            continue
+        row = {
+            "name": n.name, "kind": n.kind.value, "meaning": n.meaning,
+            "max": build.ranges.max_abs.get(n.name), "format": str(n.qformat),
+            "lsb": n.qformat.lsb, "unit": _unit(n.meaning), "error_vs_float": errors.get(n.name),
+        }
+        if n.name in THESIS:
+            row["thesis"] = THESIS[n.name]
+        nodes.append(row)
+    rule_check = {name: {"thesis_max": t["max"], "thesis_format": t["format"],
+                         "rule_gives": str(thesis_format(t["max"], 32))}
+                  for name, t in THESIS.items() if "max" in t}
+    return {
+        "rules": "constants >= 32 bits; i = ceil(log2(max|v|)) + 1 (signed); fraction = width - i; "
+                 f"margin {build.options.margin_bits} bit(s) above the simulated maximum",
+        "thesis_rule_check": rule_check,
+        "training": list(build.ranges.sources),
+        "error_budget": build.error.to_json() if build.error else None,
+        "nodes": nodes,
+    }
+
+
+def format_qformat_report(report: dict) -> str:
+    lines = ["Q-format assignment (" + report["rules"] + ")", ""]
+    lines.append("Thesis rule with the thesis' maxima:")
+    for name, r in report["thesis_rule_check"].items():
+        ok = "ok" if r["rule_gives"] == r["thesis_format"] else "DIFFERS"
+        lines.append(f"  {name:8s} max {r['thesis_max']:>8g} -> {r['rule_gives']} (thesis {r['thesis_format']}) {ok}")
+    lines.append("")
+    header = f"{'node':28s} {'kind':5s} {'sim. max':>11s} {'thesis':>19s} {'format':>9s} {'LSB':>10s} {'unit':8s} {'err vs float':>12s}  meaning"
+    lines += [header, "-" * len(header)]
+    for r in report["nodes"]:
+        th = r.get("thesis", {})
+        thesis = (f"{th.get('max', ''):>8} {th.get('format', '')}" if th else "").strip()
+        err = "" if r["error_vs_float"] is None else f"{r['error_vs_float']:.3g}"
+        mx = "" if r["max"] is None else f"{r['max']:.5g}"
+        lines.append(f"{r['name']:28s} {r['kind']:5s} {mx:>11s} {thesis:>19s} {r['format']:>9s} "
+                     f"{r['lsb']:>10.3g} {r['unit']:8s} {err:>12s}  {r['meaning']}")
+    eb = report["error_budget"]
+    if eb:
+        lines += ["", f"Error budget over the first {eb['seconds']:g} s (bit-accurate vs float): "
+                  + ("met" if eb["met"] else "NOT met")]
+        for stim, errs in eb["errors"].items():
+            lines.append(f"  {stim:10s} " + "  ".join(f"{s} {v:.3g}" for s, v in errs.items()))
+        for a in eb["actions"]:
+            lines.append(f"  round: {a}")
+    if report.get("drift"):
+        lines += ["", "Drift after the budget horizon (max |fixed - float| up to t):"]
+        for stim, rows in report["drift"].items():
+            lines.append(f"  {stim:10s} " + "  ".join(f"t<={r['t']:g}s x {r['x']:.3g} m, theta {r['theta']:.3g} rad"
+                                                    for r in rows))
+    return "\n".join(lines) + "\n"
+
+
+def drift_report(build: BuildResult, stimuli: dict) -> dict:
+    """Max |fixed - float| of x and theta up to each of DRIFT_TIMES, per stimulus (full length)."""
+    from .golden import GoldenModel
+    from .sim.simulator import Simulator
+    golden = GoldenModel(build.graph, build.options.dt)
+    sim = Simulator(build.model, dt=build.options.dt)
+    out = {}
+    for name, (t, u) in stimuli.items():
+        g = golden(t, u).result
+        f = sim(t, u)
+        rows = []
+        for limit in DRIFT_TIMES:
+            mask = t <= limit + 1e-9
+            if limit > t[-1] + 1e-9:
+                break
+            rows.append({"t": limit, "x": float(np.max(np.abs(g["x"][mask] - f["x"][mask]))),
+                         "theta": float(np.max(np.abs(g["theta"][mask] - f["theta"][mask])))})
+        out[name] = rows
+    return out
+
+
+def resources_report(build: BuildResult) -> dict:
+    return build.resources.to_json()
+
+
+def format_resources_report(r: dict) -> str:
+    lines = ["Resource estimate (from the typed graph, before synthesis)", ""]
+    lines.append("multipliers (operand widths):")
+    for k, v in r["multipliers"].items():
+        lines.append(f"  {k:>8s} x {v}")
+    rows = [("18x18 DSP blocks (est.)", r["dsp18"]), ("tables", r["luts"]), ("table bits", r["lut_bits"]),
+            ("36-kbit block RAMs", r["brams"]), ("register bits", r["register_bits"]),
+            ("adders/subtractors", f"{r['adders']} ({r['adder_bits']} bits)"), ("muxes", r["muxes"]),
+            ("comparators", r["comparators"]), ("logic depth (nodes)", r["logic_depth"])]
+    lines += [f"{k:26s} {v}" for k, v in rows]
+    lines.append("critical path: " + " -> ".join(r["critical_path"]))
+    return "\n".join(lines) + "\n"
