@@ -1,0 +1,159 @@
+"""Compiled golden model: a graph printed as Python and compiled by numba.
+
+Same semantics and same :class:`~pendc.ir.interpret.Trace` as the reference
+interpreters, about two orders of magnitude faster, so range analysis, error
+budgets and long verification runs can afford millions of steps. ``mode="fixed"``
+is bit-identical to :class:`~pendc.ir.interpret.FixedInterpreter` (int64 arithmetic;
+the verifier guarantees every exact intermediate fits), ``mode="float"`` mirrors
+:class:`~pendc.ir.interpret.FloatInterpreter`.
+
+The source (see :mod:`pendc.ir.compiled_source`) depends on the graph's structure and
+constants only: LUT contents are an argument, so refilling tables reuses the machine
+code. It is written to a cache file named by its hash (``$PENDC_CACHE_DIR`` or
+``~/.cache/pendc/kernels``) and compiled with numba's on-disk cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .compiled_source import kernel_source
+from .graph import Graph
+from .interpret import Trace
+from .nodes import Kind
+from .qformat import QFormat
+
+
+def cache_dir() -> Path:
+    """Folder for generated kernels: ``$PENDC_CACHE_DIR``, else ~/.cache/pendc/kernels, else a temp dir."""
+    root = os.environ.get("PENDC_CACHE_DIR")
+    path = Path(root) if root else Path.home() / ".cache" / "pendc" / "kernels"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        if os.access(path, os.W_OK):
+            return path
+    except OSError:
+        pass
+    path = Path(tempfile.gettempdir()) / "pendc-kernels"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def load_source(source: str, prefix: str = "pendc_ir"):
+    """Import the module ``source`` (written once to the cache dir under its hash)."""
+    digest = hashlib.sha256(source.encode()).hexdigest()[:20]
+    name = f"{prefix}_{digest}"
+    if name in sys.modules:
+        return sys.modules[name]
+    path = cache_dir() / f"{name}.py"
+    if not path.exists() or path.read_text() != source:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(source)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def quantize(values, fmt: QFormat) -> np.ndarray:
+    """Vectorised ``fmt.from_float`` (nearest, saturate): bit-identical to the scalar rule."""
+    x = np.asarray(values, dtype=np.float64)
+    y = np.floor(np.ldexp(x, fmt.frac) + 0.5)   # the same two IEEE operations as math.floor(ldexp(v, f) + 0.5)
+    if not np.all(np.isfinite(y)):
+        bad = x.flat[int(np.flatnonzero(~np.isfinite(y.ravel()))[0])]
+        raise ValueError(f"input value {bad!r} cannot be quantised into {fmt}")
+    top = float(1 << (fmt.width - 1 if fmt.signed else fmt.width))   # max_int + 1, a power of two
+    over, under = y >= top, y < float(fmt.min_int)
+    out = np.where(over | under, 0.0, y).astype(np.int64)
+    out[over] = fmt.max_int
+    out[under] = fmt.min_int
+    return out
+
+
+class CompiledGraph:
+    """A graph compiled for ``mode`` "fixed" (every node must be typed) or "float"."""
+
+    def __init__(self, graph: Graph, mode: str = "fixed"):
+        if mode not in ("fixed", "float"):
+            raise ValueError(f"mode must be 'fixed' or 'float', got {mode!r}")
+        if mode == "fixed":
+            untyped = [n.name for n in graph.nodes if n.qformat is None]
+            if untyped:
+                raise ValueError(f"graph is not typed (no Q-format): {', '.join(untyped[:5])}")
+            wide = [n.name for n in graph.nodes if not n.qformat.signed and n.qformat.width == 64]
+            if wide:
+                raise ValueError(f"UFIX64 does not fit the int64 golden model: {', '.join(wide[:5])}")
+        self.graph, self.mode = graph, mode
+        self.index = {n.name: i for i, n in enumerate(graph.nodes)}
+        self.source, offsets = kernel_source(graph, mode)
+        tables = [np.asarray(graph[name].param("table"), dtype=np.int64) for name in offsets]
+        self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
+        self.tables.setflags(write=False)
+        self._kernel = load_source(self.source).kernel
+
+    def _input_matrix(self, inputs: dict, steps: int | None) -> tuple[np.ndarray, int]:
+        nodes = [n for n in self.graph.nodes if n.kind is Kind.INPUT]
+        ports = {n.param("port") for n in nodes}
+        missing = ports - set(inputs)
+        if missing:
+            raise ValueError(f"no values for input port(s) {', '.join(sorted(missing))}")
+        arrays = {p: np.asarray(inputs[p]) for p in ports}
+        n = min(len(a) for a in arrays.values()) if arrays else (steps or 0)
+        steps = n if steps is None else min(steps, n) if arrays else steps
+        dtype = np.int64 if self.mode == "fixed" else np.float64
+        ins = np.empty((len(nodes), steps), dtype)
+        for j, node in enumerate(nodes):
+            a = arrays[node.param("port")][:steps]
+            if self.mode == "float":
+                ins[j] = a.astype(np.float64)
+            elif a.dtype.kind in "iu":
+                ins[j] = a.astype(np.int64)
+            elif a.dtype == object:
+                ins[j] = [int(v) if isinstance(v, (int, np.integer)) else node.qformat.from_float(float(v)) for v in a]
+            else:
+                ins[j] = quantize(a, node.qformat)
+        return ins, steps
+
+    def run(self, inputs: dict, steps: int | None = None, every: int = 1, track_max: bool = False,
+            record: tuple = ()) -> Trace:
+        """Run ``steps`` steps (default: as many as input values), recording every ``every``-th row.
+
+        ``record`` names internal nodes to return as well, under their own names in
+        ``Trace.outputs``, as if they were outputs."""
+        if int(every) < 1:
+            raise ValueError(f"every must be >= 1, got {every}")
+        every = int(every)
+        ports = dict(self.graph.outputs)
+        for name in record:
+            if name not in self.index:
+                raise ValueError(f"cannot record unknown node '{name}'")
+            if name in ports and ports[name] != name:
+                raise ValueError(f"recorded node '{name}' clashes with output port '{name}'")
+        columns = [p for p, _ in self.graph.outputs] + [n for n in record if n not in ports]
+        sel = np.array([self.index[ports.get(c, c)] for c in columns], dtype=np.int64)
+        ins, steps = self._input_matrix(inputs, steps)
+        n = len(self.graph.nodes)
+        dtype = np.int64 if self.mode == "fixed" else np.float64
+        out = np.empty(((steps + every - 1) // every, len(columns)), dtype)
+        mx, mn = np.zeros(n, dtype), np.zeros(n, dtype)
+        ov = np.full(n, -1, np.int64)
+        self._kernel(ins, steps, every, self.tables, sel, out, bool(track_max), mx, mn, ov)
+        outputs = {c: np.ascontiguousarray(out[:, j]) for j, c in enumerate(columns)}
+        nodes = self.graph.nodes
+        if not track_max:
+            maxima = {}
+        elif self.mode == "fixed":
+            maxima = {nd.name: float(max(abs(int(mx[i])), abs(int(mn[i])))) for i, nd in enumerate(nodes)}
+        else:
+            maxima = {nd.name: float(mx[i]) for i, nd in enumerate(nodes)}
+        overflows = {nd.name: int(ov[i]) for i, nd in enumerate(nodes) if ov[i] >= 0}
+        return Trace(outputs=outputs, max_abs=maxima, overflows=overflows, steps=steps)

@@ -1,0 +1,261 @@
+"""The compiled golden model agrees with the reference interpreters (bit for bit in fixed mode)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pendc import load_model
+from pendc.ir import lut as lut_sem
+from pendc.ir.compiled import CompiledGraph, quantize
+from pendc.ir.compiled_source import kernel_source
+from pendc.ir.graph import Graph
+from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
+from pendc.ir.nodes import Kind, make
+from pendc.ir.qformat import Overflow, QFormat, Rounding
+from pendc.passes.lower import lower_model
+from pendc.sim.stimuli import swing_up
+
+Q = QFormat.parse
+MODES = {"nt": (Rounding.NEAREST, Overflow.WRAP), "ns": (Rounding.NEAREST, Overflow.SATURATE),
+         "tw": (Rounding.TRUNCATE, Overflow.WRAP), "ts": (Rounding.TRUNCATE, Overflow.SATURATE)}
+
+
+def lut(name, src, fin, fout, expr, lo, hi, bits, interpolate, periodic, rounding):
+    shift = lut_sem.grid_shift(lo, hi, bits, fin)
+    table = lut_sem.fill_table(expr, lo, bits, shift, fin, fout, interpolate, periodic)
+    return make(name, Kind.LUT, [src], qformat=fout, rounding=rounding, expr=expr, lo=lo, hi=hi,
+                addr_bits=bits, interpolate=interpolate, periodic=periodic, shift=shift, table=table)
+
+
+def block(sfx, rounding, overflow):
+    """One copy of every node kind, all in one rounding/overflow mode (names end in ``sfx``)."""
+    def n(name, kind, inputs=(), fmt="UFIX1_0", **params):
+        return make(f"{name}_{sfx}", kind, [f"{i}_{sfx}" if i not in ("u", "w") else i for i in inputs],
+                    qformat=Q(fmt), rounding=rounding, overflow=overflow, **params)
+
+    def L(name, src, fin, fout, expr, lo, hi, bits, interp, periodic):
+        return lut(f"{name}_{sfx}", f"{src}_{sfx}" if src not in ("u", "w") else src, Q(fin), Q(fout),
+                   expr, lo, hi, bits, interp, periodic, rounding)
+
+    three = dict(states=("A", "B", "C"), outputs=(1, 2, 5), reset="B", lo=-20.0, hi=20.0)
+    return [
+        n("c1", Kind.CONST, fmt="FIX8_4", value=1.75), n("c2", Kind.CONST, fmt="FIX16_10", value=-3.3),
+        n("g1", Kind.GAIN, ["u"], "FIX12_6", value=0.7, cfmt="FIX16_14"),           # right shift
+        n("g2", Kind.GAIN, ["w"], "FIX20_12", value=-3.0, cfmt="FIX8_5"),           # left shift, overflows
+        n("a1", Kind.ADD, ["u", "w"], "FIX10_3"), n("s1", Kind.SUB, ["g1", "c2"], "UFIX8_2"),
+        n("n1", Kind.NEG, ["w"], "FIX12_4"), n("m1", Kind.MUL, ["u", "w"], "FIX24_8"),
+        n("m2", Kind.MUL, ["a1", "n1"], "FIX8_0"),
+        n("k1", Kind.CAST, ["u"], "FIX6_1"), n("k2", Kind.CAST, ["w"], "FIX32_20"),
+        n("k3", Kind.CAST, ["u"], "FIX64_50"), n("k4", Kind.ADD, ["k3", "k3"], "FIX64_50"),
+        n("k5", Kind.CAST, ["u"], "FIX8_-2"), n("k6", Kind.CAST, ["u"], "UFIX4_6"),
+        n("k7", Kind.CAST, ["u"], "FIX16_70"), n("k8", Kind.CAST, ["k7"], "FIX8_0"),  # shifts >= 64
+        n("k9", Kind.CAST, ["u"], "FIX16_12"),                                       # angle in turns
+        *[n(f"cmp_{op}", Kind.COMPARE, ["w", "c1"], op=op) for op in ("lt", "le", "gt", "ge", "eq", "ne")],
+        n("sign", Kind.SLICE, ["a1"], "UFIX1_0", hi=-1, lo=-1),
+        n("field", Kind.SLICE, ["u"], "UFIX4_0", hi=5, lo=2),
+        n("sel2", Kind.SLICE, ["w"], "UFIX2_0", hi=1, lo=0),
+        n("mux4", Kind.MUX, ["sel2", "a1", "g1", "s1", "n1"], "FIX9_5"),
+        n("abs", Kind.MUX, ["sign", "a1", "n1"], "FIX12_3"),
+        n("r1", Kind.REGISTER, ["acc"], "FIX14_6", reset=0.5),
+        n("r2", Kind.REGISTER, ["r1"], "FIX14_6", reset=-1.0),
+        n("acc", Kind.ADD, ["r1", "g1"], "FIX14_6"),
+        L("lut_ci", "u", "FIX16_8", "FIX16_14", "sin(v)", -2.0, 3.0, 4, True, False),   # covers [-2, 6]
+        L("lut_cn", "u", "FIX16_8", "UFIX12_6", "v**2", 0.0, 4.0, 5, False, False),
+        L("lut_pi", "k9", "FIX16_12", "FIX16_14", "cos(2*pi*v)", 0.0, 1.0, 6, True, True),
+        L("lut_pn", "k9", "FIX16_12", "FIX12_10", "sin(2*pi*v)", 0.0, 1.0, 5, False, True),
+        n("fsm", Kind.FSM, ["a1"], "UFIX3_0", transitions=(("A", "gt", 2.0, "B"), ("B", "lt", -1.0, "C"),
+                                                             ("*", "ge", 10.0, "A"), ("C", "le", 0.5, "A")),
+          **three),
+        n("fsm2", Kind.FSM, ["g1"], "UFIX3_0", transitions=(("*", "ge", 1.0, "C"), ("*", "lt", -1.0, "A")),
+          **three),
+        n("fbit", Kind.SLICE, ["fsm"], "UFIX2_0", hi=2, lo=1),
+        n("fmux", Kind.MUX, ["fbit", "c1", "c2", "k1"], "FIX16_8"),
+        n("fsum", Kind.ADD, ["fsm", "fsm2"], "UFIX4_0"),
+    ]
+
+
+def hand_graph(name="hand"):
+    nodes = [make("u", Kind.INPUT, qformat=Q("FIX16_8"), port="u"),
+             make("w", Kind.INPUT, qformat=Q("FIX12_4"), port="w")]
+    for sfx, (rounding, overflow) in MODES.items():
+        nodes += block(sfx, rounding, overflow)
+    outputs = [(x.name, x.name) for x in nodes]
+    return Graph.build(name, nodes, outputs)
+
+
+def random_inputs(steps=3000, seed=7):
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-160.0, 160.0, steps)                       # FIX16_8 holds [-128, 128)
+    small = rng.random(steps) < 0.3
+    u[small] = rng.uniform(-3.0, 8.0, int(small.sum()))        # around the clamped LUTs' domains
+    edges = rng.random(steps) < 0.05                           # exactly on and next to the domain ends
+    u[edges] = rng.choice([-2.0, 6.0, 0.0, 4.0, 4.0 - 2**-8, 6.0 + 2**-8, -2.0 - 2**-8], int(edges.sum()))
+    w = rng.integers(-40, 40, steps) / 4.0                      # often exactly 1.75 (eq compares)
+    big = rng.random(steps) < 0.1
+    w[big] = rng.uniform(-200.0, 200.0, int(big.sum()))         # FIX12_4 holds [-128, 128)
+    return {"u": u, "w": w}
+
+
+@pytest.fixture(scope="module")
+def hand():
+    g = hand_graph()
+    return g, CompiledGraph(g, "fixed")
+
+
+def assert_same(trace, ref, exact=True):
+    assert trace.steps == ref.steps
+    assert set(trace.outputs) == set(ref.outputs)
+    for port, values in ref.outputs.items():
+        if exact:
+            assert trace.outputs[port].dtype == np.int64
+            np.testing.assert_array_equal(trace.outputs[port], values, err_msg=port)
+        else:
+            assert trace.outputs[port].dtype == np.float64
+            np.testing.assert_allclose(trace.outputs[port], values.astype(float), rtol=1e-12, atol=0, err_msg=port)
+    assert trace.overflows == ref.overflows
+    assert trace.max_abs.keys() == ref.max_abs.keys()
+    for k, v in ref.max_abs.items():
+        assert trace.max_abs[k] == pytest.approx(v, rel=0 if exact else 1e-12), k
+
+
+def test_fixed_bit_identical_on_every_node_kind(hand):
+    g, cg = hand
+    inputs = random_inputs()
+    ref = FixedInterpreter(g).run(inputs, track_max=True)
+    trace = cg.run(inputs, track_max=True)
+    assert_same(trace, ref)
+    kinds = {n.kind for n in g.nodes}
+    assert kinds == set(Kind)
+    # the test inputs really exercise overflow in every mode, LUT domains and FSM ranges
+    for sfx in MODES:
+        for name in ("g1", "g2", "s1", "n1", "k1", "k7", "lut_ci", "lut_cn", "fsm", "mux4"):
+            assert f"{name}_{sfx}" in trace.overflows, f"{name}_{sfx}"
+
+
+def test_fixed_every_steps_and_integer_inputs(hand):
+    g, cg = hand
+    inputs = random_inputs(1000, seed=3)
+    ints = {"u": np.round(inputs["u"] * 256).astype(np.int64), "w": np.round(inputs["w"] * 16).astype(np.int32)}
+    ints["w"][::7] = 5000                                       # out of FIX12_4: raw integers pass as they are
+    for ins, every, steps in ((inputs, 7, None), (ints, 3, 500), (ints, 1, None)):
+        ref = FixedInterpreter(g).run(ins, steps=steps, every=every, track_max=True)
+        trace = cg.run(ins, steps=steps, every=every, track_max=True)
+        assert_same(trace, ref)
+        assert len(trace.outputs["u"]) == -(-trace.steps // every)
+    empty = cg.run(inputs, steps=0)
+    assert empty.steps == 0 and len(empty.outputs["u"]) == 0 and empty.overflows == {}
+
+
+def test_float_mode_on_hand_graph(hand):
+    g, _ = hand
+    inputs = random_inputs(2000, seed=11)
+    ref = FloatInterpreter(g).run(inputs, track_max=True, every=2)
+    trace = CompiledGraph(g, "float").run(inputs, track_max=True, every=2)
+    assert_same(trace, ref, exact=False)
+    assert any(k.startswith("lut_ci") for k in trace.overflows) and any(k.startswith("fsm") for k in trace.overflows)
+
+
+def test_float_mode_matches_interpreter_on_pendulum():
+    g = lower_model(load_model())
+    _, u = swing_up()
+    inputs = {"u": np.repeat(u, 1000)[:20_000]}
+    record = ("abs_dx", "theta_turns", "ddx", "enc_x_a_fsm")
+    trace = CompiledGraph(g, "float").run(inputs, track_max=True, record=record)
+    extra = Graph(name=g.name, nodes=g.nodes, outputs=g.outputs + tuple((r, r) for r in record))
+    ref = FloatInterpreter(extra).run(inputs, track_max=True)
+    assert_same(trace, ref, exact=False)
+    assert trace.outputs["theta"][-1] != 0.0
+
+
+def test_requantize_exhaustively_per_value():
+    """Every integer of (and around) a small format through casts, gains and sums in every mode;
+    one run per value, so every overflow flag is compared, not just the first."""
+    targets = ["FIX8_4", "FIX6_3", "UFIX5_4", "FIX5_0", "UFIX4_1", "FIX3_-1", "FIX8_2", "FIX4_2", "FIX7_1",
+               "UFIX8_2", "FIX10_2", "FIX16_70", "FIX12_-60", "FIX8_-70", "FIX64_10", "FIX64_-10"]
+    nodes = [make("a", Kind.INPUT, qformat=Q("FIX8_2"), port="a"), make("c", Kind.CONST, qformat=Q("FIX8_2"),
+                                                                        value=3.25)]
+    for sfx, (rnd, ovf) in MODES.items():
+        def n(name, kind, inputs, fmt, **params):
+            nodes.append(make(f"{name}_{sfx}", kind, inputs, qformat=Q(fmt), rounding=rnd, overflow=ovf, **params))
+        n("b", Kind.CAST, ["a"], "FIX8_2")                      # in its format: static bounds apply
+        for src in ("a", f"b_{sfx}"):
+            for j, fmt in enumerate(targets):
+                n(f"cast{j}_{src}", Kind.CAST, [src], fmt)
+            n(f"neg_{src}", Kind.NEG, [src], "FIX8_2")
+            n(f"gain_{src}", Kind.GAIN, [src], "FIX6_1", value=-0.75, cfmt="FIX4_2")
+            n(f"add_{src}", Kind.ADD, [src, "c"], "FIX8_2")
+            n(f"sub_{src}", Kind.SUB, ["c", src], "UFIX8_2")
+            n(f"mul_{src}", Kind.MUL, [src, src], "FIX10_-2")
+            for interp in (True, False):                        # domain ends exactly on the grid
+                nodes.append(lut(f"lc{interp:d}_{src}_{sfx}", src, Q("FIX8_2"), Q("FIX8_4"), "v/2", -3.0, 5.0, 3,
+                                 interp, False, rnd))
+                nodes.append(lut(f"lp{interp:d}_{src}_{sfx}", src, Q("FIX8_2"), Q("FIX8_6"), "sin(pi*v/2)", 0.0,
+                                 4.0, 2, interp, True, rnd))
+        n("fsm", Kind.FSM, [f"b_{sfx}"], "UFIX2_0", states=("A", "B", "C", "D"), outputs=(0, 1, 2, 3), reset="A",
+          transitions=(("A", "le", -1.25, "B"), ("A", "gt", 2.5, "C"), ("*", "ge", 2.0, "D"),
+                       ("B", "lt", 0.0, "A")), lo=-5.0, hi=6.25)
+    g = Graph.build("requant", nodes, [(x.name, x.name) for x in nodes])
+    cg, interp = CompiledGraph(g, "fixed"), FixedInterpreter(g)
+    for v in range(-300, 300):
+        ins = {"a": np.array([v, v, v], dtype=np.int64)}
+        assert_same(cg.run(ins, track_max=True), interp.run(ins, track_max=True))
+
+
+def test_record_and_argument_errors(hand):
+    g, cg = hand
+    inputs = random_inputs(50)
+    trace = cg.run(inputs, record=("u",))                        # a port naming its own node
+    assert set(trace.outputs) == {p for p, _ in g.outputs}
+    with pytest.raises(ValueError, match="unknown node"):
+        cg.run(inputs, record=("nope",))
+    with pytest.raises(ValueError, match="every"):
+        cg.run(inputs, every=0)
+    with pytest.raises(ValueError, match="no values"):
+        cg.run({"u": inputs["u"]})
+    with pytest.raises(ValueError, match="not typed"):
+        CompiledGraph(lower_model(load_model()), "fixed")
+    with pytest.raises(ValueError, match="mode"):
+        CompiledGraph(g, "double")
+
+
+@pytest.mark.parametrize("fmt", ["FIX16_8", "UFIX8_3", "FIX64_0", "FIX64_20", "UFIX63_0", "FIX8_-2",
+                                 "FIX16_70", "FIX32_31", "UFIX1_0"])
+def test_vectorised_quantisation_is_the_scalar_rule(fmt):
+    fmt = Q(fmt)
+    rng = np.random.default_rng(5)
+    lsb = math.ldexp(1.0, -fmt.frac)
+    k = rng.integers(-2000, 2000, 500).astype(float)
+    special = [0.0, -0.0, 0.49999999999999994, -0.49999999999999994, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5,
+               5e-324, -5e-324, 1e300, -1e300, fmt.max_value, fmt.min_value, fmt.max_value + lsb / 2,
+               fmt.min_value - lsb / 2, math.ldexp(1.0, 62), -math.ldexp(1.0, 63), math.ldexp(1.0, 63)]
+    values = np.concatenate([(k + 0.5) * lsb, k * lsb, rng.normal(0, fmt.max_value, 500),
+                             rng.normal(0, 1, 500), np.array(special) * 1.0, np.array(special) * lsb])
+    with np.errstate(over="ignore"):
+        values = values[np.isfinite(np.ldexp(values, fmt.frac))]
+    np.testing.assert_array_equal(quantize(values, fmt), [fmt.from_float(float(v)) for v in values])
+    with pytest.raises(ValueError):
+        quantize(np.array([1.0, math.nan]), fmt)
+
+
+def test_source_is_deterministic_and_independent_of_table_contents(hand):
+    g, cg = hand
+    again = hand_graph()
+    assert kernel_source(again, "fixed") == kernel_source(g, "fixed") and cg.source == kernel_source(g, "fixed")[0]
+    pend = lower_model(load_model())
+    assert kernel_source(pend, "float") == kernel_source(lower_model(load_model()), "float")
+    refilled = g.map_nodes(lambda n: n.with_params(table=tuple(0 for _ in n.param("table")))
+                           if n.kind is Kind.LUT else n)
+    assert kernel_source(refilled, "fixed")[0] == cg.source
+
+
+def test_cache_dir_from_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path))
+    g = Graph.build(f"tiny_{tmp_path.name}", [make("a", Kind.INPUT, qformat=Q("FIX8_4"), port="a"),
+                                              make("b", Kind.GAIN, ["a"], qformat=Q("FIX8_2"), value=2.0,
+                                                   cfmt="FIX8_4")], [("b", "b")])
+    inputs = {"a": np.array([1.0, -1.0, 9.0, -40.0])}
+    trace = CompiledGraph(g, "fixed").run(inputs)
+    np.testing.assert_array_equal(trace.outputs["b"], [8, -8, 64, -64])
+    assert trace.overflows == FixedInterpreter(g).run(inputs).overflows == {}
+    assert list(tmp_path.glob("pendc_ir_*.py"))
