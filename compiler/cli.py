@@ -127,6 +127,34 @@ def _build(model, args):
     return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False))
 
 
+def cmd_build(args) -> int:
+    from .backend.hdl import build_hdl, differences, write_hdl
+    from .model.modelfile import load_model
+
+    model = load_model(args.model)
+    build = _build(model, args)
+    source = model.source
+    try:  # name the model by its path relative to the project, so hdl_out/ is the same on every machine
+        from pathlib import Path
+        source = str(Path(model.source).resolve().relative_to(Path(__file__).resolve().parents[1]))
+    except ValueError:
+        pass
+    files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus)
+    if args.check:
+        diff = differences(args.output, files)
+        if diff:
+            raise PendcError(f"{args.output} differs from what the compiler emits now: {', '.join(diff[:8])}")
+        print(f"pendc: {args.output} is up to date ({len(files)} files)", file=sys.stderr)
+        return 0
+    write_hdl(args.output, files)
+    if args.json:
+        sys.stdout.write(files["report.json"])
+    else:
+        print(f"pendc: wrote {len(files)} files to {args.output}/ (top pendulum_core, {args.bus} wrapper)",
+              file=sys.stderr)
+    return 0
+
+
 def cmd_report(args) -> int:
     from .model.modelfile import load_model
     from . import reports
@@ -168,6 +196,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("build", help="compile the model to Verilog (hdl_out/)")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("-o", "--output", default="hdl_out", help="output folder (default hdl_out)")
+    p.add_argument("--bus", choices=("raptor", "axi-lite"), default="raptor", help="bus wrapper (default raptor)")
+    p.add_argument("--json", action="store_true", help="print report.json")
+    p.add_argument("--check", action="store_true", help="only check that the output folder is up to date")
+    p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("report", help="reports on the compiled model: qformat or resources")
     p.add_argument("what", choices=("qformat", "resources"))

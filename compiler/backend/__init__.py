@@ -1,0 +1,1 @@
+"""Verilog backend: view-model, templates, files."""

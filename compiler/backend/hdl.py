@@ -1,0 +1,59 @@
+"""``pendc build``: the whole HDL output of one compiled model, and its report.json."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..ir.graph import Graph
+from ..ir.nodes import Kind
+from .emit import build_id, dumps_json, render_core, write_tree
+from .wrapper import BUSES, render_wrapper
+
+
+def port_formats(graph: Graph) -> dict:
+    ports = {"u": graph["u"].qformat}
+    ports.update({p: graph.output(p).qformat for p in ("x", "dx", "theta", "dtheta")})
+    return {p: {"signed": f.signed, "width": f.width, "frac": f.frac} for p, f in ports.items()}
+
+
+def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "raptor") -> dict:
+    """All output files, ``report.json`` included, as ``{filename: text}``."""
+    view, files = render_core(graph, source)
+    ident = build_id(files)
+    wrapper_files, regmap = render_wrapper(view, port_formats(graph), ident, bus)
+    files.update(wrapper_files)
+    report = {
+        "top": view.module,
+        "wrapper": regmap["module"],
+        "bus": bus,
+        "dt": dict(graph.info).get("dt", 1e-6),
+        "ii": view.ii,
+        "build_id": f"0x{ident:08x}",
+        "source": source,
+        "ports": port_formats(graph),
+        "files": sorted(files) + ["report.json"],
+        "qformats": {n.name: str(n.qformat) for n in graph.nodes if n.kind is not Kind.CONST},
+        "overflow_nodes": sorted({node for _, node in view.net.overflow}),
+        "resources": resources,
+        "registers": regmap["registers"],
+    }
+    files["report.json"] = dumps_json(report)
+    return files
+
+
+def write_hdl(out_dir, files: dict) -> None:
+    write_tree(out_dir, files)
+
+
+def differences(out_dir, files: dict) -> list:
+    """Names of files that differ between ``out_dir`` and ``files`` (missing and extra included)."""
+    out = Path(out_dir)
+    present = {p.name for p in out.iterdir() if p.is_file()} if out.is_dir() else set()
+    diff = sorted(present ^ set(files))
+    for name in sorted(present & set(files)):
+        if (out / name).read_text(encoding="utf-8") != files[name]:
+            diff.append(name)
+    return diff
+
+
+__all__ = ["BUSES", "build_hdl", "write_hdl", "differences", "port_formats"]

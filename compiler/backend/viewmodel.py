@@ -1,0 +1,249 @@
+"""From a typed IR graph to the flat view-model the Verilog templates print.
+
+Timing of one model step (``ii`` clock cycles, ``ii = 1 + number of table stages``):
+a step request is accepted when ``ready`` is high (cycle 0); every table is a
+synchronous ROM whose address comes from the state (and earlier tables), read at the
+end of the cycle of its stage; in the last cycle the state registers, FSMs and the
+sticky overflow flag update. ``u`` must be held from the accepting cycle to the last.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..ir import fsm as fsm_sem
+from ..ir import lut as lut_sem
+from ..ir.graph import Graph
+from ..ir.nodes import Kind
+from ..ir.qformat import Overflow, QFormat, Rounding
+from .arith import Netlist, aligned, extend, literal, requantize, ulit
+
+STATE_PORTS = ("x", "dx", "theta", "dtheta")
+ENCODER_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
+
+
+@dataclass
+class Rom:
+    name: str          # module name
+    inst: str
+    addr_width: int
+    data_width: int
+    words: list        # hex strings, index = address
+    addr: str          # address wire in the core
+    q: str             # registered data wire in the core
+
+
+@dataclass
+class CoreView:
+    module: str
+    ii: int
+    phase_width: int
+    ports: list                       # (direction, name, width, signed)
+    net: Netlist
+    registers: list = field(default_factory=list)   # (name, width, signed, reset literal, next)
+    fsms: list = field(default_factory=list)        # dict(name, state_width, reset, input, rules, ...)
+    roms: list = field(default_factory=list)
+    lut_regs: list = field(default_factory=list)    # (name, width, source) registered beside a ROM
+    outputs: list = field(default_factory=list)     # (port, wire)
+
+
+def sig(name: str) -> str:
+    return f"n_{name}"
+
+
+def table_stages(graph: Graph) -> dict:
+    """Stage of every LUT: 1 + the largest stage of the LUTs feeding its address."""
+    stage: dict = {}
+    for n in graph.nodes:
+        upstream = [stage[i] for i in n.inputs if i in stage]
+        if n.kind is Kind.LUT:
+            stage[n.name] = 1 + max(upstream, default=0)
+        elif upstream and n.kind not in (Kind.REGISTER, Kind.FSM):
+            stage[n.name] = max(upstream)
+    return {n.name: stage[n.name] for n in graph.of_kind(Kind.LUT)}
+
+
+def build_view(graph: Graph, module: str = "pendulum_core") -> CoreView:
+    stages = table_stages(graph)
+    ii = 1 + max(stages.values(), default=0)
+    net = Netlist()
+    view = CoreView(module=module, ii=ii, phase_width=max(1, (ii - 1).bit_length()), ports=[], net=net)
+    u = graph["u"].qformat
+    view.ports = [("input", "u", u.width, True)]
+    for port in STATE_PORTS:
+        f = graph.output(port).qformat
+        view.ports.append(("output", port, f.width, True))
+    for port in ENCODER_PORTS:
+        if any(p == port for p, _ in graph.outputs):
+            view.ports.append(("output", port, 1, False))
+    for n in graph.nodes:
+        _emit_node(view, graph, n, stages)
+    view.outputs = [(p, sig(node)) for p, node in graph.outputs]
+    return view
+
+
+def _emit_node(view: CoreView, graph: Graph, n, stages) -> None:
+    net = view.net
+    out: QFormat = n.qformat
+    name = sig(n.name)
+    ins = [graph[i] for i in n.inputs]
+    a = [sig(i) for i in n.inputs]
+    f = [i.qformat for i in ins]
+    k = n.kind
+    if k is Kind.CONST:
+        net.wire(name, out.width, literal(out.from_float(n.param("value")), out.width))
+    elif k is Kind.INPUT:
+        net.wire(name, out.width, n.param("port"))
+    elif k is Kind.REGISTER:
+        view.registers.append((name, out.width, literal(out.from_float(n.param("reset")), out.width), a[0]))
+    elif k is Kind.FSM:
+        _emit_fsm(view, n, a[0], f[0])
+    elif k in (Kind.GAIN, Kind.MUL):
+        if k is Kind.GAIN:
+            c = QFormat.parse(n.param("cfmt"))
+            width = f[0].width + c.width
+            rhs = f"$signed({extend(a[0], f[0].width, True, width)}) * $signed({literal(c.from_float(n.param('value')), width)})"
+            frac = f[0].frac + c.frac
+        else:
+            width = f[0].width + f[1].width
+            rhs = (f"$signed({extend(a[0], f[0].width, True, width)}) * "
+                   f"$signed({extend(a[1], f[1].width, True, width)})")
+            frac = f[0].frac + f[1].frac
+        x = net.wire(f"{name}_x", width, rhs)
+        requantize(net, name, x, width, frac, out, n.rounding, n.overflow, n.name)
+    elif k in (Kind.ADD, Kind.SUB, Kind.COMPARE):
+        frac = max(q.frac for q in f)
+        width = max(q.width - q.frac for q in f) + frac + 1
+        ea, eb = (net.wire(f"{name}_{t}", width, aligned(s, q, frac, width)) for t, s, q in zip("ab", a, f))
+        if k is Kind.COMPARE:
+            ops = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
+            net.wire(name, 1, f"$signed({ea}) {ops[n.param('op')]} $signed({eb})", signed=False)
+        else:
+            x = net.wire(f"{name}_x", width, f"{ea} {'+' if k is Kind.ADD else '-'} {eb}")
+            requantize(net, name, x, width, frac, out, n.rounding, n.overflow, n.name)
+    elif k is Kind.NEG:
+        width = f[0].width + 1
+        x = net.wire(f"{name}_x", width, f"{ulit(0, width)} - {extend(a[0], f[0].width, True, width)}")
+        requantize(net, name, x, width, f[0].frac, out, n.rounding, n.overflow, n.name)
+    elif k is Kind.CAST:
+        requantize(net, name, a[0], f[0].width, f[0].frac, out, n.rounding, n.overflow, n.name)
+    elif k is Kind.SLICE:
+        hi, lo = n.param("hi"), n.param("lo")
+        hi, lo = (f[0].width - 1, f[0].width - 1) if hi == lo == -1 else (hi, lo)
+        net.wire(name, out.width, f"{a[0]}[{hi}]" if hi == lo else f"{a[0]}[{hi}:{lo}]", signed=False)
+    elif k is Kind.MUX:
+        sel, sel_w = a[0], f[0].width
+        choices = [requantize(net, f"{name}_in{j}", s, q.width, q.frac, out, n.rounding, n.overflow, n.name)
+                   for j, (s, q) in enumerate(zip(a[1:], f[1:]))]
+        rhs = choices[-1]
+        for j in range(len(choices) - 2, -1, -1):
+            rhs = f"({sel} == {ulit(j, sel_w)}) ? {choices[j]} : {rhs}"
+        net.wire(name, out.width, rhs)
+    elif k is Kind.LUT:
+        _emit_lut(view, n, a[0], f[0], stages[n.name])
+    else:
+        raise ValueError(f"no Verilog for node kind {k}")
+
+
+def _emit_fsm(view: CoreView, n, inp: str, fin: QFormat) -> None:
+    states = n.param("states")
+    sw = max(1, (len(states) - 1).bit_length())
+    ow = n.qformat.width
+    rules = []
+    for src, op, threshold, dst in n.param("transitions"):
+        t = fsm_sem.threshold_int(threshold, fin)
+        cond = f"{_wide(inp, fin)} {dict(lt='<', le='<=', gt='>', ge='>=')[op]} $signed({literal(t, fin.width + 1)})"
+        if src != "*":
+            cond = f"(n_{n.name}_state == {ulit(states.index(src), sw)}) && {cond}"
+        rules.append((cond, ulit(states.index(dst), sw)))
+    state = f"n_{n.name}_state"
+    word = ulit(n.param("outputs")[-1], ow)
+    for i in range(len(states) - 2, -1, -1):
+        word = f"({state} == {ulit(i, sw)}) ? {ulit(n.param('outputs')[i], ow)} : {word}"
+    view.net.wire(sig(n.name), ow, word, signed=False)
+    lo, hi = fsm_sem.threshold_int(n.param("lo"), fin), fsm_sem.threshold_int(n.param("hi"), fin)
+    checks = []
+    if lo > fin.min_int:
+        checks.append(f"({_wide(inp, fin)} < $signed({literal(lo, fin.width + 1)}))")
+    if hi < fin.max_int:
+        checks.append(f"({_wide(inp, fin)} > $signed({literal(hi, fin.width + 1)}))")
+    if checks:
+        ovf = view.net.wire(f"{sig(n.name)}_ovf", 1, " | ".join(checks), signed=False)
+        view.net.overflow.append((ovf, n.name))
+    view.fsms.append({"state": state, "width": sw, "reset": ulit(states.index(n.param("reset")), sw),
+                      "rules": rules})
+
+
+def _wide(inp: str, fin: QFormat) -> str:
+    """The input one bit wider, signed, to compare with a literal of that width."""
+    return f"$signed({extend(inp, fin.width, fin.signed, fin.width + 1)})"
+
+
+def _emit_lut(view: CoreView, n, inp: str, fin: QFormat, stage: int) -> None:
+    net = view.net
+    name = sig(n.name)
+    p = dict(n.params)
+    ab, shift, table, wo = p["addr_bits"], p["shift"], p["table"], n.qformat.width
+    segments = 1 << ab
+    base = lut_sem.lo_int(p["lo"], fin)
+    dw = fin.width + 1
+    d = net.wire(f"{name}_d", dw, f"{extend(inp, fin.width, True, dw)} - {literal(base, dw)}")
+    aw = ab + 1                                 # one more entry than segments when interpolating
+    if p["periodic"]:
+        top = dw - 1
+        if top >= shift + ab:
+            net.wire(f"{name}_d_unused", top - (shift + ab) + 1, f"{d}[{top}:{shift + ab}]", signed=False)
+        addr = net.wire(f"{name}_addr", aw, f"{{1'b0, {d}[{shift + ab - 1}:{shift}]}}", signed=False)
+        frac = net.wire(f"{name}_f", max(shift, 1), f"{d}[{shift - 1}:0]" if shift else "1'b0", signed=False)
+        outside = "1'b0"
+    else:
+        iw = dw - shift
+        idx = net.wire(f"{name}_idx", iw, f"{d}[{dw - 1}:{shift}]")
+        raw_f = f"{d}[{shift - 1}:0]" if shift else "1'b0"
+        below = net.wire(f"{name}_below", 1, f"{idx}[{iw - 1}]", signed=False)
+        wide_idx = f"$signed({extend(idx, iw, True, iw + 1)})"
+        above = net.wire(f"{name}_above", 1, f"!{below} && ({wide_idx} >= $signed({literal(segments, iw + 1)}))",
+                         signed=False)
+        last = segments if p["interpolate"] else segments - 1
+        exact_end = f"({wide_idx} == $signed({literal(segments, iw + 1)})) && ({raw_f} == {max(shift, 1)}'d0)"
+        outside = net.wire(f"{name}_outside", 1, f"{below} | ({above} && !({exact_end}))" if p["interpolate"]
+                           else f"{below} | {above}", signed=False)
+        low_idx = f"{idx}[{ab - 1}:0]" if iw > ab else extend(idx, iw, False, ab)
+        if iw > ab:
+            net.wire(f"{name}_idx_unused", iw - ab, f"{idx}[{iw - 1}:{ab}]", signed=False)
+        addr = net.wire(f"{name}_addr", aw, f"{below} ? {ulit(0, aw)} : {above} ? {ulit(last, aw)} : {{1'b0, {low_idx}}}",
+                        signed=False)
+        frac = net.wire(f"{name}_f", max(shift, 1), f"({below} | {above}) ? {max(shift, 1)}'d0 : {raw_f}", signed=False)
+    interp = p["interpolate"]
+    dwid = wo + 1
+    word_w = wo + (dwid if interp else 0)
+    words = []
+    mask_o, mask_d = (1 << wo) - 1, (1 << dwid) - 1
+    for i in range(len(table)):
+        y0 = table[i]
+        dy = table[i + 1] - y0 if interp and i + 1 < len(table) else 0
+        word = ((y0 & mask_o) << dwid) | (dy & mask_d) if interp else (y0 & mask_o)
+        words.append(f"{word:0{(word_w + 3) // 4}x}")
+    q = f"{name}_q"
+    net.decls.append((q, word_w, False))
+    view.roms.append(Rom(name=f"{view.module}_rom_{n.name}", inst=f"u_rom_{n.name}", addr_width=aw,
+                         data_width=word_w, words=words, addr=addr, q=q))
+    fr = f"{name}_f_r"
+    view.lut_regs.append((fr, max(shift, 1), frac))
+    if outside != "1'b0":
+        orr = f"{name}_outside_r"
+        view.lut_regs.append((orr, 1, outside))
+        net.overflow.append((orr, n.name))
+    y0 = net.wire(f"{name}_y0", wo, f"{q}[{word_w - 1}:{dwid}]" if interp else q)
+    if not interp or shift == 0:
+        net.wire(name, wo, y0)
+        return
+    dy = net.wire(f"{name}_dy", dwid, f"{q}[{dwid - 1}:0]")
+    pw = dwid + shift + 1
+    prod = net.wire(f"{name}_p", pw, f"$signed({extend(dy, dwid, True, pw)}) * $signed({{{dwid}'d0, 1'b0, {fr}}})")
+    sw_ = pw - shift + (1 if n.rounding is Rounding.NEAREST else 0)   # wide enough: never overflows
+    step = requantize(net, f"{name}_step", prod, pw, shift, QFormat(True, sw_, 0), n.rounding,
+                      Overflow.WRAP, n.name)
+    total = net.wire(f"{name}_sum", sw_ + 1, f"{extend(y0, wo, True, sw_ + 1)} + {extend(step, sw_, True, sw_ + 1)}")
+    net.wire(f"{name}_sum_unused", sw_ + 1 - wo, f"{total}[{sw_}:{wo}]", signed=False)
+    net.wire(name, wo, f"{total}[{wo - 1}:0]")
