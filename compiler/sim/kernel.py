@@ -23,7 +23,7 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from ..model.plant import Equations
 
-KERNEL_FORMAT = 3  # bump when the generated source changes shape
+KERNEL_FORMAT = 4  # bump when the generated source changes shape
 
 
 class _KernelPrinter(PythonCodePrinter):
@@ -116,7 +116,7 @@ def simulate(t, u, s0, p, dt, use_rk4):
             S = bound(S, P)
         for i in range({ns}):
             out[k + 1, i] = S[i]
-        if not math.isfinite(S[0] + S[1] + S[2] + S[3]):
+        if not math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))}):
             return out, k + 1
     return out, n
 '''

@@ -18,6 +18,7 @@ from .encoders import quantize_theta, quantize_x
 from .kernel import load_kernel
 
 METHODS = ("euler", "rk4")
+MAX_STEPS = 1e10   # about ten minutes of compiled stepping
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,13 @@ class Simulator:
         u = np.ascontiguousarray(u, dtype=np.float64)
         if t.ndim != 1 or t.shape != u.shape or t.size < 1:
             raise PendcError("t and u must be 1-D arrays of the same, non-zero length")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(u))):
+            raise PendcError("sample times and inputs must be finite numbers")
         if t.size > 1 and not np.all(np.diff(t) > 0):
             raise PendcError("sample times must be strictly increasing")
+        if (t[-1] - t[0]) / self.dt > MAX_STEPS:
+            raise PendcError(f"{(t[-1] - t[0]) / self.dt:.3g} steps of {self.dt:g} s requested; "
+                             f"the limit is {MAX_STEPS:.0e} (use a larger dt or a shorter input)")
         s0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=np.float64)
         if s0.shape != (4,) or not np.all(np.isfinite(s0)):
             raise PendcError("initial state must be four finite numbers (x, dx, theta, dtheta)")
