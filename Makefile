@@ -32,6 +32,7 @@ demo: setup
 
 bench: setup
 	$(PY) bench/bench_simulate.py -o bench/out/simulate.json
+	$(PY) bench/bench_golden.py -o bench/out/golden.json
 
 clean:
 	rm -rf sim_build bench/out demo_out .pytest_cache
