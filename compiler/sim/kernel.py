@@ -23,7 +23,7 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from ..model.plant import Equations
 
-KERNEL_FORMAT = 4  # bump when the generated source changes shape
+KERNEL_FORMAT = 6  # bump when the generated source changes shape
 
 
 class _KernelPrinter(PythonCodePrinter):
@@ -79,17 +79,26 @@ def kernel_source(eq: Equations) -> str:
     delay_index = pnames.index(eq.delay.name) if eq.delay is not None else -1
     loop = f'''
 @njit(cache=True)
-def simulate(t, u, s0, p, dt, use_rk4):
-    """States at the sample times t; u held constant (ZOH) from t[k] to t[k+1]."""
+def simulate(t, u, s0, p, dt, use_rk4, k0=0):
+    """States at the sample times t; u held constant (ZOH) from t[k] to t[k+1].
+    The run starts at row k0 from s0; earlier rows only supply input history (delays)."""
     P = {_tuple(f"p[{i}]" for i in range(len(pnames)))}
     n = t.shape[0]
     out = np.empty((n, {ns}))
-    S = start((s0[0], s0[1], s0[2], s0[3]), u[0], P)
+    k_first = {"0" if ns > 4 else "k0"}
+    S = start((s0[0], s0[1], s0[2], s0[3]), u[k_first], P)
     tau = {f"P[{delay_index}]" if delay_index >= 0 else "0.0"}
     j = 0
-    for i in range({ns}):
-        out[0, i] = S[i]
-    for k in range(n - 1):
+    for r in range(k0 + 1):
+        for i in range({ns}):
+            out[r, i] = S[i]
+    for k in range(k_first, n - 1):
+        if k == k0:
+            # extra states (e.g. a motor lag) were pre-rolled over the input history;
+            # the mechanical state starts here from s0
+            S = {_tuple(["s0[0]", "s0[1]", "s0[2]", "s0[3]"] + [f"S[{i}]" for i in range(4, ns)])}
+            for i in range({ns}):
+                out[k0, i] = S[i]
         span = t[k + 1] - t[k]
         nsub = int(math.ceil(span / dt - 1e-6))
         if nsub < 1:

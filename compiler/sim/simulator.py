@@ -62,7 +62,24 @@ class Simulator:
         self.dt = float(dt)
         self.method = method
         self.state_names = tuple(s.name for s in model.equations.states)
+        self.param_names = tuple(s.name for s in model.equations.params)
+        self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
         self._kernel = load_kernel(model.equations)
+
+    def vector(self, params: dict | None = None) -> np.ndarray:
+        """The kernel's parameter vector with some values replaced (no model rebuild, no recompile)."""
+        p = self.param_vector.copy()
+        for name, value in (params or {}).items():
+            if name not in self.param_names:
+                raise PendcError(f"unknown parameter '{name}' for this model (known: {', '.join(self.param_names)})")
+            p[self.param_names.index(name)] = float(value)
+        return p
+
+    def raw(self, t: np.ndarray, u: np.ndarray, s0: np.ndarray, p: np.ndarray, k0: int = 0) -> tuple[np.ndarray, int]:
+        """Unchecked kernel call for inner loops (identification): states array and the
+        number of valid rows (fewer than len(t) if the run diverged). The run starts at
+        row ``k0`` from ``s0``; rows before it only give an input delay its history."""
+        return self._kernel.simulate(t, u, s0, p, self.dt, self.method == "rk4", k0)
 
     def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
         t = np.ascontiguousarray(t, dtype=np.float64)
@@ -79,9 +96,7 @@ class Simulator:
         s0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=np.float64)
         if s0.shape != (4,) or not np.all(np.isfinite(s0)):
             raise PendcError("initial state must be four finite numbers (x, dx, theta, dtheta)")
-        model = self.model.with_params(params) if params else self.model
-        p = np.asarray(model.parameter_vector(), dtype=np.float64)
-        out, valid = self._kernel.simulate(t, u, s0, p, self.dt, self.method == "rk4")
+        out, valid = self.raw(t, u, s0, self.vector(params))
         if valid < t.size:
             raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}

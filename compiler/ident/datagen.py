@@ -1,0 +1,82 @@
+"""Measurement-like data from models that carry effects the tool's model lacks.
+
+The identification workbench is tested the way it will be used: on data whose
+physics is known to us but not to the model being identified. A data set is the
+"true" model simulated (1 us Euler, the reference integrator) on a rich experiment,
+then degraded like the real rig: the command goes through a 12-bit DAC and picks up
+unmeasured noise before the drive sees it, and the positions are read by the x4
+encoders (2.5 um, 0.314 mrad). The file records the *commanded* voltage, as a
+controller log would.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.plant import PlantModel
+from ..sim.encoders import quantize_theta, quantize_x
+from ..sim.simulator import Simulator
+from ..sim.stimuli import V_CENTER
+
+FS = 1000.0
+
+
+def identification_experiment(duration: float = 20.0, center: float = V_CENTER, seed: int = 7):
+    """The standard 20 s experiment: small and large steps, a chirp, a resonant swing-up
+    and a quiet end where the pendulum swings freely (damping shows there)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(duration * FS)) + 1) / FS
+    u = np.full_like(t, center)
+    seg = duration / 20.0
+    levels = [0.3, -0.3, 0.6, -0.6, 2.8, -2.8, 1.2, -1.2]
+    for i, lv in enumerate(levels):                         # 0-4 s: steps
+        u[(t >= i * 0.5 * seg) & (t < (i + 1) * 0.5 * seg)] = center + lv
+    m = (t >= 4 * seg) & (t < 10 * seg)                      # 4-10 s: chirp 0.3 -> 3 Hz
+    tau = t[m] - 4 * seg
+    T = 6 * seg
+    u[m] = center + 1.5 * np.sin(2 * np.pi * (0.3 * tau + (3.0 - 0.3) / (2 * T) * tau**2))
+    m = (t >= 10 * seg) & (t < 14 * seg)                     # 10-14 s: resonant square wave
+    u[m] = center + 2.0 * np.sign(np.sin(2 * np.pi * 0.9 * (t[m] - 10 * seg)))
+    m = (t >= 14 * seg) & (t < 16 * seg)                     # 14-16 s: random levels
+    holds = rng.uniform(-2.0, 2.0, 40)
+    u[m] = center + holds[((t[m] - 14 * seg) / 0.05).astype(int) % 40]
+    return t, np.clip(u, 0.0, 10.0)                          # 16-20 s: u = V_off, free swing
+
+
+def degrade_input(u: np.ndarray, dac_bits: int = 12, noise_v: float = 0.005, seed: int = 11) -> np.ndarray:
+    """What the drive sees: the DAC's quantised command plus unmeasured noise."""
+    rng = np.random.default_rng(seed)
+    lsb = 10.0 / (2**dac_bits - 1)
+    return np.round(u / lsb) * lsb + rng.normal(0.0, noise_v, size=u.shape)
+
+
+def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noise_v: float = 0.005,
+                 seed: int = 11, dt: float = 1e-6) -> dict:
+    """Columns ``t, u, x, theta`` of one simulated experiment on ``true_model``."""
+    if t is None:
+        t, u = identification_experiment()
+    applied = degrade_input(np.asarray(u, float), dac_bits, noise_v, seed)
+    res = Simulator(true_model, dt=dt)(t, applied)
+    return {"t": np.asarray(t, float), "u": np.asarray(u, float), "x": quantize_x(res["x"]),
+            "theta": quantize_theta(res["theta"])}
+
+
+def hidden_effect_cases(base: PlantModel) -> dict:
+    """name -> (true model, model the tool starts from): one hidden catalogue effect each.
+
+    Effects the base model has are hidden by removing them from the tool's model;
+    the others are added to the true model with clearly visible parameters."""
+    added = {
+        "cart_spring": {"k_c": 150.0, "x_0": 0.02},
+        "coulomb_pendulum": {"tau_c": 0.004},
+        "asymmetric_cart": {"d_mu": 0.25},
+        "drive_deadzone": {"u_dz": 0.2},
+        "force_limit": {"F_max": 450.0},
+        "motor_lag": {"tau_m": 0.02},
+        "input_delay": {"tau_d": 0.01},
+    }
+    cases = {name: (base.with_effect(name, params), base) for name, params in added.items()}
+    for name in ("viscous_pendulum", "velocity_limit"):
+        if name in base.effects:
+            cases[name] = (base, base.without_effect(name))
+    return cases

@@ -1,0 +1,165 @@
+"""Range analysis (pendc.passes.ranges): per-node maxima from simulating the untyped graph."""
+
+import numpy as np
+import pytest
+
+import pendc
+from pendc.ir.graph import Graph
+from pendc.ir.nodes import Kind, make
+from pendc.passes.eliminate_common import eliminate_common_subexpressions
+from pendc.passes.fold_constants import fold_constants
+from pendc.passes.lower import lower_model
+from pendc.passes.ranges import Ranges, analyze_ranges, per_step
+from pendc.sim.stimuli import steps as step_stimulus
+from pendc.sim.stimuli import swing_up
+
+DT = 1e-6
+
+
+# -- per_step ------------------------------------------------------------------------------
+
+def test_per_step_holds_each_sample_for_its_interval():
+    t = np.array([0.0, 3e-6, 4e-6, 9e-6])
+    u = np.array([1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(per_step(u, t, DT), [1, 1, 1, 2, 3, 3, 3, 3, 3])   # last sample: no interval
+
+
+def test_per_step_at_the_stimulus_rate():
+    t, u = swing_up(duration=0.01)
+    held = per_step(u, t, DT)
+    assert len(held) == 10_000
+    np.testing.assert_array_equal(held[::1000], u[:-1])
+    assert np.all(held[:1000] == u[0]) and np.all(held[1000:2000] == u[1])
+
+
+def test_per_step_rounds_interval_lengths_and_never_drops_a_sample():
+    t = np.array([0.0, 2.4e-6, 2.6e-6, 5.0e-6])    # 2.4 steps, 0.2 steps (-> 1), 2.4 steps
+    np.testing.assert_array_equal(per_step(np.array([5.0, 6.0, 7.0, 8.0]), t, DT), [5, 5, 6, 7, 7])
+
+
+# -- a hand-made graph -------------------------------------------------------------------------
+
+def small_graph():
+    """acc[n+1] = acc[n] + 0.5*u;  y = sin(acc) by table;  sq = u*u."""
+    nodes = [
+        make("u", Kind.INPUT, port="u"),
+        make("acc", Kind.REGISTER, ["acc_next"], reset=0.25),
+        make("half", Kind.GAIN, ["u"], value=0.5),
+        make("acc_next", Kind.ADD, ["acc", "half"]),
+        make("y", Kind.LUT, ["acc"], expr="sin(v)", lo=None, hi=None, periodic=False, addr_bits=6,
+             interpolate=True),
+        make("sq", Kind.MUL, ["u", "u"]),
+    ]
+    return Graph.build("small", nodes, [("acc", "acc"), ("y", "y"), ("sq", "sq")])
+
+
+def ramp_stimuli():
+    t = np.arange(6) * DT
+    return {"up": (t, np.array([1.0, 2.0, -3.0, 0.5, 0.0, 9.0])),
+            "down": (t[:4], np.array([-4.0, -1.0, -1.0, 7.0]))}
+
+
+@pytest.mark.parametrize("engine", ["interpreter", "compiled"])
+def test_hand_graph_maxima(engine):
+    r = analyze_ranges(small_graph(), ramp_stimuli(), DT, engine=engine)
+    assert isinstance(r, Ranges)
+    assert r.sources == ("up", "down") and r.overridden == ()
+    # "up" runs 5 steps (u = 1, 2, -3, 0.5, 0) and "down" 3 steps (u = -4, -1, -1)
+    assert r["u"] == 4.0
+    assert r["sq"] == 16.0
+    assert r["half"] == 2.0
+    # acc rows: up 0.25, 0.75, 1.75, 0.25, 0.5; down 0.25, -1.75, -2.25
+    assert r["acc"] == pytest.approx(2.25)
+    assert r["acc_next"] == pytest.approx(2.75)   # after the last step of "down" (-2.25 - 0.5)
+    assert r["y"] == pytest.approx(max(abs(np.sin(v)) for v in (0.25, 0.75, 1.75, 0.5, -1.75, -2.25)))
+    # LUT inputs get their signed extent too
+    assert set(r.lo) == set(r.hi) == {"acc"}
+    assert r.lo["acc"] == pytest.approx(-2.25) and r.hi["acc"] == pytest.approx(1.75)
+
+
+def test_hand_graph_engines_agree():
+    a = analyze_ranges(small_graph(), ramp_stimuli(), DT, engine="interpreter")
+    b = analyze_ranges(small_graph(), ramp_stimuli(), DT, engine="compiled")
+    assert a.max_abs == pytest.approx(b.max_abs, rel=1e-15)
+    assert a.lo == b.lo and a.hi == b.hi
+
+
+def test_overrides_replace_what_was_measured():
+    r = analyze_ranges(small_graph(), ramp_stimuli(), DT, overrides={"sq": 100, "acc": 0.5},
+                       engine="interpreter")
+    assert r["sq"] == 100.0 and r["acc"] == 0.5
+    assert r.overridden == ("acc", "sq")
+    assert r["u"] == 4.0
+
+
+def test_override_of_unknown_node_raises():
+    with pytest.raises(ValueError, match="nonexistent"):
+        analyze_ranges(small_graph(), ramp_stimuli(), DT, overrides={"nonexistent": 1.0}, engine="interpreter")
+
+
+def test_unknown_engine_raises():
+    with pytest.raises(ValueError, match="engine"):
+        analyze_ranges(small_graph(), ramp_stimuli(), DT, engine="verilator")
+
+
+# -- the default model ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def model():
+    return pendc.load_model()
+
+
+@pytest.fixture(scope="module")
+def untyped(model):
+    return eliminate_common_subexpressions(fold_constants(lower_model(model, dt=DT)))
+
+
+@pytest.fixture(scope="module")
+def stimuli():
+    return {"swing_up": swing_up(duration=0.05), "steps": step_stimulus(duration=0.05)}
+
+
+@pytest.fixture(scope="module")
+def ranges(untyped, stimuli):
+    return analyze_ranges(untyped, stimuli, DT)
+
+
+def test_state_ranges_are_the_simulated_maxima(model, stimuli, ranges):
+    """Each state's range is its largest |value| in the float simulator over the same inputs."""
+    sim = pendc.Simulator(model, dt=DT)
+    for s in ("x", "dx", "theta", "dtheta"):
+        peak = 0.0
+        for t, u in stimuli.values():
+            held = per_step(u, t, DT)
+            res = sim(np.arange(len(held)) * DT, held)
+            peak = max(peak, float(np.max(np.abs(res[s]))))
+        assert peak > 0
+        assert ranges[s] == pytest.approx(peak, rel=1e-9), s
+
+
+def test_every_node_has_a_range(untyped, ranges):
+    assert set(ranges.max_abs) == {n.name for n in untyped.nodes}
+    assert all(np.isfinite(v) and v >= 0 for v in ranges.max_abs.values())
+    assert ranges["u"] == pytest.approx(5.2646 + 2.5, rel=1e-12)    # the swing-up's peak voltage
+    for n in untyped.of_kind(Kind.CONST):
+        assert ranges[n.name] == abs(n.param("value"))
+
+
+def test_lut_input_extents(untyped, ranges):
+    inputs = {n.inputs[0] for n in untyped.of_kind(Kind.LUT)}
+    assert set(ranges.lo) == inputs
+    for name in inputs:
+        assert ranges.lo[name] <= ranges.hi[name]
+        assert max(abs(ranges.lo[name]), abs(ranges.hi[name])) == pytest.approx(ranges[name], rel=1e-12)
+    assert ranges.lo["abs_dx"] >= 0.0           # |dx| is never negative
+    assert ranges.lo["theta_turns"] < 0 < ranges.hi["theta_turns"]   # the pendulum swings both ways
+
+
+def test_interpreter_engine_agrees_on_the_model(untyped):
+    t, u = swing_up(duration=0.003)
+    stim = {"swing_up": (t, u)}
+    a = analyze_ranges(untyped, stim, DT, engine="interpreter")
+    b = analyze_ranges(untyped, stim, DT, engine="compiled")
+    for name in a.max_abs:
+        assert a[name] == pytest.approx(b[name], rel=1e-12, abs=1e-300), name
+    assert a.lo == pytest.approx(b.lo, rel=1e-12) and a.hi == pytest.approx(b.hi, rel=1e-12)
