@@ -159,8 +159,6 @@ def test_float_interpreter_equals_simulator_with_every_effect():
     assert_matches_simulator(g, m, u)
 
 
-@pytest.mark.xfail(strict=True, reason="lower_model resets extra states (motor_lag's F_m) to 0 instead of "
-                                       "Equations.initial (F_in of the first input), which the simulator uses")
 def test_motor_lag_state_starts_like_the_simulator():
     m = effect_model("motor_lag")
     g = lower_model(m, dt=DT)

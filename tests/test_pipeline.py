@@ -119,8 +119,6 @@ def test_override_of_unknown_node_is_refused(model, field, what):
         compile_model(model, opts)
 
 
-@pytest.mark.xfail(strict=True, reason="a malformed override value from [hardware] escapes as ValueError/TypeError "
-                                       "instead of PendcError, so the CLI prints a traceback")
 @pytest.mark.parametrize("override", [{"qformats": {"ddx": "Q15"}}, {"ranges": {"ddx": "big"}},
                                       {"margin_bits": "two"}])
 def test_malformed_override_value_is_a_pendc_error(model, override):

@@ -130,9 +130,6 @@ def test_widen_adds_fraction_bits_to_accumulators(build, tabulated, typed):
     assert g["ddx"].qformat == typed["ddx"].qformat                       # not an accumulator
 
 
-@pytest.mark.xfail(strict=True, reason="widen reaches only the register's direct input: with the velocity clamp "
-                                       "that is the clamp mux dx_next, so the sum dx + dx_inc stays at 31 "
-                                       "fraction bits and widening dx buys no precision")
 def test_widen_reaches_the_sum_of_every_accumulator(build, tabulated):
     g = assign(build, tabulated, widen={s: 8 for s in STATES})
     for s in STATES:

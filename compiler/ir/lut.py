@@ -13,7 +13,9 @@ Params of a LUT node:
 Addressing, with the input integer ``v`` in format ``fin``: the grid step is
 ``2**s`` input LSBs where ``s = grid_shift(...)``; ``d = v - lo_int``; the index is
 ``d >> s`` and the interpolation fraction ``d & (2**s - 1)``. A non-periodic input
-outside the domain is clamped to the first/last entry and raises the overflow flag.
+outside the grid is clamped to the first/last entry and raises the overflow flag;
+once tables are filled, ``hi`` is the last grid point, so "outside the grid" and
+"outside [lo, hi]" are the same thing for the float and the fixed semantics.
 """
 
 from __future__ import annotations

@@ -153,8 +153,9 @@ class MotorLag(Effect):
     requires = (("drive",),)
 
     def lag_state(self, s, force):
+        # starts from zero force, like the drive at power-on (and the hardware after reset)
         F_m = sp.Symbol("F_m", real=True)
-        return F_m, (force - F_m) / s.p["tau_m"], force
+        return F_m, (force - F_m) / s.p["tau_m"], sp.Integer(0)
 
 
 class ViscousCart(Effect):

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, fields
 
 from ..errors import PendcError
 from ..ir.graph import Graph, GraphError
+from ..ir.qformat import QFormat
 from ..ir.verify import verify
 from ..model.plant import PlantModel
 from ..sim.stimuli import named_stimuli
@@ -77,10 +78,33 @@ def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
         raise PendcError(f"[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
                          f"(known: {', '.join(sorted(known))})")
     table.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return BuildOptions(**table)
-    except TypeError as exc:
-        raise PendcError(f"bad [hardware] option: {exc}") from None
+    unknown = set(table) - known
+    if unknown:
+        raise PendcError(f"bad [hardware] option(s) {', '.join(sorted(unknown))}")
+    return validate_options(table)
+
+
+def validate_options(values) -> BuildOptions:
+    """Check option types and override values; one-line PendcError on the first bad one."""
+    table = dict(values.__dict__) if isinstance(values, BuildOptions) else dict(values)
+    defaults = BuildOptions()
+    for key, value in table.items():
+        expected = type(getattr(defaults, key))
+        ok = isinstance(value, expected) and not (expected is int and isinstance(value, bool))
+        if expected is float and isinstance(value, int) and not isinstance(value, bool):
+            table[key], ok = float(value), True
+        if not ok:
+            raise PendcError(f"[hardware] {key} must be a {expected.__name__}, got {value!r}")
+    for node, value in table.get("ranges", {}).items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise PendcError(f"[hardware.ranges] {node} must be a positive number (max |value|), got {value!r}")
+    for node, value in table.get("qformats", {}).items():
+        try:
+            QFormat.parse(str(value))
+        except ValueError as exc:
+            raise PendcError(f"[hardware.qformats] {node}: {exc}") from None
+    checked = BuildOptions(**table)
+    return values if checked == values else checked
 
 
 def _checked(graph: Graph, stage: str, typed: bool = False) -> Graph:
@@ -93,7 +117,7 @@ def _checked(graph: Graph, stage: str, typed: bool = False) -> Graph:
 
 def compile_model(model: PlantModel, options: BuildOptions | None = None) -> BuildResult:
     """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
-    opt = options or options_from_model(model)
+    opt = validate_options(options) if options is not None else options_from_model(model)
     graph = _checked(lower_model(model, dt=opt.dt), "lower_model")
     graph = _checked(fold_constants(graph), "fold_constants")
     graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")

@@ -53,6 +53,10 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
         raise ValueError(f"Q-format override for unknown node(s): {', '.join(sorted(unknown))}")
     widen = dict(widen or {})
     stored_by = {n.inputs[0]: n.name for n in graph.of_kind(Kind.REGISTER)}
+    for reg in graph.of_kind(Kind.REGISTER):    # the whole accumulation path gets the guard bits
+        for name in accumulator_chain(graph, reg.name):
+            if reg.name in widen and name not in widen:
+                widen[name] = widen[reg.name]
 
     def magnitude(node) -> float:
         m = ranges.max_abs.get(node.name, 0.0)
@@ -87,6 +91,24 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
         return n
 
     return _narrow_multiplier_operands(graph.map_nodes(typed))
+
+
+def accumulator_chain(graph: Graph, register: str) -> list:
+    """Nodes between a register's stored value and the sum that updates it: the register's
+    input, then back through mux data inputs and casts (a clamp) to the ADD/SUB that reads
+    the register. Widening only the register would round the sum before it is stored."""
+    chain, todo = [], [graph[register].inputs[0]]
+    while todo:
+        name = todo.pop()
+        node = graph[name]
+        if name in chain or node.kind in (Kind.CONST, Kind.REGISTER):
+            continue
+        chain.append(name)
+        if node.kind is Kind.MUX:
+            todo.extend(node.inputs[1:])
+        elif node.kind is Kind.CAST:
+            todo.append(node.inputs[0])
+    return chain
 
 
 def _narrow_multiplier_operands(graph: Graph) -> Graph:

@@ -6,7 +6,8 @@ Two steps, because the grid depends on the input's fixed-point format:
   the simulated range of its input plus a margin, and records the largest |value|
   the function takes on that domain, so the output format holds every entry.
 * :func:`fill_lut_tables` (after Q-formats) picks the grid step as a power of two of
-  input LSBs (the address is then a plain bit field) and quantises the entries.
+  input LSBs (the address is then a plain bit field), quantises the entries and sets
+  ``hi`` to the last grid point, so the domain is exactly what the table covers.
 """
 
 from __future__ import annotations
@@ -36,7 +37,10 @@ def tabulate_luts(graph: Graph, ranges: Ranges, margin: float = 0.125, addr_bits
             reach = max(abs(seen_lo), abs(seen_hi), 1e-9) * (1.0 + margin)
             p["lo"] = 0.0 if seen_lo >= 0.0 else -reach
             p["hi"] = reach
-        grid = np.linspace(p["lo"], p["hi"], 64 * (1 << p["addr_bits"]) + 1)
+        # the grid fitted later to the input's LSBs may reach up to twice the span: the
+        # output format must hold the function there too
+        reach = p["hi"] if p["periodic"] else p["lo"] + 2.0 * (p["hi"] - p["lo"])
+        grid = np.linspace(p["lo"], reach, 64 * (1 << p["addr_bits"]) + 1)
         values = lut_sem.evaluate(p["expr"], grid)
         if not np.all(np.isfinite(values)):
             raise ValueError(f"LUT '{node.name}': {p['expr']} is not finite on [{p['lo']}, {p['hi']}]")
@@ -59,6 +63,10 @@ def fill_lut_tables(graph: Graph) -> Graph:
             raise ValueError(f"LUT '{node.name}': period {p['hi'] - p['lo']} is not 2**k LSBs of {fin}")
         table = lut_sem.fill_table(p["expr"], p["lo"], p["addr_bits"], shift, fin, node.qformat,
                                    p["interpolate"], p["periodic"])
-        return node.with_params(shift=shift, table=table)
+        changes = {"shift": shift, "table": table}
+        if not p["periodic"]:   # the domain is the grid: float and fixed semantics then agree on it
+            last = (1 << p["addr_bits"]) - (0 if p["interpolate"] else 1)
+            changes["hi"] = float(np.ldexp(lut_sem.lo_int(p["lo"], fin) + (last << shift), -fin.frac))
+        return node.with_params(**changes)
 
     return graph.map_nodes(one)

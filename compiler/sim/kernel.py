@@ -66,7 +66,7 @@ def kernel_source(eq: Equations) -> str:
         clamped[1] = f"min(max(dx, -({pr.doprint(eq.velocity_bound)})), {pr.doprint(eq.velocity_bound)})"
     bound = "@njit(cache=True)\ndef bound(S, P):\n" + unpack_s + unpack_p + f"    return {_tuple(clamped)}\n"
 
-    inits = [pr.doprint(e) for e in eq.initial]
+    inits = [f"float({pr.doprint(e)})" for e in eq.initial]  # a literal 0 would make the tuple mixed-type
     force_body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in eq.assignments
                          if sym.name in ("F_N", "F_in"))
     init = ("@njit(cache=True)\ndef start(S4, u, P):\n    x, dx, theta, dtheta = S4\n" + unpack_p + force_body
