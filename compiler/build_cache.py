@@ -49,10 +49,16 @@ def build_key(model: PlantModel, options: BuildOptions) -> str:
     return hashlib.sha256((text + _compiler_digest()).encode()).hexdigest()[:24]
 
 
-def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_cache: bool = True) -> BuildResult:
-    """:func:`pendc.passes.pipeline.compile_model`, memoised on disk."""
+def cache_path(model: PlantModel, options: BuildOptions) -> Path:
+    return _cache_root() / f"build_{build_key(model, options)}.pickle"
+
+
+def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_cache: bool = True,
+                   on_miss=None) -> BuildResult:
+    """:func:`pendc.passes.pipeline.compile_model`, memoised on disk; ``on_miss()`` is called
+    before a real compilation (to tell a user why this takes half a minute)."""
     options = options or options_from_model(model)
-    path = _cache_root() / f"build_{build_key(model, options)}.pickle"
+    path = cache_path(model, options)
     if use_cache and path.exists():
         try:
             with path.open("rb") as fh:
@@ -60,6 +66,8 @@ def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_c
             return replace(cached, model=model)
         except Exception:  # a stale or truncated entry is just a miss
             pass
+    if on_miss:
+        on_miss()
     result = compile_model(model, options)
     if use_cache:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".build.")

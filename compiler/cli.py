@@ -120,11 +120,12 @@ def _build(model, args):
     from .build_cache import compile_cached
     from .passes.pipeline import options_from_model
 
+    def tell():
+        print("pendc: compiling the model (range analysis and error budget, about half a minute; "
+              "cached afterwards)...", file=sys.stderr)
+
     options = options_from_model(model)
-    if getattr(args, "progress", True):
-        print("pendc: compiling the model (range analysis and error budget; cached afterwards)...",
-              file=sys.stderr)
-    return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False))
+    return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False), on_miss=tell)
 
 
 def cmd_build(args) -> int:
@@ -150,8 +151,9 @@ def cmd_build(args) -> int:
     if args.json:
         sys.stdout.write(files["report.json"])
     else:
-        print(f"pendc: wrote {len(files)} files to {args.output}/ (top pendulum_core, {args.bus} wrapper)",
-              file=sys.stderr)
+        report = json.loads(files["report.json"])
+        print(f"pendc: wrote {len(files)} files to {args.output}/ (top {report['wrapper']} around "
+              f"{report['top']}, {report['ii']} clock cycles per model step)", file=sys.stderr)
     return 0
 
 

@@ -133,8 +133,15 @@ def _emit_node(view: CoreView, graph: Graph, n, stages) -> None:
         net.wire(name, out.width, f"{a[0]}[{hi}]" if hi == lo else f"{a[0]}[{hi}:{lo}]", signed=False)
     elif k is Kind.MUX:
         sel, sel_w = a[0], f[0].width
-        choices = [requantize(net, f"{name}_in{j}", s, q.width, q.frac, out, n.rounding, n.overflow, n.name)
-                   for j, (s, q) in enumerate(zip(a[1:], f[1:]))]
+        choices = []
+        for j, (s, q) in enumerate(zip(a[1:], f[1:])):
+            before = len(net.overflow)
+            choices.append(requantize(net, f"{name}_in{j}", s, q.width, q.frac, out, n.rounding, n.overflow, n.name))
+            # only the selected input can overflow the mux (as in the interpreter)
+            for k in range(before, len(net.overflow)):
+                ovf, node = net.overflow[k]
+                gated = net.wire(f"{ovf}_sel", 1, f"{ovf} & ({sel} == {ulit(j, sel_w)})", signed=False)
+                net.overflow[k] = (gated, node)
         rhs = choices[-1]
         for j in range(len(choices) - 2, -1, -1):
             rhs = f"({sel} == {ulit(j, sel_w)}) ? {choices[j]} : {rhs}"
