@@ -208,6 +208,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.set_defaults(func=cmd_build)
 
+    from .cli_ident import add_parsers as add_identification_parsers
+    add_identification_parsers(sub)
+
     p = sub.add_parser("report", help="reports on the compiled model: qformat or resources")
     p.add_argument("what", choices=("qformat", "resources"))
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")

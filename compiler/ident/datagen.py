@@ -67,7 +67,7 @@ def hidden_effect_cases(base: PlantModel) -> dict:
     Effects the base model has are hidden by removing them from the tool's model;
     the others are added to the true model with clearly visible parameters."""
     added = {
-        "cart_spring": {"k_c": 150.0, "x_0": 0.02},
+        "cart_spring": {"k_c": 300.0, "x_0": 0.05},
         "coulomb_pendulum": {"tau_c": 0.004},
         "asymmetric_cart": {"d_mu": 0.25},
         "drive_deadzone": {"u_dz": 0.2},
@@ -80,3 +80,36 @@ def hidden_effect_cases(base: PlantModel) -> dict:
         if name in base.effects:
             cases[name] = (base, base.without_effect(name))
     return cases
+
+
+def make_ripple_dataset(model: PlantModel, amplitude: float = 40.0, wavelength: float = 0.06,
+                        dac_bits: int = 12, noise_v: float = 0.005, seed: int = 11) -> dict:
+    """Data with physics outside the catalogue: a rail ripple force A sin(2 pi x / wavelength)
+    on the cart (a worn or uneven guide). It enters as an equivalent input offset updated
+    every millisecond from the simulated position, since no catalogue effect can carry it."""
+    t, u = identification_experiment()
+    applied = degrade_input(u, dac_bits, noise_v, seed)
+    alpha = model.effects["drive"]["alpha"]
+    sim = Simulator(model, dt=1e-6)
+    state = np.zeros(4)
+    x, th = np.empty_like(t), np.empty_like(t)
+    x[0], th[0] = 0.0, 0.0
+    for k in range(len(t) - 1):
+        ripple = amplitude * np.sin(2 * np.pi * state[0] / wavelength) / alpha
+        seg = sim(t[k:k + 2], applied[k:k + 2] + ripple, x0=state)
+        state = np.array([seg[s][-1] for s in ("x", "dx", "theta", "dtheta")])
+        x[k + 1], th[k + 1] = state[0], state[2]
+    return {"t": t, "u": u, "x": quantize_x(x), "theta": quantize_theta(th)}
+
+
+def demo_datasets(base: PlantModel) -> dict:
+    """The shipped data files (name -> (columns, description)) for the walkthrough in docs/."""
+    spring = base.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05})
+    two = spring.with_effect("coulomb_pendulum", {"tau_c": 0.004})
+    t2, u2 = identification_experiment(seed=21)
+    return {
+        "hidden_spring": (make_dataset(spring), "Table 14 model plus a cable pulling the cart (cart_spring k_c=300 N/m, x_0=0.05 m)"),
+        "hidden_spring_validation": (make_dataset(spring, t2, u2, seed=23), "the same plant, another experiment (for validation)"),
+        "hidden_two_effects": (make_dataset(two), "cable on the cart and dry friction in the pivot (coulomb_pendulum tau_c=0.004 N*m)"),
+        "hidden_unexplained": (make_ripple_dataset(base), "a rail ripple force 40 sin(2 pi x / 0.06) N: not in the catalogue"),
+    }

@@ -125,13 +125,13 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
 
 def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | None = None,
                    dt: float = 1e-4, segment: float = 0.5, max_evaluations: int = 200,
-                   search: bool = True) -> FitResult:
+                   search: bool = True, subset: str = "all") -> FitResult:
     """Fit ``free`` parameters of ``model`` to ``datasets`` (Measurements); others stay fixed.
 
     ``search`` runs a coarse grid search per parameter before the local optimiser."""
     if not free:
         raise PendcError("nothing to fit: no free parameters")
-    problem = ShootingProblem(model, datasets, free, dt=dt, segment=segment)
+    problem = ShootingProblem(model, datasets, free, dt=dt, segment=segment, subset=subset)
     x0 = problem.start_values()
     if start:
         for i, p in enumerate(free):

@@ -1,0 +1,160 @@
+"""The identification commands of the CLI: compare, diagnose, fit (a thin layer over pendc.ident)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from .errors import PendcError
+
+
+def _load(args):
+    from .model.modelfile import load_model
+    from .sim.measurements import read_measurements
+
+    model = load_model(args.model)
+    datasets = [read_measurements(p) for p in args.data]
+    for d in datasets:
+        for w in d.warnings:
+            print(f"pendc: warning: {w}", file=sys.stderr)
+    return model, datasets
+
+
+def _progress(enabled: bool):
+    """A one-line progress bar on stderr when it is a terminal."""
+    if not (enabled and sys.stderr.isatty()):
+        return None
+
+    def show(done, total, name):
+        width = 30
+        filled = int(width * done / total)
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {name:<20s}")
+        if done == total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+    return show
+
+
+def _fit_of(model, datasets) -> dict:
+    """fit% per output (free run, as MATLAB's compare), averaged over the data sets."""
+    from .ident.compare import compare
+
+    fits = [compare(model, d).fit for d in datasets]
+    return {k: sum(f[k] for f in fits) / len(fits) for k in ("x", "theta")}
+
+
+def cmd_compare(args) -> int:
+    from .ident.compare import compare, format_comparison, write_html_report
+
+    model, datasets = _load(args)
+    if len(datasets) != 1:
+        raise PendcError("compare takes one data file")
+    c = compare(model, datasets[0])
+    if args.html:
+        write_html_report(c, args.html)
+    if args.json:
+        json.dump(c.to_json(), sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        sys.stdout.write(format_comparison(c))
+    return 0
+
+
+def cmd_diagnose(args) -> int:
+    from .ident.diagnose import diagnose
+
+    model, datasets = _load(args)
+    before = _fit_of(model, datasets)
+    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json))
+    out = d.to_json()
+    for c, row in zip(d.candidates, out["candidates"]):
+        row["fit_before"] = before
+        row["fit_after"] = _fit_of(model.with_effect(c.effect, c.params), datasets) if c.score > 0.05 else before
+    if args.json:
+        json.dump(out, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+        return 0
+    lines = [f"fit now: x {before['x']:.1f} %, theta {before['theta']:.1f} %", ""]
+    lines.append(f"{'rank':4s} {'effect':18s} {'score':>6s} {'fit x':>7s} {'fit theta':>9s}  parameters")
+    for i, row in enumerate(out["candidates"], 1):
+        params = ", ".join(f"{k}={v:.4g}" for k, v in row["params"].items())
+        lines.append(f"{i:<4d} {row['effect']:18s} {row['score']:6.3f} {row['fit_after']['x']:7.1f} "
+                     f"{row['fit_after']['theta']:9.1f}  {params}")
+    lines.append("")
+    if d.unexplained:
+        lines.append("No catalogue effect explains the error (the best removes less than half of it).")
+        lines.append("The unexplained force/torque correlates with:")
+        lines += [f"  {r['target']:12s} ~ {r['signal']:16s} r = {r['r']:+.2f}" for r in d.correlations]
+    else:
+        best = d.candidates[0]
+        lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
+        lines.append(f"Next: pendc fit {' '.join(args.data)} --model {args.model or 'models/sct_thesis_final.toml'} "
+                     f"--add {best.effect} -o NEW.toml")
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
+
+
+def cmd_fit(args) -> int:
+    from .ident.fit import fit_parameters
+    from .ident.diagnose import free_parameters
+    from .model.modelfile import save_model
+    from .sim.measurements import read_measurements
+
+    model, datasets = _load(args)
+    added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
+    for effect in added:
+        model = model.with_effect(effect)
+    free = [p.strip() for p in (args.free or "").split(",") if p.strip()]
+    free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)
+    if not free:
+        raise PendcError("nothing to fit: name effects with --add or parameters with --free")
+    validation = [read_measurements(p) for p in (args.validate or [])] or datasets
+    before = _fit_of(model, validation)
+    result = fit_parameters(model, datasets, free)
+    if not result.converged:
+        raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations); "
+                         f"no model written")
+    after = _fit_of(result.model, validation)
+    meta = {"generator": "pendc fit", "data": " ".join(args.data), "fitted": ", ".join(free),
+            "fit_x_before": round(before["x"], 3), "fit_x_after": round(after["x"], 3),
+            "fit_theta_before": round(before["theta"], 3), "fit_theta_after": round(after["theta"], 3)}
+    save_model(result.model, args.output, meta=meta)
+    out = {"fit_before": before, "fit_after": after,
+           "params": {p: {"value": result.values[p], "ci95": result.ci95[p]} for p in free},
+           "model": args.output}
+    if args.json:
+        json.dump(out, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        print(f"fit x {before['x']:.1f} % -> {after['x']:.1f} %, theta {before['theta']:.1f} % -> {after['theta']:.1f} %")
+        for p in free:
+            lo, hi = result.ci95[p]
+            print(f"  {p:10s} = {result.values[p]:.6g}   95 % CI [{lo:.6g}, {hi:.6g}]")
+        print(f"wrote {args.output}")
+    return 0
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("compare", help="compare a model with a measurement: fit, where and why it fails")
+    p.add_argument("data", nargs=1, help="measurement CSV (t,u,x,theta)")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--html", help="write a self-contained HTML report here")
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("diagnose", help="which catalogue effect is missing from the model?")
+    p.add_argument("data", nargs="+", help="measurement CSV file(s)")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.set_defaults(func=cmd_diagnose)
+
+    p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file")
+    p.add_argument("data", nargs="+", help="measurement CSV file(s) to fit on")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--add", help="effects to add, comma-separated (their parameters are fitted)")
+    p.add_argument("--free", help="more parameters to fit, comma-separated")
+    p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
+    p.add_argument("-o", "--output", required=True, help="new model file")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_fit)

@@ -1,0 +1,137 @@
+"""Equation-error evidence: the force and torque the model leaves unexplained, in words.
+
+Positions are smoothed and differentiated (Savitzky-Golay, ~51 ms, cubic) to get
+velocities and accelerations; the Euler-Lagrange left-hand sides then give the
+generalized force on the cart and torque at the pivot that the data *needed*, and
+the model's own force/torque at the measured states is subtracted. What remains is
+the residual a missing effect has to supply. Samples where the cart is nearly at
+rest are left out of cart-force statistics: there the model's friction is a sticking
+rule that a measured (never exactly zero) velocity cannot exercise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+from scipy.signal import savgol_filter
+
+from ..model.plant import PlantModel
+
+WINDOW = 0.051
+MOVING = 0.005   # m/s
+
+
+def _derivatives(t, y):
+    h = float(np.median(np.diff(t)))
+    n = max(7, int(round(WINDOW / h)) | 1)
+    if len(y) <= n:
+        return np.gradient(y, t), np.gradient(np.gradient(y, t), t)
+    return savgol_filter(y, n, 3, deriv=1, delta=h), savgol_filter(y, n, 3, deriv=2, delta=h)
+
+
+def signals(data) -> dict:
+    t = np.asarray(data.t, float)
+    x, th = np.asarray(data.column("x"), float), np.asarray(data.column("theta"), float)
+    dx, ddx = _derivatives(t, x)
+    dth, ddth = _derivatives(t, th)
+    return {"t": t, "u": np.asarray(data.u, float), "x": x, "dx": dx, "ddx": ddx, "theta": th, "dtheta": dth,
+            "ddtheta": ddth}
+
+
+def _numeric(model: PlantModel, name: str):
+    """numpy function of (x, dx, theta, dtheta, u) for an assignment of the model (F_m -> F_in)."""
+    eq = model.equations
+    values = dict(zip(eq.params, model.parameter_vector()))
+    sym = next((s for s, _ in eq.assignments if s.name == name), None)
+    if sym is None:
+        return lambda **kw: np.zeros_like(kw["x"])
+    expr = eq.inline(sym)
+    lag = [s for s in eq.states[4:]]
+    if lag:
+        expr = expr.subs({s: eq.inline(sp.Symbol("F_in", real=True)) for s in lag})
+    expr = expr.subs(values)
+    x, dx, theta, dtheta = eq.states[:4]
+    f = sp.lambdify((x, dx, theta, dtheta, eq.input), expr, "numpy")
+    return lambda **kw: np.broadcast_to(f(kw["x"], kw["dx"], kw["theta"], kw["dtheta"], kw["u"]),
+                                        kw["x"].shape).astype(float)
+
+
+def residuals(model: PlantModel, sig: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(cart force, pivot torque) the data need beyond what ``model`` supplies."""
+    p = model.plant
+    M, m, L, I, g = p["M"], p["m"], p["L"], p["I"], p["g"]
+    th, dth = sig["theta"], sig["dtheta"]
+    need_x = (M + m) * sig["ddx"] - m * L * np.cos(th) * sig["ddtheta"] + m * L * dth**2 * np.sin(th)
+    need_t = (m * L**2 + I) * sig["ddtheta"] - m * L * np.cos(th) * sig["ddx"] + m * g * L * np.sin(th)
+    kw = {k: sig[k] for k in ("x", "dx", "theta", "dtheta", "u")}
+    return need_x - _numeric(model, "F_cart")(**kw), need_t - _numeric(model, "tau_pend")(**kw)
+
+
+def _corr(a, b) -> float:
+    a, b = a - a.mean(), b - b.mean()
+    den = float(np.sqrt((a @ a) * (b @ b)))
+    return float(a @ b / den) if den > 0 else 0.0
+
+
+SENTENCES = {
+    "cart_spring": "the residual force on the cart grows with position and pulls the cart back (a spring or cable)",
+    "asymmetric_cart": "the residual force on the cart follows sgn(dx) with a different size left and right",
+    "coulomb_cart": "the residual force on the cart follows sgn(dx): dry friction",
+    "viscous_cart": "the residual force on the cart is proportional to its speed",
+    "static_cart": "the cart stays stuck for inputs the model says would move it",
+    "coulomb_pendulum": "the residual torque at the pivot follows -sgn(dtheta): dry friction in the pivot",
+    "viscous_pendulum": "the residual torque at the pivot is proportional to -dtheta: viscous damping of the swing",
+    "drive_deadzone": "the cart does not respond to small inputs around V_off: a dead zone in the drive",
+    "force_limit": "the drive force stops growing for large inputs: a current limit",
+    "motor_lag": "the force builds up with a first-order lag after input changes",
+    "input_delay": "the response starts a fixed time after the input changes: a transport delay",
+    "velocity_limit": "the cart speed saturates",
+}
+
+
+def describe_candidate(base: PlantModel, fitted: PlantModel, effect: str, datasets: list, score: float) -> str:
+    """One or two sentences a control engineer can check against the plots."""
+    parts = [SENTENCES.get(effect, f"adding {effect} reduces the error")]
+    values = ", ".join(f"{k} = {v:.4g}" for k, v in fitted.effects.get(effect, {}).items())
+    r = _contribution_correlation(base, fitted, datasets)
+    if r is not None:
+        parts.append(f"what {effect} adds correlates with the residual at r = {r:.2f}")
+    parts.append(f"fitted {values}; it removes {100 * max(score, 0):.0f} % of the held-out simulation error")
+    return "; ".join(parts) + "."
+
+
+def _contribution_correlation(base, fitted, datasets):
+    rs = []
+    for data in datasets:
+        sig = signals(data)
+        rx, rt = residuals(base, sig)
+        kw = {k: sig[k] for k in ("x", "dx", "theta", "dtheta", "u")}
+        cx = _numeric(fitted, "F_cart")(**kw) - _numeric(base, "F_cart")(**kw)
+        ct = _numeric(fitted, "tau_pend")(**kw) - _numeric(base, "tau_pend")(**kw)
+        moving = np.abs(sig["dx"]) > MOVING
+        if np.std(ct) > 0 and np.std(ct) * 50 > np.std(cx) * (base.plant["L"]):
+            rs.append(_corr(rt, ct))
+        elif np.std(cx[moving]) > 0:
+            rs.append(_corr(rx[moving], cx[moving]))
+    return float(np.mean(rs)) if rs else None
+
+
+def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> list:
+    """What the unexplained force and torque correlate with, strongest first."""
+    rows = []
+    for data in datasets:
+        sig = signals(data)
+        rx, rt = residuals(model, sig)
+        v_off = model.effects.get("drive", {}).get("V_off", 5.0)
+        basis = {
+            "x": sig["x"], "dx": sig["dx"], "sgn(dx)": np.sign(sig["dx"]), "dx*|dx|": sig["dx"] * np.abs(sig["dx"]),
+            "theta": sig["theta"], "sin(theta)": np.sin(sig["theta"]), "dtheta": sig["dtheta"],
+            "sgn(dtheta)": np.sign(sig["dtheta"]), "dtheta*|dtheta|": sig["dtheta"] * np.abs(sig["dtheta"]),
+            "u - V_off": sig["u"] - v_off,
+        }
+        moving = np.abs(sig["dx"]) > MOVING
+        for name, b in basis.items():
+            rows.append({"signal": name, "target": "cart force", "r": _corr(rx[moving], b[moving])})
+            rows.append({"signal": name, "target": "pivot torque", "r": _corr(rt, b)})
+    rows.sort(key=lambda r: -abs(r["r"]))
+    return rows[:top]

@@ -1,0 +1,26 @@
+"""Regenerate the shipped measurement-like data files of data/ (deterministic).
+
+Usage: .venv/bin/python data/generate.py [folder]
+Each file is the thesis' final model with hidden effects, simulated at 1 us on the
+standard identification experiment, with a 12-bit DAC, unmeasured input noise and
+x4 encoder quantisation (see pendc.ident.datagen).
+"""
+
+import sys
+from pathlib import Path
+
+from pendc import load_model
+from pendc.ident.datagen import demo_datasets
+from pendc.sim.measurements import write_csv
+
+
+def main() -> int:
+    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parent
+    for name, (columns, description) in demo_datasets(load_model()).items():
+        write_csv(folder / f"{name}.csv", columns, meta={"description": description, "generator": "data/generate.py"})
+        print(f"wrote {folder / name}.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
