@@ -18,6 +18,7 @@ most of the error, the diagnosis says so and lists what the residual correlates 
 from __future__ import annotations
 
 import math
+import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
@@ -42,6 +43,7 @@ class Candidate:
     cost_fit: tuple       # (before, after) on the fitting half
     cost_heldout: tuple   # (before, after) on the held-out half
     evidence: str
+    seconds: float = 0.0  # time spent testing this candidate
 
     def to_json(self) -> dict:
         return dict(self.__dict__, cost_fit=list(self.cost_fit), cost_heldout=list(self.cost_heldout))
@@ -79,6 +81,7 @@ def free_parameters(effect: str) -> list:
 
 def _test_candidate(args) -> Candidate:
     model, datasets, effect, dt, segment = args
+    started = time.perf_counter()
     trial = model.with_effect(effect)
     free = free_parameters(effect)
     fit = fit_parameters(trial, datasets, free, dt=dt, segment=segment, subset="even")
@@ -91,7 +94,8 @@ def _test_candidate(args) -> Candidate:
     return Candidate(effect=effect, params=fit.values, ci95=fit.ci95, score=float(score),
                      delta_bic=float(bic(before, 0) - bic(after, len(free))),
                      cost_fit=(fit.cost_before, fit.cost_after), cost_heldout=(before, after),
-                     evidence=describe_candidate(model, fit.model, effect, datasets, score))
+                     evidence=describe_candidate(model, fit.model, effect, datasets, score),
+                     seconds=time.perf_counter() - started)
 
 
 def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float = 0.5,
