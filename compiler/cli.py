@@ -238,14 +238,14 @@ def main(argv: list[str] | None = None) -> int:
     except PendcError as exc:
         print(f"pendc: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # e.g. `pendc ... | head`
+        return 0
     except OSError as exc:  # unwritable output folder, disk full, ...
         print(f"pendc: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("pendc: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:
-        return 0
 
 
 if __name__ == "__main__":

@@ -49,13 +49,16 @@ def cmd_compare(args) -> int:
     if len(datasets) != 1:
         raise PendcError("compare takes one data file")
     c = compare(model, datasets[0])
+    horizon = _fit_of(model, datasets)
     if args.html:
         write_html_report(c, args.html)
     if args.json:
-        json.dump(c.to_json(), sys.stdout, indent=2)
+        json.dump({**c.to_json(), "fit_horizon": horizon, "horizon_s": 0.5}, sys.stdout, indent=2)
         sys.stdout.write("\n")
     else:
         sys.stdout.write(format_comparison(c))
+        sys.stdout.write(f"\nfit with a 0.5 s prediction horizon (restarting from the measured state; what "
+                         f"diagnose and fit use): x {horizon['x']:.2f} %, theta {horizon['theta']:.2f} %\n")
     return 0
 
 
