@@ -103,6 +103,8 @@ def cmd_fit(args) -> int:
     from .sim.measurements import read_measurements
 
     model, datasets = _load(args)
+    validation = [read_measurements(p) for p in (args.validate or [])] or datasets
+    before = _fit_of(model, validation)           # the model as given, before anything is added
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     for effect in added:
         model = model.with_effect(effect)
@@ -110,8 +112,6 @@ def cmd_fit(args) -> int:
     free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)
     if not free:
         raise PendcError("nothing to fit: name effects with --add or parameters with --free")
-    validation = [read_measurements(p) for p in (args.validate or [])] or datasets
-    before = _fit_of(model, validation)
     result = fit_parameters(model, datasets, free)
     if not result.converged:
         raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations); "

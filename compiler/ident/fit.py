@@ -149,21 +149,28 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
     except (ValueError, FloatingPointError) as exc:
         raise PendcError(f"fit failed to run: {exc}") from None
     values = tf.to_values(sol.x)
-    ci = _intervals(sol, tf, values, problem.size)
+    ci = _intervals(sol, tf, values, problem.segment_blocks())
     fitted = model.with_params(dict(zip(free, values)))
     return FitResult(model=fitted, values=dict(zip(free, map(float, values))), ci95=ci,
                      cost_before=cost_before, cost_after=float(sol.cost), n_residuals=problem.size,
                      evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message))
 
 
-def _intervals(sol, tf: _Transform, values: np.ndarray, n: int) -> dict:
-    k = len(values)
-    dof = max(n - k, 1)
-    sigma2 = 2.0 * sol.cost / dof
+def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> dict:
+    """95 % intervals from a cluster-robust (sandwich) covariance, one cluster per segment:
+    residuals inside a segment are strongly correlated, so treating them as independent
+    (plain Gauss-Newton) would make the intervals far too narrow."""
+    J, r = sol.jac, sol.fun
     try:
-        cov_z = np.linalg.pinv(sol.jac.T @ sol.jac) * sigma2
+        bread = np.linalg.pinv(J.T @ J)
     except np.linalg.LinAlgError:
-        cov_z = np.full((k, k), np.inf)
+        return {p: [float("-inf"), float("inf")] for p in tf.free}
+    meat = np.zeros_like(bread)
+    for a, b in blocks:
+        g = J[a:b].T @ r[a:b]
+        meat += np.outer(g, g)
+    n_clusters = max(len(blocks), 2)
+    cov_z = bread @ meat @ bread * n_clusters / (n_clusters - 1)
     # map the covariance of the scaled variables to the parameters (linear map)
     A = np.diag(tf.scale)
     if tf.ordered:

@@ -126,6 +126,15 @@ class ShootingProblem:
                 k += 2 * n
         return out
 
+    def segment_blocks(self) -> list:
+        """(start, stop) rows of each segment's residuals in the residual vector."""
+        blocks, k = [], 0
+        for r in self.records:
+            for a, b in r.bounds:
+                blocks.append((k, k + 2 * (b - a)))
+                k += 2 * (b - a)
+        return blocks
+
     def cost(self, values) -> float:
         r = self.residual(values)
         return 0.5 * float(r @ r)
