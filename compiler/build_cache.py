@@ -16,23 +16,12 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from .codegen import cache_dir
 from .model.modelfile import dumps_model
 from .model.plant import PlantModel
 from .passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
 
 _PACKAGE = Path(__file__).resolve().parent
-
-
-def _cache_root() -> Path:
-    root = os.environ.get("PENDC_CACHE_DIR")
-    path = (Path(root) if root else Path.home() / ".cache" / "pendc") / "builds"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        return path
-    except OSError:
-        path = Path(tempfile.gettempdir()) / "pendc-builds"
-        path.mkdir(parents=True, exist_ok=True)
-        return path
 
 
 def _compiler_digest() -> str:
@@ -50,7 +39,7 @@ def build_key(model: PlantModel, options: BuildOptions) -> str:
 
 
 def cache_path(model: PlantModel, options: BuildOptions) -> Path:
-    return _cache_root() / f"build_{build_key(model, options)}.pickle"
+    return cache_dir("builds") / f"build_{build_key(model, options)}.pickle"
 
 
 def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_cache: bool = True,

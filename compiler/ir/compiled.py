@@ -15,53 +15,15 @@ code. It is written to a cache file named by its hash (``$PENDC_CACHE_DIR`` or
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import os
-import sys
-import tempfile
-from pathlib import Path
-
 import numpy as np
+
+from ..codegen import cache_dir, load_source  # noqa: F401  (cache_dir re-exported for callers)
 
 from .compiled_source import kernel_source
 from .graph import Graph
 from .interpret import Trace
 from .nodes import Kind
 from .qformat import QFormat
-
-
-def cache_dir() -> Path:
-    """Folder for generated kernels: ``$PENDC_CACHE_DIR``, else ~/.cache/pendc/kernels, else a temp dir."""
-    root = os.environ.get("PENDC_CACHE_DIR")
-    path = Path(root) if root else Path.home() / ".cache" / "pendc" / "kernels"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        if os.access(path, os.W_OK):
-            return path
-    except OSError:
-        pass
-    path = Path(tempfile.gettempdir()) / "pendc-kernels"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def load_source(source: str, prefix: str = "pendc_ir"):
-    """Import the module ``source`` (written once to the cache dir under its hash)."""
-    digest = hashlib.sha256(source.encode()).hexdigest()[:20]
-    name = f"{prefix}_{digest}"
-    if name in sys.modules:
-        return sys.modules[name]
-    path = cache_dir() / f"{name}.py"
-    if not path.exists() or path.read_text() != source:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(source)
-        os.replace(tmp, path)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def quantize(values, fmt: QFormat) -> np.ndarray:
@@ -98,7 +60,7 @@ class CompiledGraph:
         tables = [np.asarray(graph[name].param("table"), dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
         self.tables.setflags(write=False)
-        self._kernel = load_source(self.source).kernel
+        self._kernel = load_source(self.source, "pendc_ir").kernel
 
     def _input_matrix(self, inputs: dict, steps: int | None) -> tuple[np.ndarray, int]:
         nodes = [n for n in self.graph.nodes if n.kind is Kind.INPUT]

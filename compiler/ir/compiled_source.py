@@ -19,7 +19,8 @@ from __future__ import annotations
 import math
 
 import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
+
+from ..codegen import NumbaPrinter
 
 from . import fsm as fsm_sem
 from . import lut as lut_sem
@@ -33,27 +34,15 @@ UNKNOWN = (I64_MIN, I64_MAX)
 _CMP = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
 
 
-class _ExprPrinter(PythonCodePrinter):
-    """sympy -> numba-compatible Python (``math`` calls); the LUT variable ``v`` prints as ``var``."""
+class _ExprPrinter(NumbaPrinter):
+    """sympy -> numba-compatible Python; the LUT variable ``v`` prints as ``var``."""
 
     def __init__(self, var: str):
-        super().__init__({"standard": "python3", "fully_qualified_modules": True})
+        super().__init__()
         self.var = var
 
     def _print_Symbol(self, expr):
         return self.var if expr.name == "v" else super()._print_Symbol(expr)
-
-    def _print_Min(self, expr):
-        return self._nested("min", expr.args)
-
-    def _print_Max(self, expr):
-        return self._nested("max", expr.args)
-
-    def _nested(self, fn, args):
-        out = self._print(args[0])
-        for a in args[1:]:
-            out = f"{fn}({out}, {self._print(a)})"
-        return out
 
 
 def lut_expr_source(expr: str, var: str) -> str:

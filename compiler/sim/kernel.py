@@ -12,35 +12,10 @@ an argument, so a fit re-runs the same machine code with new values.
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import os
-import sys
-import tempfile
-from pathlib import Path
-
-from sympy.printing.pycode import PythonCodePrinter
-
+from ..codegen import NumbaPrinter, load_source
 from ..model.plant import Equations
 
 KERNEL_FORMAT = 6  # bump when the generated source changes shape
-
-
-class _KernelPrinter(PythonCodePrinter):
-    def __init__(self):
-        super().__init__({"standard": "python3", "fully_qualified_modules": True})
-
-    def _print_Min(self, expr):
-        return self._nested("min", expr.args)
-
-    def _print_Max(self, expr):
-        return self._nested("max", expr.args)
-
-    def _nested(self, fn, args):
-        out = self._print(args[0])
-        for a in args[1:]:
-            out = f"{fn}({out}, {self._print(a)})"
-        return out
 
 
 def _tuple(items) -> str:
@@ -50,7 +25,7 @@ def _tuple(items) -> str:
 
 def kernel_source(eq: Equations) -> str:
     """The Python source of the kernel module for ``eq`` (deterministic)."""
-    pr = _KernelPrinter()
+    pr = NumbaPrinter()
     names = [s.name for s in eq.states]
     pnames = [s.name for s in eq.params]
     ns = len(names)
@@ -134,34 +109,6 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
     return header + rhs + "\n\n" + bound + "\n\n" + init + "\n" + loop
 
 
-def _cache_dir() -> Path:
-    root = os.environ.get("PENDC_CACHE_DIR")
-    path = Path(root) if root else Path.home() / ".cache" / "pendc" / "kernels"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        if os.access(path, os.W_OK):
-            return path
-    except OSError:
-        pass
-    path = Path(tempfile.gettempdir()) / "pendc-kernels"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
 def load_kernel(eq: Equations):
     """Import (compiling on first use, from numba's disk cache later) the kernel of ``eq``."""
-    source = kernel_source(eq)
-    digest = hashlib.sha256(source.encode()).hexdigest()[:20]
-    name = f"pendc_kernel_{digest}"
-    if name in sys.modules:  # already imported in this process
-        return sys.modules[name]
-    path = _cache_dir() / f"pendc_kernel_{digest}.py"
-    if not path.exists() or path.read_text() != source:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(source)
-        os.replace(tmp, path)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_source(kernel_source(eq), "pendc_kernel")
