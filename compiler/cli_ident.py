@@ -112,7 +112,7 @@ def cmd_fit(args) -> int:
     free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)
     if not free:
         raise PendcError("nothing to fit: name effects with --add or parameters with --free")
-    result = fit_parameters(model, datasets, free)
+    result = fit_parameters(model, datasets, free, max_evaluations=args.max_evaluations)
     if not result.converged:
         raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations); "
                          f"no model written")
@@ -158,5 +158,6 @@ def add_parsers(sub) -> None:
     p.add_argument("--free", help="more parameters to fit, comma-separated")
     p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
     p.add_argument("-o", "--output", required=True, help="new model file")
+    p.add_argument("--max-evaluations", type=int, default=200, help="budget of model evaluations (default 200)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_fit)
