@@ -35,7 +35,7 @@ demo: setup
 	$(BIN)/pendc report resources
 	$(BIN)/pendc compare data/hidden_spring.csv --html demo_out/compare_before.html
 	$(BIN)/pendc diagnose data/hidden_spring.csv
-	$(BIN)/pendc fit data/hidden_spring.csv --add cart_spring --validate data/hidden_spring_validation.csv -o demo_out/with_spring.toml
+	$(BIN)/pendc fit data/hidden_spring.csv --add cart_spring --validate data/hidden_spring_validation.csv data/hidden_spring_swing_up.csv -o demo_out/with_spring.toml
 	$(BIN)/pendc compare data/hidden_spring_validation.csv --model demo_out/with_spring.toml --html demo_out/compare_after.html
 	$(BIN)/pendc build --model demo_out/with_spring.toml -o demo_out/hdl_with_spring
 	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"

@@ -1,0 +1,41 @@
+"""Hidden-effect data: deterministic, degraded like the rig, and the shipped files are current."""
+
+from pathlib import Path
+
+import numpy as np
+
+from pendc import load_model
+from pendc.ident.datagen import (closed_loop_swing_up, degrade_input, demo_datasets, identification_experiment,
+                                 make_dataset)
+from pendc.sim.encoders import THETA_COUNT, X_COUNT
+from pendc.sim.measurements import format_csv
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def test_experiment_and_data_are_quantised_and_deterministic():
+    t, u = identification_experiment()
+    assert t[-1] == 20.0 and np.all((u >= 0) & (u <= 10))
+    a, b = make_dataset(load_model()), make_dataset(load_model())
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    assert np.allclose(a["x"] / X_COUNT, np.round(a["x"] / X_COUNT), atol=1e-6)
+    assert np.allclose(a["theta"] / THETA_COUNT, np.round(a["theta"] / THETA_COUNT), atol=1e-6)
+    assert np.array_equal(a["u"], u)                              # the log holds the command
+
+
+def test_the_dac_and_noise_change_what_the_plant_sees():
+    u = np.full(1000, 5.2646)
+    seen = degrade_input(u)
+    assert 0.001 < np.std(seen - u) < 0.01
+
+
+def test_closed_loop_swing_up_swings_high_and_stays_on_the_track():
+    c = closed_loop_swing_up(load_model(), duration=6.0)
+    assert np.max(np.abs(c["theta"])) > 2.5
+    assert np.max(np.abs(c["x"])) < 0.375
+
+
+def test_shipped_files_are_what_the_generator_makes():
+    name, (columns, description) = next(iter(demo_datasets(load_model()).items()))
+    shipped = (DATA / f"{name}.csv").read_text()
+    assert shipped == format_csv(columns, meta={"description": description, "generator": "data/generate.py"})
