@@ -40,8 +40,9 @@ demo: setup
 	$(BIN)/pendc build --model demo_out/with_spring.toml -o demo_out/hdl_with_spring
 	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"
 
+SIM ?= both
 sim: setup
-	$(PY) tb/run.py --sim both
+	$(PY) tb/run.py --sim $(SIM)
 
 bench: setup
 	$(PY) bench/bench_simulate.py -o bench/out/simulate.json

@@ -61,8 +61,8 @@ def roms_context(view: CoreView, header: str) -> dict:
     for r in view.roms:
         roms.append({
             "name": r.name, "comment": f"{len(r.words)} words x {r.data_width} bits",
-            "addr_msb": r.addr_width - 1, "data_msb": r.data_width - 1, "zero": f"{r.data_width}'h0",
-            "words": [{"addr": f"{r.addr_width}'d{i}", "data": f"{r.data_width}'h{w}"} for i, w in enumerate(r.words)],
+            "addr_msb": r.addr_width - 1, "data_msb": r.data_width - 1, "last": len(r.words) - 1,
+            "words": [{"index": i, "data": f"{r.data_width}'h{w}"} for i, w in enumerate(r.words)],
         })
     return {"header": header, "module": view.module, "roms": roms}
 

