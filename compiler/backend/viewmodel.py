@@ -193,7 +193,8 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat, stage: int) -> None:
     ab, shift, table, wo = p["addr_bits"], p["shift"], p["table"], n.qformat.width
     segments = 1 << ab
     base = lut_sem.lo_int(p["lo"], fin)
-    dw = fin.width + 1
+    # a periodic address may need bits above a narrow input: they are its sign extension
+    dw = max(fin.width + 1, shift + ab + 1) if p["periodic"] else fin.width + 1
     d = net.wire(f"{name}_d", dw, f"{extend(inp, fin.width, True, dw)} - {literal(base, dw)}")
     aw = ab + 1                                 # one more entry than segments when interpolating
     if p["periodic"]:
