@@ -10,20 +10,15 @@ import pytest
 from pendc import load_model
 from pendc.backend.emit import render_core, write_tree
 from pendc.golden import GoldenModel
+from pendc.ident.datagen import HIDDEN_PARAMS
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.ranges import per_step
 from pendc.sim.stimuli import swing_up
 
 pytestmark = pytest.mark.skipif(shutil.which("iverilog") is None, reason="Icarus Verilog (iverilog) not installed")
 
-EFFECTS = {
-    "cart_spring": {"k_c": 300.0, "x_0": 0.05},
-    "coulomb_pendulum": {"tau_c": 0.004},
-    "asymmetric_cart": {"d_mu": 0.25},
-    "drive_deadzone": {"u_dz": 0.2},
-    "force_limit": {"F_max": 450.0},
-    "motor_lag": {"tau_m": 0.02},
-}
+# every hidden effect of the identification data that has a hardware form
+EFFECTS = {k: v for k, v in HIDDEN_PARAMS.items() if k != "input_delay"}
 STEPS = 12000   # long enough for a lagging drive to break the cart loose
 
 TESTBENCH = """`timescale 1ns/1ps

@@ -61,21 +61,24 @@ def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noi
             "theta": quantize_theta(res["theta"])}
 
 
+# Hidden effects added to the true model, with parameters large enough to matter on the rig.
+HIDDEN_PARAMS = {
+    "cart_spring": {"k_c": 300.0, "x_0": 0.05},
+    "coulomb_pendulum": {"tau_c": 0.004},
+    "asymmetric_cart": {"d_mu": 0.25},
+    "drive_deadzone": {"u_dz": 0.2},
+    "force_limit": {"F_max": 450.0},
+    "motor_lag": {"tau_m": 0.02},
+    "input_delay": {"tau_d": 0.01},
+}
+
+
 def hidden_effect_cases(base: PlantModel) -> dict:
     """name -> (true model, model the tool starts from): one hidden catalogue effect each.
 
     Effects the base model has are hidden by removing them from the tool's model;
     the others are added to the true model with clearly visible parameters."""
-    added = {
-        "cart_spring": {"k_c": 300.0, "x_0": 0.05},
-        "coulomb_pendulum": {"tau_c": 0.004},
-        "asymmetric_cart": {"d_mu": 0.25},
-        "drive_deadzone": {"u_dz": 0.2},
-        "force_limit": {"F_max": 450.0},
-        "motor_lag": {"tau_m": 0.02},
-        "input_delay": {"tau_d": 0.01},
-    }
-    cases = {name: (base.with_effect(name, params), base) for name, params in added.items()}
+    cases = {name: (base.with_effect(name, params), base) for name, params in HIDDEN_PARAMS.items()}
     for name in ("viscous_pendulum", "velocity_limit"):
         if name in base.effects:
             cases[name] = (base, base.without_effect(name))
