@@ -1,23 +1,12 @@
-"""The identification commands of the CLI: compare, diagnose, fit (a thin layer over pendc.ident)."""
+"""The identification commands diagnose and fit (a thin layer over pendc.ident); compare is in cli_compare."""
 
 from __future__ import annotations
 
 import json
 import sys
 
+from .cli_data import add_data_options, load_datasets, load_model_and_data
 from .errors import PendcError
-
-
-def _load(args):
-    from .model.modelfile import load_model
-    from .sim.measurements import read_measurements
-
-    model = load_model(args.model)
-    datasets = [read_measurements(p) for p in args.data]
-    for d in datasets:
-        for w in d.warnings:
-            print(f"pendc: warning: {w}", file=sys.stderr)
-    return model, datasets
 
 
 def _progress(enabled: bool):
@@ -42,30 +31,10 @@ def _fit_of(model, datasets) -> dict:
     return horizon_fit(model, datasets)
 
 
-def cmd_compare(args) -> int:
-    from .ident.compare import compare, format_comparison, write_html_report
-
-    model, datasets = _load(args)
-    if len(datasets) != 1:
-        raise PendcError("compare takes one data file")
-    c = compare(model, datasets[0])
-    horizon = _fit_of(model, datasets)
-    if args.html:
-        write_html_report(c, args.html)
-    if args.json:
-        json.dump({**c.to_json(), "fit_horizon": horizon, "horizon_s": 0.5}, sys.stdout, indent=2)
-        sys.stdout.write("\n")
-    else:
-        sys.stdout.write(format_comparison(c))
-        sys.stdout.write(f"\nfit with a 0.5 s prediction horizon (restarting from the measured state; what "
-                         f"diagnose and fit use): x {horizon['x']:.2f} %, theta {horizon['theta']:.2f} %\n")
-    return 0
-
-
 def cmd_diagnose(args) -> int:
     from .ident.diagnose import diagnose
 
-    model, datasets = _load(args)
+    model, datasets = load_model_and_data(args)
     before = _fit_of(model, datasets)
     d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json))
     out = d.to_json()
@@ -100,10 +69,9 @@ def cmd_fit(args) -> int:
     from .ident.fit import fit_parameters
     from .ident.diagnose import free_parameters
     from .model.modelfile import save_model
-    from .sim.measurements import read_measurements
 
-    model, datasets = _load(args)
-    validation = [read_measurements(p) for p in (args.validate or [])] or datasets
+    model, datasets = load_model_and_data(args)
+    validation = load_datasets(args, args.validate) if args.validate else datasets
     before = _fit_of(model, validation)           # the model as given, before anything is added
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     for effect in added:
@@ -137,22 +105,19 @@ def cmd_fit(args) -> int:
 
 
 def add_parsers(sub) -> None:
-    p = sub.add_parser("compare", help="compare a model with a measurement: fit, where and why it fails")
-    p.add_argument("data", nargs=1, help="measurement CSV (t,u,x,theta)")
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--html", help="write a self-contained HTML report here")
-    p.set_defaults(func=cmd_compare)
+    from .cli_compare import add_parser as add_compare_parser
+
+    add_compare_parser(sub)
 
     p = sub.add_parser("diagnose", help="which catalogue effect is missing from the model?")
-    p.add_argument("data", nargs="+", help="measurement CSV file(s)")
+    add_data_options(p)
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--json", action="store_true")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.set_defaults(func=cmd_diagnose)
 
     p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file")
-    p.add_argument("data", nargs="+", help="measurement CSV file(s) to fit on")
+    add_data_options(p)
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--add", help="effects to add, comma-separated (their parameters are fitted)")
     p.add_argument("--free", help="more parameters to fit, comma-separated")
