@@ -1,0 +1,1 @@
+"""Hardware-in-the-loop: plants that step (float, golden, RTL), controllers, the lockstep loop."""
