@@ -17,7 +17,9 @@ class _Parser(argparse.ArgumentParser):
     """argparse, but a usage mistake is one line, like every other error."""
 
     def error(self, message):
-        raise PendcError(f"{self.prog}: {message}")
+        # the top-level parser's prog is "pendc", which main() already prints once
+        prefix = self.prog.removeprefix("pendc").strip()
+        raise PendcError(f"{prefix}: {message}" if prefix else message)
 
 
 def _positive_float(text: str) -> float:
@@ -181,6 +183,8 @@ def cmd_report(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pendc", description="Compiler and identification workbench for HIL plant models.")
+    from . import __version__
+    parser.add_argument("--version", action="version", version=f"pendc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     p = sub.add_parser("derive", help="recompute the thesis' parameters from its raw measurements")
