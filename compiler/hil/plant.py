@@ -1,0 +1,210 @@
+"""Plants that step: one interface for the float simulator, the golden model and the RTL.
+
+A controller (or a scenario, or the socket server) is written once against
+:class:`Plant`: ``reset()`` returns the state at power-on, ``step(u, n)`` holds the
+input ``u`` (volts, zero-order hold) for ``n`` model steps and returns the state after
+them. Every :class:`PlantState` carries the true states in SI units and the ×4 encoder
+counts since reset, which is all a real controller sees.
+
+``make_plant(kind, model)`` builds one: ``float`` (the compiled float simulator),
+``golden`` (the compiled core's integers, bit-exact with the Verilog), ``verilator`` and
+``icarus`` (the generated RTL in lockstep, see :mod:`pendc.hil.rtl_plant`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from ..sim.encoders import THETA_COUNT, X_COUNT
+
+PLANT_KINDS = ("float", "golden", "verilator", "icarus")
+MAX_STEPS_PER_CALL = 100_000_000   # 100 s at 1 us: a larger request is a caller's mistake
+
+
+@dataclass(frozen=True)
+class PlantState:
+    """The plant after a step: time since reset, true states (SI) and ×4 encoder counts since reset."""
+
+    t: float
+    x: float
+    dx: float
+    theta: float
+    dtheta: float
+    enc_x: int
+    enc_theta: int
+
+
+@runtime_checkable
+class Plant(Protocol):
+    """What every plant offers: a model step ``dt`` (s), ``reset()`` and ``step(u_volts, n_steps)``."""
+
+    dt: float
+
+    def reset(self) -> PlantState:
+        """Back to power-on: hanging at rest in the centre, encoders at zero."""
+        ...
+
+    def step(self, u_volts: float, n_steps: int) -> PlantState:
+        """Hold ``u_volts`` for ``n_steps`` model steps; the state after the last one."""
+        ...
+
+
+def check_step_request(u_volts, n_steps) -> tuple[float, int]:
+    """``(u, n)`` validated: a finite voltage and a whole number of steps in [1, 1e8]."""
+    try:
+        u = float(u_volts)
+    except (TypeError, ValueError):
+        raise PendcError(f"plant input must be a number of volts, got {u_volts!r}") from None
+    if not math.isfinite(u):
+        raise PendcError(f"plant input must be finite, got {u}")
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)):
+        raise PendcError(f"number of steps must be an integer, got {n_steps!r}")
+    n = int(n_steps)
+    if not 1 <= n <= MAX_STEPS_PER_CALL:
+        raise PendcError(f"number of steps must be in 1..{MAX_STEPS_PER_CALL}, got {n}")
+    return u, n
+
+
+def encoder_counts(value: float, origin: float, resolution: float) -> int:
+    """×4 counts of a position on the absolute band grid, relative to the position at reset."""
+    return int(math.floor(value / resolution) - math.floor(origin / resolution))
+
+
+def _step_source(n_states: int, n_params: int) -> str:
+    """A stepping loop appended to the float kernel's module (it uses its ``rhs``/``bound``/``start``)."""
+    ns = n_states
+
+    def tup(items):
+        items = list(items)
+        return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+
+    def combine(a, b, c):
+        return tup(f"{a}[{i}] + {c}*{b}[{i}]" for i in range(ns))
+
+    rk4 = tup(f"S[{i}] + h6*(k1[{i}] + 2.0*k2[{i}] + 2.0*k3[{i}] + k4[{i}])" for i in range(ns))
+    return f'''
+
+@njit(cache=True)
+def plant_start(s4, u0, p):
+    """All states at power-on from the four mechanical ones (extra states from the input)."""
+    P = {tup(f"p[{i}]" for i in range(n_params))}
+    S = start((s4[0], s4[1], s4[2], s4[3]), u0, P)
+    out = np.empty({ns})
+    for i in range({ns}):
+        out[i] = S[i]
+    return out
+
+
+@njit(cache=True)
+def plant_advance(s, u, p, dt, use_rk4):
+    """States after len(u) steps of dt from s, u[m] held over step m; ok False if non-finite."""
+    P = {tup(f"p[{i}]" for i in range(n_params))}
+    S = {tup(f"s[{i}]" for i in range(ns))}
+    h = dt
+    h2 = 0.5 * dt
+    h6 = dt / 6.0
+    for m in range(u.shape[0]):
+        uk = u[m]
+        if use_rk4:
+            k1 = rhs(S, uk, P)
+            k2 = rhs({combine("S", "k1", "h2")}, uk, P)
+            k3 = rhs({combine("S", "k2", "h2")}, uk, P)
+            k4 = rhs({combine("S", "k3", "h")}, uk, P)
+            S = {rk4}
+        else:
+            d = rhs(S, uk, P)
+            S = {combine("S", "d", "h")}
+        S = bound(S, P)
+    out = np.empty({ns})
+    for i in range({ns}):
+        out[i] = S[i]
+    return out, math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))})
+'''
+
+
+class FloatPlant:
+    """The float simulator, stepped from its current state (1 us Euler by default, like the core).
+
+    Extra states (a motor lag) carry over between steps; an input delay is applied from the
+    history of inputs since reset (before reset the plant saw the first input). Encoder counts
+    are those of a ×4 decoder on the absolute band grid, counted from reset.
+    """
+
+    def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler"):
+        from ..codegen import load_source
+        from ..sim.kernel import kernel_source
+        from ..sim.simulator import Simulator
+
+        sim = Simulator(model, dt=dt, method=method)  # validates dt and method
+        self.model = model
+        self.dt = sim.dt
+        self.method = method
+        self._params = sim.param_vector
+        eq = model.equations
+        self._module = load_source(kernel_source(eq) + _step_source(len(eq.states), len(self._params)),
+                                   "pendc_plant")
+        values = model.parameter_values()
+        self._delay_steps = (float(eq.delay.subs({s: values[s.name] for s in eq.delay.free_symbols}))
+                             / self.dt if eq.delay is not None else 0.0)
+        self.reset()
+
+    def reset(self) -> PlantState:
+        self._k = 0
+        self._state = None            # all states; made at the first step, when u is known
+        self._history = []            # (first step index, u) of each request, for an input delay
+        self._origin = (0.0, 0.0)
+        return PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+
+    def _inputs(self, u: float, n: int) -> np.ndarray:
+        """The input the plant sees at each of the next n steps (delayed if the model says so)."""
+        if self._delay_steps <= 0:
+            return np.full(n, u)
+        starts = np.array([k for k, _ in self._history])
+        values = np.array([v for _, v in self._history])
+        seen = np.floor(np.arange(self._k, self._k + n) - self._delay_steps + 1e-3).astype(np.int64)
+        idx = np.clip(np.searchsorted(starts, seen, side="right") - 1, 0, None)
+        # forget requests no later step can still see
+        keep = max(0, int(np.searchsorted(starts, self._k + n - self._delay_steps, side="right")) - 2)
+        self._history = self._history[keep:]
+        return values[idx]
+
+    def step(self, u_volts: float, n_steps: int) -> PlantState:
+        u, n = check_step_request(u_volts, n_steps)
+        if self._state is None:
+            self._state = self._module.plant_start(np.zeros(4), u, self._params)
+        self._history.append((self._k, u))
+        new, ok = self._module.plant_advance(self._state, self._inputs(u, n), self._params, self.dt,
+                                             self.method == "rk4")
+        if not ok:
+            raise PendcError(f"float plant diverged (non-finite state) before t = {(self._k + n) * self.dt:.6g} s")
+        self._state = new
+        self._k += n
+        x, dx, theta, dtheta = (float(v) for v in new[:4])
+        return PlantState(t=self._k * self.dt, x=x, dx=dx, theta=theta, dtheta=dtheta,
+                          enc_x=encoder_counts(x, self._origin[0], X_COUNT),
+                          enc_theta=encoder_counts(theta, self._origin[1], THETA_COUNT))
+
+
+def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **options) -> Plant:
+    """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
+
+    ``options`` go to the plant's constructor (``method`` for float; ``build`` for golden and
+    the RTL plants, to reuse a compiled build)."""
+    if kind not in PLANT_KINDS:
+        raise PendcError(f"unknown plant '{kind}' (choose {', '.join(PLANT_KINDS)})")
+    if model is None:
+        from ..model.modelfile import load_model
+        model = load_model()
+    if kind == "float":
+        return FloatPlant(model, dt=dt, **options)
+    if kind == "golden":
+        from .golden_plant import GoldenPlant
+        return GoldenPlant(model, dt=dt, **options)
+    from .rtl_plant import RtlPlant
+    return RtlPlant(model, simulator=kind, dt=dt, **options)

@@ -1,0 +1,76 @@
+"""The stepping plant API: the float plant against the batch simulator, encoder counts, errors."""
+
+import numpy as np
+import pytest
+
+from pendc.errors import PendcError
+from pendc.hil.plant import FloatPlant, Plant, PlantState, make_plant
+from pendc.model.modelfile import load_model
+from pendc.sim.encoders import THETA_COUNT, X_COUNT, counts
+from pendc.sim.simulator import Simulator
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_model()
+
+
+def _switching_input(seed, n, levels=(0.0, 10.0)):
+    return np.random.default_rng(seed).choice(levels, size=n)
+
+
+def test_float_plant_follows_the_batch_simulator(model):
+    plant = make_plant("float", model)
+    assert isinstance(plant, Plant)
+    us = _switching_input(3, 300)
+    states = [plant.step(u, 1000) for u in us]
+    t = np.arange(len(us) + 1) * 1e-3
+    ref = Simulator(model)(t, np.append(us, us[-1]))
+    for name in ("x", "dx", "theta", "dtheta"):
+        got = np.array([getattr(s, name) for s in states])
+        # the batch run's step is span/1000, equal to 1 us only up to rounding of t
+        np.testing.assert_allclose(got, ref[name][1:], rtol=0, atol=1e-9)
+    assert states[-1].t == pytest.approx(0.3)
+    np.testing.assert_array_equal([s.enc_x for s in states], counts(ref["x"], X_COUNT)[1:])
+    np.testing.assert_array_equal([s.enc_theta for s in states], counts(ref["theta"], THETA_COUNT)[1:])
+
+
+def test_step_size_does_not_change_the_trajectory(model):
+    a, b = FloatPlant(model), FloatPlant(model)
+    for u in _switching_input(4, 20):
+        one = a.step(u, 1000)
+        for _ in range(10):
+            many = b.step(u, 100)
+        assert one == many   # same Euler steps from the same state: identical floats
+
+
+def test_reset_starts_over_from_rest(model):
+    plant = FloatPlant(model)
+    first = [plant.step(u, 500) for u in _switching_input(5, 50)]
+    assert plant.reset() == PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+    again = [plant.step(u, 500) for u in _switching_input(5, 50)]
+    assert first == again
+    assert first[-1].enc_x != 0
+
+
+def test_extra_states_and_input_delay_carry_over_between_steps(model):
+    lagged = model.with_effect("motor_lag", {"tau_m": 0.004}).with_effect("input_delay", {"tau_d": 0.0023})
+    plant = FloatPlant(lagged)
+    us = _switching_input(6, 200)
+    states = [plant.step(u, 1000) for u in us]
+    t = np.arange(len(us) + 1) * 1e-3
+    ref = Simulator(lagged)(t, np.append(us, us[-1]))
+    np.testing.assert_allclose([s.x for s in states], ref["x"][1:], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([s.theta for s in states], ref["theta"][1:], rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("kind, n, u, message", [
+    ("spice", 1, 0.0, "unknown plant 'spice'"),
+    ("float", 0, 5.0, "number of steps must be in"),
+    ("float", 2.5, 5.0, "number of steps must be an integer"),
+    ("float", 1, float("nan"), "plant input must be finite"),
+    ("float", 1, "five", "plant input must be a number"),
+])
+def test_bad_requests_are_one_line_errors(model, kind, n, u, message):
+    with pytest.raises(PendcError, match=message):
+        make_plant(kind, model).step(u, n)
