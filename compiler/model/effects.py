@@ -6,7 +6,7 @@ calls in one fixed order::
 
     input delay -> drive force -> drive reshaping -> force shaping -> motor lag
     -> moving friction -> friction scaling -> sticking rule
-    -> other cart forces -> pendulum torques -> velocity bound
+    -> other cart forces -> pendulum torques -> velocity bound -> sensor offsets
 
 A hook that an effect does not override leaves the equations unchanged, so the
 plant is exactly the rigid body plus whatever the listed effects add.
@@ -17,6 +17,7 @@ model by its bare name.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -54,6 +55,9 @@ class Effect:
 
     name: ClassVar[str]
     summary: ClassVar[str]
+    # what the effect touches: "cart" (cart equation or drive), "pendulum" (pivot torque),
+    # "x" / "theta" (that sensor only); identification skips effects no measured output can see
+    acts_on: ClassVar[str] = "cart"
     params: ClassVar[tuple[Param, ...]] = ()
     # each inner tuple is a set of alternatives of which one must be present
     requires: ClassVar[tuple[tuple[str, ...], ...]] = ()
@@ -97,6 +101,11 @@ class Effect:
 
     def velocity_bound(self, s: Symbols):
         """Bound on |dx| applied after integration, or None."""
+        return None
+
+    def sensor_offset(self, s: Symbols):
+        """``(state name, offset)``: the sensor of that position reads state + offset, or None.
+        The motion is unchanged; only what is measured moves."""
         return None
 
 
@@ -220,6 +229,7 @@ class AsymmetricCart(Effect):
 
 class ViscousPendulum(Effect):
     name = "viscous_pendulum"
+    acts_on = "pendulum"
     summary = "viscous damping at the pivot, -b_theta dtheta"
     params = (Param("b_theta", "N*m*s/rad", 0.01, 0.0, 10.0, "viscous coefficient of the pivot"),)
 
@@ -229,6 +239,7 @@ class ViscousPendulum(Effect):
 
 class CoulombPendulum(Effect):
     name = "coulomb_pendulum"
+    acts_on = "pendulum"
     summary = "dry friction at the pivot, -tau_c sgn(dtheta)"
     params = (Param("tau_c", "N*m", 1e-3, 0.0, 1.0, "dry friction torque of the pivot"),)
 
@@ -257,12 +268,64 @@ class CartSpring(Effect):
         return -s.p["k_c"] * (s.x - s.p["x_0"])
 
 
+class QuadraticPendulum(Effect):
+    name = "quadratic_pendulum"
+    summary = "air drag on the pendulum, -c_theta dtheta |dtheta|"
+    acts_on = "pendulum"
+    params = (Param("c_theta", "N*m*s^2", 1e-4, 0.0, 1.0, "quadratic drag coefficient of the swing"),)
+
+    def pendulum_torque(self, s):
+        return -s.p["c_theta"] * s.dtheta * sp.Abs(s.dtheta)
+
+
+class EndStops(Effect):
+    name = "end_stops"
+    summary = "stiff, damped stops at the track ends: for |x| > x_end, -k_end (x - sgn(x) x_end) - b_end dx"
+    # the thesis gives no figures for the stops: the defaults are a stiff rubber buffer
+    params = (
+        Param("x_end", "m", 0.375, 0.01, 1.0, "where the stops begin (half the 750 mm track)"),
+        Param("k_end", "N/m", 1e5, 0.0, 1e8, "stiffness of a stop"),
+        Param("b_end", "N*s/m", 1e3, 0.0, 1e6, "damping of a stop"),
+    )
+
+    def cart_force(self, s):
+        p = s.p
+        push = -p["k_end"] * (s.x - sp.sign(s.x) * p["x_end"]) - p["b_end"] * s.dx
+        return sp.Piecewise((push, sp.Abs(s.x) > p["x_end"]), (0, True))
+
+
+class ThetaOffset(Effect):
+    """No hardware form by nature: the encoders count from power-on, so an offset of the
+    zero exists only in a recording, never in the plant the FPGA models."""
+
+    name = "theta_offset"
+    summary = "the angle sensor reads theta + theta_off: its zero is not the hanging rest"
+    acts_on = "theta"
+    params = (Param("theta_off", "rad", 0.0, -math.pi, math.pi, "angle the sensor reads at the hanging rest"),)
+
+    def sensor_offset(self, s):
+        return "theta", s.p["theta_off"]
+
+
+class XOffset(Effect):
+    """No hardware form by nature: the encoders count from power-on, so an offset of the
+    zero exists only in a recording, never in the plant the FPGA models."""
+
+    name = "x_offset"
+    summary = "the position sensor reads x + x_off: its zero is not the track centre"
+    acts_on = "x"
+    params = (Param("x_off", "m", 0.0, -0.5, 0.5, "position the sensor reads at the track centre"),)
+
+    def sensor_offset(self, s):
+        return "x", s.p["x_off"]
+
+
 CATALOGUE: dict[str, type[Effect]] = {
     cls.name: cls
     for cls in (
         Drive, ViscousCart, CoulombCart, StaticCart, StribeckCart, AsymmetricCart,
         ViscousPendulum, CoulombPendulum, VelocityLimit, ForceLimit, DriveDeadzone,
-        InputDelay, MotorLag, CartSpring,
+        InputDelay, MotorLag, CartSpring, QuadraticPendulum, EndStops, ThetaOffset, XOffset,
     )
 }
 

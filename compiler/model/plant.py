@@ -18,6 +18,7 @@ import sympy as sp
 
 from ..errors import PendcError
 from .effects import CATALOGUE, CONFLICTS, Symbols
+from .experiments import DEFAULT_EXPERIMENT, EXPERIMENTS
 from .lagrangian import derive_rigid_body
 
 PLANT_CONSTANTS = {
@@ -39,6 +40,10 @@ class Equations:
     transport delay ``delay``, which the simulator applies). ``velocity_bound``
     clamps |dx| after every integration step. ``initial`` gives the initial value of
     each extra state (beyond x, dx, theta, dtheta) from the input and parameters.
+    ``sensor_offsets`` is the measured-output map: ``(state name, offset)`` pairs, the
+    sensor of that position reading state + offset (parameters only, so the inverse, the
+    true state from a measured one, is a subtraction). ``experiment`` names what was held
+    or removed (:mod:`pendc.model.experiments`); the parameters are the same in every one.
     """
 
     states: tuple
@@ -49,6 +54,12 @@ class Equations:
     initial: tuple = ()
     velocity_bound: sp.Expr | None = None
     delay: sp.Expr | None = None
+    sensor_offsets: tuple = ()
+    experiment: str = DEFAULT_EXPERIMENT
+
+    def outputs(self) -> tuple:
+        """Names of the positions a run of this experiment measures (x, theta or both)."""
+        return {"cart_held": ("theta",), "pendulum_removed": ("x",)}.get(self.experiment, ("x", "theta"))
 
     def inline(self, expr: sp.Expr) -> sp.Expr:
         """``expr`` with every assignment symbol replaced by its definition."""
@@ -70,7 +81,9 @@ class PlantModel:
     ``effects`` maps effect name to ``{parameter: value}``; it is kept in catalogue
     order so that equal models produce identical equations and kernels. ``hardware``
     holds the model file's ``[hardware]`` table (build options and per-node range or
-    Q-format overrides) untouched. Construction validates everything and raises
+    Q-format overrides) untouched. ``experiment`` selects the equations of one of
+    :data:`~pendc.model.experiments.EXPERIMENTS` (a held cart, a removed pendulum);
+    it is never written to a model file. Construction validates everything and raises
     :class:`PendcError` with a one-line reason.
     """
 
@@ -79,8 +92,11 @@ class PlantModel:
     free: tuple = ()
     source: str = field(default="", compare=False)
     hardware: dict = field(default_factory=dict)   # compiler options; the compiler validates them
+    experiment: str = DEFAULT_EXPERIMENT
 
     def __post_init__(self):
+        if self.experiment not in EXPERIMENTS:
+            raise PendcError(f"unknown experiment '{self.experiment}' (known: {', '.join(EXPERIMENTS)})")
         plant = _validate_plant(self.plant, self.source)
         effects = _validate_effects(self.effects, self.source)
         object.__setattr__(self, "plant", plant)
@@ -102,6 +118,10 @@ class PlantModel:
         for params in self.effects.values():
             values.update(params)
         return values
+
+    def for_experiment(self, name: str) -> "PlantModel":
+        """The same model under experiment ``name`` (same parameters, other equations)."""
+        return replace(self, experiment=name)
 
     def with_params(self, values: dict) -> "PlantModel":
         """A copy with some parameters (bare names) set to new values."""
@@ -266,18 +286,38 @@ def build_equations(model: PlantModel) -> Equations:
     tau = bind("tau_pend", sum((e.pendulum_torque(s) for e in effects), sp.Integer(0)))
     k = bind("k", rb.k)
     forces = {rb.forces[0]: F_cart, rb.forces[1]: tau}
-    ddx = bind("ddx", rb.num_x.subs(forces) / k)
-    ddtheta = bind("ddtheta", rb.num_theta.subs(forces) / k)
+    moving = (dx, dtheta)
+    if model.experiment == "cart_held":
+        # the clamp takes whatever force the cart equation would need: only the pivot equation
+        # holds, with ddx = 0
+        acc = sp.Symbol("ddtheta", real=True)
+        pivot = rb.euler_lagrange[1].subs({sp.Symbol("ddx", real=True): 0, rb.forces[1]: tau})
+        ddx = bind("ddx", sp.Float(0.0))
+        ddtheta = bind("ddtheta", sp.solve(pivot, acc)[0])
+        moving = (sp.Float(0.0), dtheta)
+    elif model.experiment == "pendulum_removed":
+        # no pendulum mass: the cart alone (the normal force too, as the thesis' Table 2 fit has it)
+        no_m = {c["m"]: 0}
+        assignments[0] = (F_N, assignments[0][1].subs(no_m))
+        ddx = bind("ddx", sp.cancel((rb.num_x.subs(forces) / rb.k).subs(no_m)))
+        ddtheta = bind("ddtheta", sp.Float(0.0))
+        moving = (dx, sp.Float(0.0))
+    else:
+        ddx = bind("ddx", rb.num_x.subs(forces) / k)
+        ddtheta = bind("ddtheta", rb.num_theta.subs(forces) / k)
 
     bound = next((b for b in (e.velocity_bound(s) for e in effects) if b is not None), None)
-    used = [sym for sym in params.values()]
+    offsets = tuple(o for o in (e.sensor_offset(s) for e in effects) if o is not None)
+    used = [sym for sym in params.values()]   # every experiment keeps every parameter
     return Equations(
         states=tuple(states),
         input=u,
         params=tuple(used),
         assignments=tuple(assignments),
-        derivatives=(dx, ddx, dtheta, ddtheta, *derivs),
+        derivatives=(moving[0], ddx, moving[1], ddtheta, *derivs),
         initial=tuple(initial),
         velocity_bound=bound,
         delay=delay,
+        sensor_offsets=offsets,
+        experiment=model.experiment,
     )

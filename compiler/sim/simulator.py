@@ -26,19 +26,28 @@ class SimResult:
     """Simulated trajectory at the input's sample times.
 
     ``states`` maps each state name (``x``, ``dx``, ``theta``, ``dtheta`` and any
-    extra state such as ``F_m``) to an array the length of ``t``.
+    extra state such as ``F_m``) to an array the length of ``t``. ``outputs`` holds
+    what the sensors read (``x`` and ``theta`` plus any sensor offset of the model,
+    quantised when asked); without sensor effects or quantisation it equals the states.
     """
 
     t: np.ndarray
     u: np.ndarray
     states: dict
+    outputs: dict = None
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.states[name]
 
+    def measured(self, name: str) -> np.ndarray:
+        """What the sensor of position ``name`` (x or theta) reads."""
+        return (self.outputs or self.states)[name]
+
     def columns(self) -> dict:
-        """``t, u, x, theta, dx, dtheta`` in the column order of the CLI's output file."""
-        return {"t": self.t, "u": self.u, **{k: self.states[k] for k in ("x", "theta", "dx", "dtheta")}}
+        """``t, u, x, theta, dx, dtheta`` in the column order of the CLI's output file
+        (positions as the sensors read them)."""
+        return {"t": self.t, "u": self.u, "x": self.measured("x"), "theta": self.measured("theta"),
+                "dx": self.states["dx"], "dtheta": self.states["dtheta"]}
 
 
 class Simulator:
@@ -50,7 +59,9 @@ class Simulator:
     >>> res = sim(t, u, params={"b_x": 900})  # same compiled kernel, new values
 
     ``quantize=True`` rounds x and theta to the ×4 encoder counts (2.5 um, 0.314 mrad),
-    counted from the initial state as the real encoders do.
+    counted from the initial state as the real encoders do. ``x0`` is the true state;
+    :meth:`true_state` turns measured positions into it (subtracting sensor offsets).
+    The model's experiment (:meth:`PlantModel.for_experiment`) is part of its equations.
     """
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler"):
@@ -65,6 +76,28 @@ class Simulator:
         self.param_names = tuple(s.name for s in model.equations.params)
         self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
         self._kernel = load_kernel(model.equations)
+        eq = model.equations
+        self._offsets = tuple((name, eq.params.index(expr) if expr in eq.params else None, expr)
+                              for name, expr in eq.sensor_offsets)
+
+    def offset_values(self, p: np.ndarray) -> dict:
+        """``{state name: offset}`` of the sensor offsets for parameter vector ``p``."""
+        out = {"x": 0.0, "theta": 0.0}
+        for name, index, expr in self._offsets:
+            if index is None:   # an offset that is an expression of parameters, not one of them
+                expr = expr.subs(dict(zip(self.model.equations.params, p)))
+                out[name] += float(expr)
+            else:
+                out[name] += float(p[index])
+        return out
+
+    def true_state(self, measured: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
+        """The true ``(x, dx, theta, dtheta)`` whose sensors read ``measured`` (inverse of the output map)."""
+        off = self.offset_values(self.param_vector if p is None else p)
+        s = np.array(measured, dtype=np.float64)
+        s[0] -= off["x"]
+        s[2] -= off["theta"]
+        return s
 
     def vector(self, params: dict | None = None) -> np.ndarray:
         """The kernel's parameter vector with some values replaced (no model rebuild, no recompile)."""
@@ -100,10 +133,12 @@ class Simulator:
         if valid < t.size:
             raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
+        off = self.offset_values(self.vector(params))
+        outputs = {"x": states["x"] + off["x"], "theta": states["theta"] + off["theta"]}
         if quantize:
-            states["x"] = quantize_x(states["x"])
-            states["theta"] = quantize_theta(states["theta"])
-        return SimResult(t=t, u=u, states=states)
+            outputs = {"x": quantize_x(outputs["x"]), "theta": quantize_theta(outputs["theta"])}
+            states["x"], states["theta"] = quantize_x(states["x"]), quantize_theta(states["theta"])
+        return SimResult(t=t, u=u, states=states, outputs=outputs)
 
     run = __call__
 
