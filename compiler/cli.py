@@ -213,6 +213,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_build)
 
     from .cli_ident import add_parsers as add_identification_parsers
+    from .cli_hil import add_parsers as add_hil_parsers
+    add_hil_parsers(sub)
     add_identification_parsers(sub)
 
     p = sub.add_parser("report", help="reports on the compiled model: qformat or resources")

@@ -1,0 +1,120 @@
+"""``pendc hil`` (closed loop against a stepping plant) and ``pendc animate`` (virtual pendulum).
+
+A thin layer over :mod:`pendc.hil`: build the plant and the controller, run the loop
+(in-process or serving it to an external controller over TCP), write the run's files.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from .errors import PendcError
+
+
+def _progress(enabled: bool):
+    """A one-line progress bar on stderr when it is a terminal, else None."""
+    if not (enabled and sys.stderr.isatty()):
+        return None
+
+    def show(fraction: float):
+        width = 30
+        filled = int(width * fraction)
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:3.0f} %")
+        if fraction >= 1.0:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+    return show
+
+
+def _address(text: str) -> tuple[str, int]:
+    from .hil.server import parse_loopback_address
+
+    return parse_loopback_address(text)
+
+
+def cmd_hil(args) -> int:
+    from .hil.controller_spec import make_controller
+    from .hil.loop import run_closed_loop
+    from .hil.plant import make_plant
+    from .hil.records import write_run
+    from .model.modelfile import load_model
+
+    model = load_model(args.model)
+    meta = {"model": args.model or "models/sct_thesis_final.toml",
+            "controller": "socket client" if args.serve else args.controller,
+            "period_s": f"{args.period:g}"}
+    address = _address(args.serve) if args.serve else None   # bad address: fail before any work
+    plant = make_plant(args.plant, model)
+    progress = _progress(not args.json)
+    if address is not None:
+        from .hil.server import serve_loop
+
+        run = serve_loop(plant, address, args.seconds, period=args.period, plant_name=args.plant,
+                         timeout=args.timeout, progress=progress,
+                         announce=None if args.json else (lambda text: print(text, file=sys.stderr, flush=True)))
+    else:
+        controller = make_controller(args.controller, model, args.period)
+        run = run_closed_loop(plant, controller, args.seconds, period=args.period, plant_name=args.plant,
+                              progress=progress)
+    summary = write_run(args.out, run, meta) if args.out else run.summary()
+    if args.json:
+        json.dump(summary, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        up = summary["upright_at_s"]
+        print(f"plant {summary['plant']}, {summary['rows']} periods in {summary['wall_s']:.2f} s wall")
+        print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
+              else "not upright at the end of the run")
+        print(f"max |x| = {summary['max_abs_x_m']:.4f} m, {summary['switches']} controller switches")
+        if args.out:
+            print(f"wrote {args.out}/run.csv, summary.json, run.png")
+    if run.stopped is not None:
+        where = f" (partial record in {args.out}/run.csv)" if args.out else ""
+        raise PendcError(f"the run stopped at {run.stopped}{where}")
+    return 0
+
+
+def cmd_animate(args) -> int:
+    from .hil.animate import animate_run
+    from .hil.records import read_run
+
+    record = read_run(args.run)
+    animate_run(record, args.output, fps=args.fps)
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise PendcError(f"hil: --seconds/--period/--timeout must be a number, got {text!r}") from None
+    if not (value > 0 and value < float("inf")):
+        raise PendcError(f"hil: --seconds/--period/--timeout must be positive, got {text!r}")
+    return value
+
+
+def add_parsers(sub) -> None:
+    """Register ``hil`` and ``animate`` on the top-level subparsers."""
+    p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
+    p.add_argument("--controller", default="builtin",
+                   help="builtin (swing-up + LQR balance), swing-up, balance, or package.module:Class")
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
+                   help="the plant to run against (default float)")
+    p.add_argument("--seconds", type=_seconds, default=12.0, help="simulated time (default 12)")
+    p.add_argument("--period", type=_seconds, default=1e-3, help="control period in s (default 0.001)")
+    p.add_argument("--out", help="folder for run.csv, summary.json and run.png")
+    p.add_argument("--json", action="store_true", help="print summary.json")
+    p.add_argument("--serve", metavar="127.0.0.1:PORT",
+                   help="serve the loop to one external controller over TCP (loopback only; docs/hil.md)")
+    p.add_argument("--timeout", type=_seconds, default=10.0,
+                   help="--serve: seconds to wait for the client to connect and for each answer (default 10)")
+    p.set_defaults(func=cmd_hil)
+
+    p = sub.add_parser("animate", help="virtual pendulum from a run.csv: self-contained HTML, GIF or MP4")
+    p.add_argument("run", help="run.csv of pendc hil (or any CSV with t, x, theta)")
+    p.add_argument("-o", "--output", required=True, help="pendulum.html, .gif or .mp4")
+    p.add_argument("--fps", type=int, default=25, help="GIF/MP4 frames per second (default 25)")
+    p.set_defaults(func=cmd_animate)

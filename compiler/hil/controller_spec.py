@@ -1,0 +1,78 @@
+"""``--controller builtin|swing-up|balance|package.module:Class``: find and build a controller.
+
+A user's class plugs in with no change to pendc: it needs ``reset()`` and
+``step(measurement) -> volts``; its constructor may take ``model`` (the
+:class:`~pendc.model.plant.PlantModel` of ``--model``) and/or ``period`` (the control
+period in s) as keyword arguments, and gets whichever of the two it names. The
+current folder is searched first, so ``my_ctrl:MyController`` finds ``./my_ctrl.py``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import os
+import sys
+
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from .controllers import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+
+BUILTIN_CONTROLLERS = {
+    "builtin": Supervisor,      # swing up, then balance
+    "swing-up": EnergySwingUp,  # energy pumping only (Fig. IV.22)
+    "balance": LqrBalance,      # LQR only
+}
+
+
+def make_controller(spec: str, model: PlantModel, period: float = 1e-3, x_ref=0.0):
+    """The controller that ``spec`` names, designed for ``model`` at ``period``."""
+    if spec in BUILTIN_CONTROLLERS:
+        consts = PendulumConstants.from_model(model)
+        cls = BUILTIN_CONTROLLERS[spec]
+        if cls is EnergySwingUp:
+            return cls(consts, period)
+        return cls(consts, period, x_ref=x_ref)
+    cls = load_controller_class(spec)
+    try:
+        params = inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        params = {}
+    offered = {"model": model, "period": period}
+    kwargs = {k: v for k, v in offered.items() if k in params}
+    try:
+        controller = cls(**kwargs)
+    except Exception as exc:   # any failure of user code becomes one line, not a traceback
+        raise PendcError(f"--controller {spec}: constructing it failed: {type(exc).__name__}: {exc}") from None
+    for method in ("reset", "step"):
+        if not callable(getattr(controller, method, None)):
+            raise PendcError(f"--controller {spec}: the class has no {method}() method "
+                             "(a controller needs reset() and step(measurement) -> volts)")
+    return controller
+
+
+def load_controller_class(spec: str):
+    """Import ``package.module:Class`` (the current folder first on the import path)."""
+    module_name, sep, class_name = spec.partition(":")
+    if not sep or not module_name or not class_name.isidentifier():
+        raise PendcError(f"--controller must be {', '.join(BUILTIN_CONTROLLERS)} or package.module:Class, "
+                         f"got {spec!r}")
+    cwd = os.getcwd()
+    added = cwd not in sys.path
+    if added:
+        sys.path.insert(0, cwd)
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        raise PendcError(f"--controller {spec}: no module named {exc.name!r}") from None
+    except Exception as exc:   # a syntax or runtime error in the user's module
+        raise PendcError(f"--controller {spec}: importing {module_name} failed: {type(exc).__name__}: {exc}") from None
+    finally:
+        if added:
+            sys.path.remove(cwd)
+    cls = getattr(module, class_name, None)
+    if cls is None:
+        raise PendcError(f"--controller {spec}: module {module_name} has no {class_name}")
+    if not callable(cls):
+        raise PendcError(f"--controller {spec}: {class_name} is not a class")
+    return cls
