@@ -1,36 +1,201 @@
 """Reading measurement files for the identification commands (shared by compare, diagnose, fit).
 
 One place that knows how a command line names its data: the positional files and the
-options that map other labs' formats onto pendc's columns. Every command calls
-:func:`load_datasets`; notes about what was done to a file go to stderr, one line each.
+options that map other labs' formats onto pendc's columns (a thin layer over
+:class:`pendc.sim.readers.ReadOptions`). Every command calls :func:`load_datasets`;
+what was done to a file (resampling, filling an absent axis) goes to stderr as one
+``pendc: note:`` line each, problems as ``pendc: warning:`` lines.
 """
 
 from __future__ import annotations
 
+import argparse
+import math
 import sys
+
+PENDC_COLUMNS = ("t", "u", "x", "theta", "dx", "dtheta")
+
+FORMATS_HELP = """\
+measurement files:
+  CSV (pendc's own): '# key: value' comment lines, a header t,u,x,theta (s, V, m, rad;
+  theta from hanging, unwrapped), one row per sample. Also read: other column names,
+  ';' tab or whitespace separators (detected from the header), other units, any sample
+  rate (resampled to a uniform grid, at most 1 kHz unless --rate; a note says how), '-'
+  for standard input, and MATLAB .mat v5/v7 files (v7.3/HDF5: save with -v7): plain
+  arrays (a matrix's columns are NAME:1, NAME:2, ...), Simulink To Workspace
+  'Structure with time' / 'Structure' / 'Array' (one variable or one per block, e.g.
+  theta, x, u, tout), timeseries-like structs with Time and Data. A file that cannot be
+  mapped is refused with the names it holds.
+
+reading other formats, examples:
+  CSV with other names, semicolons, degrees and millimetres:
+    %(prog)s run.csv --columns t=Time,theta=Theta1,x=CartPos,u=Vin --theta-unit deg --x-unit mm
+  time in milliseconds, input in millivolts, tab-separated:
+    %(prog)s run.tsv --separator tab --t-unit ms --u-unit mV
+  Simulink 'Structure with time', one To Workspace block logging [theta x u] at 10 kHz,
+  theta in degrees from upright (decimated to 1 kHz):
+    %(prog)s swing.mat --columns theta=simout:1,x=simout:2,u=simout:3 --theta-unit deg --theta-zero upright
+  one To Workspace variable per signal (theta, x, u, tout): the names map themselves:
+    %(prog)s run.mat
+  Simulink 'Array' or 'Structure' (no time in the file): give the sample time:
+    %(prog)s run.mat --columns theta=data:1 --sample-time 1e-4 --experiment cart_held
+  a clamped-cart free swing with no x and no u column (filled with 0, listed as missing):
+    %(prog)s swing.csv --experiment cart_held
+  several experiments at once (one name per file) and known encoder steps:
+    %(prog)s held.csv cart.csv --experiment cart_held,pendulum_removed --resolution theta=3.1416e-4,x=2.5e-6
+  from standard input:
+    pendc simulate stim.csv | %(prog)s -
+"""
+
+
+def _mapping(text: str) -> dict:
+    out = {}
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        name, eq, file_name = part.partition("=")
+        name, file_name = name.strip(), file_name.strip()
+        if not eq or not file_name:
+            raise argparse.ArgumentTypeError(f"expected PENDC_NAME=FILE_NAME pairs, got {part!r}")
+        if name not in PENDC_COLUMNS:
+            raise argparse.ArgumentTypeError(f"{name!r} is not a pendc column ({', '.join(PENDC_COLUMNS)})")
+        out[name] = file_name
+    return out
+
+
+def _steps(text: str) -> dict:
+    out = {}
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        name, _, value = part.partition("=")
+        try:
+            step = float(value)
+        except ValueError:
+            step = -1.0
+        if not (step > 0 and math.isfinite(step)) or name.strip() not in PENDC_COLUMNS:
+            raise argparse.ArgumentTypeError(f"expected NAME=STEP with a pendc column and a positive step, got {part!r}")
+        out[name.strip()] = step
+    return out
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
+    return value
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
+    return value
 
 
 def add_data_options(p, many: bool = True) -> None:
-    """The positional data file(s) and the reading options, added to parser ``p``."""
-    p.add_argument("data", nargs="+" if many else 1, help="measurement file(s) (CSV: t,u,x,theta)")
+    """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
+    from .model.experiments import EXPERIMENTS
+
+    p.add_argument("data", nargs="+" if many else 1,
+                   help="measurement file(s): CSV-like text ('-' for standard input) or MATLAB .mat")
+    g = p.add_argument_group("reading the data (other formats; see the examples below)")
+    g.add_argument("--columns", type=_mapping, default={}, metavar="MAP",
+                   help="map pendc's columns to the file's names: t=Time,theta=Theta1,x=Pos,u=Vin "
+                        "(.mat: a variable, VAR:K for its K-th column, a Simulink signal label)")
+    g.add_argument("--separator", default="auto", metavar="SEP",
+                   help="field separator: auto (default: ',' ';' tab or whitespace, from the header), "
+                        "comma, semicolon, tab, whitespace, or one character")
+    g.add_argument("--t-unit", choices=("s", "ms", "us"), help="unit of t in the file (default s)")
+    g.add_argument("--x-unit", choices=("m", "cm", "mm"), help="unit of x in the file (default m)")
+    g.add_argument("--u-unit", choices=("V", "mV"), help="unit of u in the file (default V)")
+    g.add_argument("--theta-unit", choices=("rad", "deg"), help="unit of theta in the file (default rad)")
+    g.add_argument("--theta-zero", choices=("hanging", "upright"), default="hanging",
+                   help="where the file's theta is 0 (default hanging); upright: theta = theta_file + pi")
+    g.add_argument("--theta-sign", type=int, choices=(1, -1), default=1,
+                   help="-1 when the file's theta grows counter-clockwise (pendc's grows clockwise, "
+                        "seen from the front, x positive to the left; spec section 1)")
+    g.add_argument("--experiment", metavar="NAME[,NAME...]",
+                   help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
+                        f"'# experiment:' line or free); one name, or one per file")
+    g.add_argument("--missing", default="", metavar="AXES",
+                   help="axes the file may lack, filled with 0 (u with --u-value), e.g. --missing u "
+                        "(cart_held allows x and u, pendulum_removed theta, without this option)")
+    g.add_argument("--u-value", type=_finite, default=0.0, metavar="V", help="value of an absent u (default 0 V)")
+    g.add_argument("--resolution", type=_steps, default={}, metavar="STEPS",
+                   help="measurement steps, e.g. theta=3.1416e-4,x=2.5e-6 (default: estimated from the data)")
+    g.add_argument("--sample-time", type=_positive, metavar="S",
+                   help="sample time of a file without a time vector (Simulink 'Array'/'Structure')")
+    g.add_argument("--rate", type=_positive, metavar="HZ",
+                   help="resample onto a uniform grid at this rate (default: keep a uniform file's rate "
+                        "up to 1 kHz, average faster ones down to 1 kHz)")
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.epilog = (p.epilog + "\n\n" if p.epilog else "") + FORMATS_HELP
 
 
 def note(text: str) -> None:
+    """One ``pendc: note:`` line on stderr."""
     print(f"pendc: note: {text}", file=sys.stderr)
 
 
+def read_options(args, experiment: str | None = None):
+    """The :class:`~pendc.sim.readers.ReadOptions` that ``args`` ask for (missing attributes: defaults)."""
+    from .sim.csvread import separator_from_name
+    from .sim.readers import ReadOptions
+
+    missing = tuple(a.strip() for a in (getattr(args, "missing", "") or "").split(",") if a.strip())
+    return ReadOptions(
+        columns=dict(getattr(args, "columns", None) or {}),
+        separator=separator_from_name(getattr(args, "separator", None)),
+        t_unit=getattr(args, "t_unit", None), x_unit=getattr(args, "x_unit", None),
+        u_unit=getattr(args, "u_unit", None), theta_unit=getattr(args, "theta_unit", None),
+        theta_zero=getattr(args, "theta_zero", None) or "hanging",
+        theta_sign=float(getattr(args, "theta_sign", 1) or 1),
+        experiment=experiment, resolution=dict(getattr(args, "resolution", None) or {}),
+        allow_missing=missing, u_value=float(getattr(args, "u_value", 0.0) or 0.0),
+        sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True)
+
+
+def experiments_for(args, paths: list) -> list:
+    """One experiment name (or None: the file decides) per path, from ``--experiment``."""
+    from .errors import PendcError
+
+    names = [n.strip() for n in (getattr(args, "experiment", None) or "").split(",") if n.strip()]
+    if not names:
+        return [None] * len(paths)
+    if len(names) == 1:
+        return names * len(paths)
+    if len(names) != len(paths):
+        raise PendcError(f"--experiment names {len(names)} experiments for {len(paths)} data files: give one, "
+                         f"or one per file")
+    return names
+
+
 def load_datasets(args, paths=None) -> list:
-    """Read ``paths`` (default: ``args.data``) with the reading options in ``args``."""
+    """Read ``paths`` (default: ``args.data``) with the reading options in ``args``; print notes."""
+    from .errors import PendcError
     from .sim.measurements import read_measurements
 
-    datasets = [read_measurements(p) for p in (args.data if paths is None else paths)]
+    paths = list(args.data if paths is None else paths)
+    if [str(p) for p in paths].count("-") > 1:
+        raise PendcError("standard input ('-') can be read only once")
+    datasets = []
+    for path, experiment in zip(paths, experiments_for(args, paths)):
+        datasets.append(read_measurements(path, options=read_options(args, experiment)))
     for d in datasets:
         for w in d.warnings:
             print(f"pendc: warning: {w}", file=sys.stderr)
+        for n in d.notes:
+            note(n)
     return datasets
 
 
 def load_model_and_data(args):
+    """The model of ``--model`` (default: the thesis' final model) and the data sets."""
     from .model.modelfile import load_model
 
     return load_model(args.model), load_datasets(args)

@@ -130,7 +130,7 @@ def test_initial_state_fits_velocity_over_first_10ms():
 
 def test_initial_state_uses_at_least_three_samples():
     # 100 Hz: the 10 ms window holds only 2 samples (slope 1); 3 samples give 0.03 / 0.02.
-    m = parse_measurements("t,u,x,theta\n0,5,0,0\n0.01,5,0.01,0\n0.02,5,0.03,0\n0.03,5,9,0\n")
+    m = parse_measurements("t,u,x,theta\n0,5,0,0\n0.01,5,0.01,0\n0.02,5,0.03,0\n0.03,5,0.9,0\n")
     assert m.initial_state()[1] == pytest.approx(1.5)
 
 
@@ -179,10 +179,14 @@ def test_unreadable(tmp_path, monkeypatch):
     path = tmp_path / "m.csv"
     path.write_text(good_text())
 
-    def denied(self):  # chmod 0 does not stop root, so fake the refusal
-        raise PermissionError(13, "Permission denied", str(self))
+    real_open = open
 
-    monkeypatch.setattr(type(path), "read_bytes", denied)
+    def denied(file, *args, **kwargs):  # chmod 0 does not stop root, so fake the refusal
+        if str(file) == str(path):
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr("builtins.open", denied)
     with pytest.raises(PendcError) as info:
         read_measurements(path)
     msg = str(info.value)

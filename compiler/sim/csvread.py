@@ -1,0 +1,207 @@
+"""Streaming reader for delimited text measurement files (CSV, semicolon, tab, whitespace).
+
+The file is read in blocks of whole lines (``BLOCK`` bytes), and each block is checked
+and parsed with vectorised numpy: the number of fields per line comes from the
+separator positions, the numbers from one ``np.loadtxt`` call (its C parser). Only when a block
+is malformed is it re-read line by line, to name the line and the column. Memory is
+therefore the columns themselves plus a few blocks: a 1e7-row file of four columns
+needs ~320 MB of float64 and little more (see bench/bench_read_csv.py).
+"""
+
+from __future__ import annotations
+
+import io
+import re
+
+import numpy as np
+
+from ..errors import PendcError
+from .table import Table
+
+BLOCK = 1 << 22  # bytes of text parsed at a time
+_KEY = r"[A-Za-z_][\w.\-]*"  # one word, so prose like '# Run 3 on rig B: ok' is not metadata
+META_LINE = re.compile(rf"#\s*({_KEY})\s*:\s*(.*?)\s*$")
+SEPARATORS = {",": ",", "comma": ",", ";": ";", "semicolon": ";", "\\t": "\t", "\t": "\t", "tab": "\t",
+              "whitespace": None, "space": None, " ": None}
+_BLANKS = b" \t\r\n"
+
+
+def separator_from_name(name: str | None):
+    """The separator an option names ('auto' -> ``...``, 'whitespace' -> None)."""
+    if name in (None, "", "auto"):
+        return ...
+    if name in SEPARATORS:
+        return SEPARATORS[name]
+    if len(name) == 1 and name not in "0123456789.+-eE#":
+        return name
+    raise PendcError(f"--separator {name!r}: use one character, or comma, semicolon, tab, whitespace")
+
+
+def detect_separator(header: str):
+    """',' then ';' then tab if the header holds one, else runs of whitespace (None)."""
+    for sep in (",", ";", "\t"):
+        if sep in header:
+            return sep
+    return None
+
+
+def read_csv_table(stream, source: str, separator=...) -> Table:
+    """Read a delimited text file from binary ``stream`` (see the module docstring).
+
+    Leading ``#`` lines and blank lines come before one header row; ``# key: value``
+    comment lines become metadata. ``separator``: a character, None for whitespace,
+    or ``...`` to detect it from the header.
+    """
+    meta, line_no, comments = {}, 0, False
+    header = None
+    while header is None:
+        raw = stream.readline()
+        line_no += 1
+        if not raw:
+            raise PendcError(f"{source}: no header row (only comments)" if comments else f"{source}: file is empty")
+        if line_no == 1 and raw.startswith(b"\xef\xbb\xbf"):
+            raw = raw[3:]
+        text = _decode(raw, source, line_no).rstrip("\r\n")
+        if text.startswith("#"):
+            comments = True
+            m = META_LINE.match(text)
+            if m:
+                meta[m.group(1)] = m.group(2)
+        elif text.strip():
+            header = text
+    sep = detect_separator(header) if separator is ... else separator
+    names = [n.strip() for n in (header.split(sep) if sep is not None else header.split())]
+    _check_header(source, names, line_no)
+    columns = _read_rows(stream, source, names, sep, line_no + 1)
+    return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1)
+
+
+def _decode(raw: bytes, source: str, line: int) -> str:
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise PendcError(f"{source}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
+
+
+def _check_header(source: str, names: list, line: int) -> None:
+    if all(_is_number(n) for n in names):
+        raise PendcError(f"{source}: line {line}: no header row (this line looks like data)")
+    if any(not n for n in names):
+        raise PendcError(f"{source}: line {line}: header has an empty column name")
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise PendcError(f"{source}: line {line}: duplicate column name(s) {', '.join(dup)}")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_rows(stream, source: str, names: list, sep, first: int) -> dict:
+    """Parse every data row after the header; returns name -> float64 column."""
+    ncols = len(names)
+    parts = [[] for _ in names]
+    line = first          # file line of the block's first line
+    pending_blank = 0     # blank lines seen at the end of the previous block
+    carry = b""
+    rows = 0
+    while True:
+        chunk = stream.read(BLOCK)
+        eof = not chunk
+        buf = carry + chunk
+        if not eof:
+            cut = buf.rfind(b"\n")
+            if cut < 0:
+                carry = buf
+                continue
+            buf, carry = buf[: cut + 1], buf[cut + 1:]
+        else:
+            carry = b""
+        body = buf.rstrip(_BLANKS)
+        if body:
+            if pending_blank:
+                raise PendcError(f"{source}: line {line - pending_blank}: blank line, expected {ncols} fields "
+                                 f"({', '.join(names)})")
+            truncated = eof and not buf.endswith(b"\n")
+            values = _parse_block(body + b"\n", source, names, sep, line, truncated)
+            for k in range(ncols):
+                parts[k].append(values[:, k].copy())
+            rows += len(values)
+            lines_in_body = body.count(b"\n") + 1
+            line += lines_in_body
+            pending_blank = max(buf[len(body):].count(b"\n") - 1, 0)
+            line += pending_blank
+        else:
+            n = buf.count(b"\n")
+            pending_blank += n
+            line += n
+        if eof:
+            break
+    if rows == 0:
+        raise PendcError(f"{source}: no data rows after the header (line {first - 1})")
+    columns = {}
+    for name, chunks in zip(names, parts):
+        col = np.concatenate(chunks) if len(chunks) > 1 else chunks[0]
+        chunks.clear()  # free each column's blocks as soon as it is joined
+        col.setflags(write=False)
+        columns[name] = col
+    return columns
+
+
+def _fields_per_line(a: np.ndarray, ends: np.ndarray, sep) -> np.ndarray:
+    """Number of fields on each line of byte array ``a`` (line ends at ``ends``)."""
+    if sep is not None:
+        pos = np.flatnonzero(a == ord(sep))
+        return np.diff(np.searchsorted(pos, ends), prepend=0) + 1
+    space = (a == 32) | (a == 9) | (a == 13) | (a == 10)
+    starts = ~space
+    starts[1:] &= space[:-1]
+    pos = np.flatnonzero(starts)
+    return np.diff(np.searchsorted(pos, ends), prepend=0)
+
+
+def _parse_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool) -> np.ndarray:
+    a = np.frombuffer(block, dtype=np.uint8)
+    ends = np.flatnonzero(a == 10)
+    ncols = len(names)
+    counts = _fields_per_line(a, ends, sep)
+    if np.all(counts == ncols):
+        try:
+            text = io.StringIO(block.decode("utf-8", errors="replace"))  # str input parses fastest
+            values = np.loadtxt(text, delimiter=sep, comments=None, dtype=np.float64, ndmin=2)
+        except ValueError:
+            values = None
+        if values is not None and values.shape == (len(ends), ncols):
+            return values
+    return _diagnose_block(block, source, names, sep, line, truncated)
+
+
+def _diagnose_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool) -> np.ndarray:
+    """Name the first bad line of a block that failed the fast parse, or parse it slowly.
+
+    The slow path returns values only for text that Python's float() reads but
+    np.loadtxt does not (e.g. 'Infinity'); the finiteness checks come later.
+    """
+    rows = []
+    lines = block.decode("utf-8", errors="replace").split("\n")[:-1]
+    for k, text in enumerate(lines):
+        where = f"{source}: line {line + k}"
+        text = text.rstrip("\r")
+        if text.startswith("#"):
+            raise PendcError(f"{where}: comment line among the data; comments must come before the header")
+        fields = text.split(sep) if sep is not None else text.split()
+        end = " (the file ends in the middle of a row: truncated?)" if truncated and k == len(lines) - 1 else ""
+        if not text.strip():
+            raise PendcError(f"{where}: blank line, expected {len(names)} fields ({', '.join(names)})")
+        if len(fields) != len(names):
+            raise PendcError(f"{where}: {len(fields)} fields, expected {len(names)} fields ({', '.join(names)}){end}")
+        for name, value in zip(names, fields):
+            if not _is_number(value) or "_" in value:
+                hint = " (decimal comma? numbers use '.')" if sep != "," and "," in value else ""
+                raise PendcError(f"{where}: column '{name}': not a number: {value.strip()!r}{hint}{end}")
+        rows.append([float(v) for v in fields])
+    return np.array(rows, dtype=np.float64).reshape(len(lines), len(names))
