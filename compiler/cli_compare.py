@@ -1,40 +1,60 @@
-"""The compare command of the CLI (a thin layer over pendc.ident.compare)."""
+"""The compare command of the CLI (a thin layer over pendc.ident.compare and its reports)."""
 
 from __future__ import annotations
 
 import json
 import sys
 
-from .cli_data import add_data_options, load_model_and_data
+from .cli_data import add_data_options, load_datasets
 from .errors import PendcError
+
+EPILOG = """\
+examples:
+  pendc compare data/hidden_spring_validation.csv
+  pendc compare data/hidden_spring_validation.csv --model models/sct_thesis_final.toml \\
+      --model demo_out/with_spring.toml --html demo_out/compare.html     (two models side by side)
+
+The first line is the headline: the free-run fit where a free run is meaningful on the
+data, else the 0.5 s horizon fit, and the next line says why."""
 
 
 def cmd_compare(args) -> int:
-    from .ident.compare import compare, format_comparison, write_html_report
-    from .ident.shooting import horizon_fit
+    import numpy as np
 
-    model, datasets = load_model_and_data(args)
-    if len(datasets) != 1:
-        raise PendcError("compare takes one data file")
-    c = compare(model, datasets[0])
-    horizon = horizon_fit(model, datasets)
-    if args.html:
-        write_html_report(c, args.html)
+    from .ident.report_html import write_html_report
+    from .ident.report_text import text_report
+    from .ident.sidebyside import compare_models
+    from .model.modelfile import load_model
+
+    if not args.horizon > 0:
+        raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
+    paths = args.model or [None]
+    models = [load_model(p) for p in paths]
+    datasets = load_datasets(args)
+    with np.errstate(all="ignore"):   # a constant output's fit is NaN by design; no warning for it
+        s = compare_models(models, datasets, horizon=args.horizon)
+        if args.html:
+            write_html_report(s, args.html)
     if args.json:
-        json.dump({**c.to_json(), "fit_horizon": horizon, "horizon_s": 0.5}, sys.stdout, indent=2)
+        out = s.runs[0][0].to_json() if len(models) == 1 and len(datasets) == 1 else s.to_json()
+        json.dump(out, sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
     else:
-        sys.stdout.write(format_comparison(c))
-        sys.stdout.write(f"\nfit with a 0.5 s prediction horizon (restarting from the measured state; what "
-                         f"diagnose and fit use): x {horizon['x']:.2f} %, theta {horizon['theta']:.2f} %\n")
+        sys.stdout.write(text_report(s))
     return 0
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("compare", help="compare a model with a measurement: fit, where and why it fails")
-    add_data_options(p, many=False)
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--json", action="store_true")
+    """``pendc compare``: its data options, models and outputs."""
+    import argparse
+
+    p = sub.add_parser("compare", help="compare a model (or several) with measurements: fit, where and why it fails",
+                       epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_data_options(p, many=True)
+    p.add_argument("--model", action="append", metavar="MODEL.toml",
+                   help="model file; repeat to put models side by side (default: models/sct_thesis_final.toml)")
+    p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
+                   "(default 0.5, as diagnose and fit)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--html", help="write a self-contained HTML report here")
     p.set_defaults(func=cmd_compare)
-

@@ -18,7 +18,9 @@ from pendc.errors import PendcError
 from pendc.ident import compare as cmp
 from pendc.ident import report_html
 from pendc.ident.compare import (Comparison, allowed_outside, autocorrelation, compare, cross_correlation,
-                                 fit_percent, format_comparison, regimes, worst_windows, write_html_report)
+                                 fit_percent, regimes, worst_windows)
+from pendc.ident.report_html import write_html_report
+from pendc.ident.report_text import format_text as format_comparison
 from pendc.model.modelfile import load_model
 from pendc.sim import stimuli
 from pendc.sim.encoders import THETA_COUNT, X_COUNT
@@ -190,8 +192,10 @@ def test_undefined_fit_is_null_in_json(model):
 
 def test_format_comparison_in_words(spring):
     text = format_comparison(spring)
-    assert re.search(r"fit x\s+\d+\.\d+ %", text) and "fit theta" in text
-    assert "Worst 0.5 s windows" in text and "of the time" in text
+    first = text.splitlines()[0]
+    assert re.match(r"headline: free-run fit x \d+\.\d+ %, theta \d+\.\d+ %", first), first
+    assert re.search(r"^0\.5 s horizon fit .*: x \d+\.\d+ %, theta \d+\.\d+ %$", text, re.M)
+    assert "Worst 0.5 s windows (residual of the free run)" in text and "of the time" in text
     assert "not white" in text
 
 
@@ -222,11 +226,12 @@ def test_html_report_is_self_contained(spring, tmp_path):
     write_html_report(spring, path)
     text = path.read_text(encoding="utf-8")
     assert text.startswith("<!DOCTYPE html>") and "data:image/png;base64," in text
-    assert len(re.findall(r"data:image/png;base64,", text)) == 4
+    # horizon segments (whole run and zoom), free run, residual clouds, correlations
+    assert len(re.findall(r"data:image/png;base64,", text)) == 5
     refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]*)""", text, re.IGNORECASE)
     assert refs and all(r.startswith("data:image/png;base64,") for r in refs)
     assert "<link" not in text and "@import" not in text and "url(" not in text
-    assert "cart motion" in text and "Worst windows" in text
+    assert "cart motion" in text and "worst windows (residual of the free run)" in text
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]     # no temporary left behind
 
 

@@ -1,28 +1,39 @@
 """``pendc compare``: how well does a model reproduce one measured run, where and why not.
 
 The model is simulated in free run (no resets to the data) from the data's initial
-state on the measured input (zero-order hold), and the measured-minus-simulated
-residual of x and theta is examined four ways:
+state on the measured input (zero-order hold), and in 0.5 s segments that restart from
+the measured state (:mod:`pendc.ident.horizon`). Every figure says which it is:
 
-* **fit%** per output, as MATLAB's ``compare``: ``100 (1 - ||y - yhat|| / ||y - mean y||)``;
+* **free-run fit** and **horizon fit** per output, as MATLAB's ``compare``:
+  ``100 (1 - ||y - yhat|| / ||y - mean y||)``; for theta also the **wrapped** free-run
+  fit, whose error is the angle difference folded into (-pi, pi], because an unwrapped
+  angle counts every extra turn of the simulated pendulum as 2 pi of error;
+* the **headline**: which of the two fits means something on these data
+  (:mod:`pendc.ident.headline`), and why;
 * **worst windows**: the non-overlapping 0.5 s windows with the largest RMS residual;
 * **regimes**: the share of the squared residual that falls in each operating regime
   (cart standing or moving left/right, small or large swing, weak or strong drive,
   centre or ends of the track, input saturated or not), next to the share of time
   spent there, so a concentration of the error shows at a glance;
 * **whiteness**: residual autocorrelation and residual-input cross-correlation with
-  99 % bands, as MATLAB's ``resid``.
+  99 % bands, as MATLAB's ``resid`` (:mod:`pendc.ident.whiteness`).
 
+Windows and regimes examine the residual of the headline's simulation: a free run that
+diverged has its error everywhere after the divergence, which says nothing. Whiteness
+always tests the free-run residual (theta wrapped): a horizon residual restarts from zero
+every segment, so it is correlated by construction.
 The regimes are classified on the *measured* motion (the cart velocity from the
 data's ``dx`` column, else a Savitzky-Golay derivative of x): a wrong model must not
-decide which regime the real rig was in.
+decide which regime the real rig was in. :func:`compare_models` puts several models
+side by side on the same runs. The reports (text, HTML) live in
+:mod:`pendc.ident.report_text` and :mod:`pendc.ident.report_html`, which import this module.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from statistics import NormalDist
+from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +41,11 @@ from ..errors import PendcError
 from ..model.plant import PlantModel
 from ..sim.measurements import Measurement
 from ..sim.simulator import SimResult, Simulator
+from . import headline as hl
+from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run
 from .shooting import SAVGOL_WINDOW, estimate_velocities
+from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
+                        autocorrelation, cross_correlation, decimate, whiteness)
 
 OUTPUTS = ("x", "theta")
 WINDOW = 0.5                 # s, length of a worst-error window
@@ -41,21 +56,23 @@ LOW_DRIVE = 0.5              # V of |u - V_off|: about the static break-away vol
 TRACK_END = 0.25             # m: |x| beyond this is the outer third of each half of the 750 mm track
 SAT_LO, SAT_HI = 0.05, 9.95  # V: the drive's 0-10 V input range, with a little margin
 DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3, for models without a drive effect
-LAGS = 25                    # correlation lags, as MATLAB's resid
-Z99 = 2.58                   # two-sided 99 % normal quantile
-WHITENESS_DT = 0.01          # s: residual sample interval used for the correlation tests
-MIN_WHITENESS_SAMPLES = 100  # decimate less than WHITENESS_DT asks when data are short
+TURN = 2 * math.pi
 
 
 @dataclass(frozen=True)
 class Comparison:
     """Everything :func:`compare` computes. ``to_json()`` is the CLI's ``--json`` output.
 
-    ``fit`` and ``residual`` are keyed by output (``x``, ``theta``); residuals are
-    measured minus simulated, in m and rad. ``windows``, ``regimes`` and ``whiteness``
-    are JSON-ready (see :func:`worst_windows`, :func:`regimes`, :func:`whiteness`).
-    ``measured`` holds the data's ``x``, ``theta`` and the cart velocity ``dx`` used to
-    classify regimes (``dx_source`` says where it came from).
+    ``fit`` is the **free-run** fit% keyed by output; ``fit_horizon`` (a property) the
+    horizon fit% of ``horizon_run``; ``fit_theta_wrapped`` the free-run theta fit with
+    the angle error wrapped to (-pi, pi]; ``turns`` the largest number of whole turns by
+    which simulated and measured theta differ (first reached at ``turn_time`` s).
+    ``headline`` says which fit leads and why. ``residual`` (measured minus simulated, m
+    and rad) is the residual that ``windows`` and ``regimes`` examine: the free run's or
+    the horizon simulation's, as ``residual_of`` says; ``free_residual`` is always the free
+    run's, and ``whiteness`` tests it (theta wrapped to (-pi, pi]). ``measured`` holds the data's positions and the cart velocity
+    ``dx`` used to classify regimes (``dx_source`` says where it came from). ``outputs``
+    are the positions compared (a held cart's run compares theta only).
     """
 
     fit: dict
@@ -71,20 +88,68 @@ class Comparison:
     method: str = "rk4"
     v_off: float = DEFAULT_V_OFF
     dx_source: str = ""
+    outputs: tuple = OUTPUTS
+    experiment: str = "free"
+    free_residual: dict = field(default_factory=dict)
+    fit_theta_wrapped: float = float("nan")
+    turns: int = 0
+    turn_time: float | None = None
+    horizon_run: HorizonRun | None = None
+    headline: hl.Headline | None = None
+    residual_of: str = "free run"
+
+    @property
+    def fit_horizon(self) -> dict:
+        """Horizon fit% per output (empty without a horizon run)."""
+        return dict(self.horizon_run.fit) if self.horizon_run is not None else {}
+
+    @property
+    def horizon(self) -> float:
+        """The horizon of ``fit_horizon`` in seconds."""
+        return self.horizon_run.horizon if self.horizon_run is not None else DEFAULT_HORIZON
+
+    def headline_fit(self) -> dict:
+        """The fit% per output of the headline's metric."""
+        return self.fit_horizon if self.headline is not None and self.headline.metric == hl.HORIZON else self.fit
 
     def rms(self) -> dict:
-        """RMS residual per output (m, rad)."""
+        """RMS of ``residual`` per output (m, rad)."""
         return {k: float(np.sqrt(np.mean(r * r))) for k, r in self.residual.items()}
 
+    def rms_free_run(self) -> dict:
+        """RMS free-run residual per output (m, rad); theta also wrapped (``theta_wrapped``)."""
+        out = {k: float(np.sqrt(np.mean(r * r))) for k, r in self.free_residual.items()}
+        if "theta" in self.free_residual:
+            w = wrap_difference(self.free_residual["theta"])
+            out["theta_wrapped"] = float(np.sqrt(np.mean(w * w)))
+        return out
+
     def to_json(self) -> dict:
-        """Plain JSON types only; an undefined number (e.g. fit% of a constant output) is null."""
+        """Plain JSON types only; an undefined number (e.g. fit% of a constant output) is null.
+        Every fit carries its ``label``."""
         m = self.model
         return _clean({
-            "model": (m.source or "<in memory>") if m is not None else None,
-            "effects": list(m.effects) if m is not None else [], "data": self.data_source, "dt": self.dt,
-            "method": self.method, "samples": len(self.simulated.t), "fit": self.fit, "rms": self.rms(),
+            "model": model_name(m), "effects": list(m.effects) if m is not None else [], "data": self.data_source,
+            "experiment": self.experiment, "outputs": list(self.outputs), "dt": self.dt, "method": self.method,
+            "samples": len(self.simulated.t),
+            "headline": {**self.headline.to_json(), "fit": self.headline_fit()} if self.headline else None,
+            "fit": {"label": "free-run fit (%)", **self.fit},
+            "fit_theta_wrapped": {"label": "free-run fit of theta, angle error wrapped to (-pi, pi] (%)",
+                                  "theta": self.fit_theta_wrapped},
+            "fit_horizon": {"label": f"{hl.horizon_label(self.horizon)} (%)", "horizon_s": self.horizon,
+                            **self.fit_horizon},
+            "turns": {"max": self.turns, "first_t": self.turn_time,
+                      "label": "largest whole number of turns between simulated and measured theta (free run)"},
+            "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
             "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness, "V_off": self.v_off,
             "dx_source": self.dx_source})
+
+
+def model_name(model) -> str:
+    """How a report names a model: its file, or ``(in memory)``."""
+    if model is None:
+        return "(none)"
+    return model.source or "(in memory)"
 
 
 def _clean(obj):
@@ -100,9 +165,17 @@ def _clean(obj):
     return obj
 
 
-def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str = "rk4") -> Comparison:
-    """Simulate ``model`` on ``data``'s input from its initial state and compare the outputs.
+def experiment_of(data) -> str:
+    """The experiment a measurement declares (attribute or ``# experiment:`` line), else ``free``."""
+    return getattr(data, "experiment", None) or data.meta.get("experiment") or "free"
 
+
+def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str = "rk4",
+            horizon: float = DEFAULT_HORIZON) -> Comparison:
+    """Simulate ``model`` on ``data``'s input, in free run and with a ``horizon`` s restart,
+    and compare the outputs (see the module docstring).
+
+    The model is set to the experiment the data declare (a held cart does not move).
     Why 0.1 ms RK4 and not the 1 us Euler reference: identification calls this many
     times (every candidate, every data set), and 0.1 ms RK4 is ~40x faster. Measured
     on the 20 s chirp (``stimuli.chirp()``) with the Table 14 model, it stays within
@@ -113,28 +186,87 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     lands on the jump at a random phase (1e-5 RK4 still differs by 0.5 counts). Pass
     ``dt=1e-6, method="euler"`` to compare with the hardware's own integrator.
     """
-    missing = " or ".join(repr(k) for k in OUTPUTS if k not in data.columns)
+    experiment = experiment_of(data)
+    if experiment != getattr(model, "experiment", "free") and hasattr(model, "for_experiment"):
+        model = model.for_experiment(experiment)
+    outputs = _outputs(model)
+    missing = " or ".join(repr(k) for k in outputs if k not in data.columns)
     if missing:
-        raise PendcError(f"{data.source}: compare needs measured x and theta; no column {missing} "
+        raise PendcError(f"{data.source}: compare needs measured {' and '.join(outputs)}; no column {missing} "
                          f"(columns: {', '.join(data.columns)})")
     if len(data.t) < 3:
         raise PendcError(f"{data.source}: too short to compare ({len(data.t)} samples; at least 3 needed)")
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
-    y = {k: np.asarray(data.column(k), dtype=np.float64) for k in OUTPUTS}
-    sim = Simulator(model, dt=dt, method=method)(t, u, x0=data.initial_state())
-    residual = {k: y[k] - sim.states[k] for k in OUTPUTS}
+    y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
+    sim = Simulator(model, dt=dt, method=method)
+    x0 = np.asarray(data.initial_state(), dtype=np.float64)
+    if hasattr(sim, "true_state"):
+        x0 = sim.true_state(x0)
+
+    def free_run(start) -> dict:
+        run = sim(t, u, x0=tuple(start))
+        return {k: (run.measured(k) if hasattr(run, "measured") else run.states[k]) for k in outputs}
+
+    run = sim(t, u, x0=tuple(x0))
+    simulated = {k: (run.measured(k) if hasattr(run, "measured") else run.states[k]) for k in outputs}
+    free_residual = {k: y[k] - simulated[k] for k in outputs}
+    try:
+        twin = hl.twin_fit(free_run, x0, y)
+    except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
+        twin = {k: -math.inf for k in outputs}
+    head = hl.choose(twin, horizon)
+    hrun = horizon_run(model, data, outputs=outputs, horizon=horizon, dt=dt, method=method)
+    if head.metric == hl.HORIZON:
+        residual = {k: np.nan_to_num(y[k] - hrun.outputs[k], nan=0.0) for k in outputs}   # restarts are exact
+        residual_of = hl.horizon_label(horizon).replace(" fit", " simulation")
+    else:
+        residual, residual_of = free_residual, "free run"
+    turns, turn_time, wrapped_fit = 0, None, float("nan")
+    if "theta" in outputs:
+        turns, turn_time = turns_apart(t, free_residual["theta"])
+        wrapped_fit = fit_percent(y["theta"], y["theta"] - wrap_difference(free_residual["theta"]))
+    # the whiteness tests need an uninterrupted residual: a horizon residual restarts at zero every
+    # segment and is correlated by construction, so they always see the free run (whole turns wrapped)
+    white_input = {k: (wrap_difference(r) if k == "theta" else r) for k, r in free_residual.items()}
+    x_measured = y["x"] if "x" in y else np.zeros_like(t)
     if data.dx is not None:
         dx, dx_source = np.asarray(data.dx, dtype=np.float64), "measured dx column"
-    else:
-        dx = estimate_velocities(t, y["x"])
+    elif "x" in y:
+        dx = estimate_velocities(t, x_measured)
         dx_source = f"Savitzky-Golay derivative of measured x ({SAVGOL_WINDOW * 1e3:.0f} ms, cubic)"
+    else:
+        dx, dx_source = np.zeros_like(t), "cart held (not measured)"
+    theta_measured = y["theta"] if "theta" in y else np.zeros_like(t)
     v_off = float(model.effects.get("drive", {}).get("V_off", DEFAULT_V_OFF))
     return Comparison(
-        fit={k: fit_percent(y[k], sim.states[k]) for k in OUTPUTS}, simulated=sim, residual=residual,
-        windows=[w for k in OUTPUTS for w in worst_windows(t, residual[k], k)],
-        regimes=regimes(residual, dx=dx, theta=y["theta"], x=y["x"], u=u, v_off=v_off),
-        whiteness=whiteness(t, residual, u), measured={**y, "dx": dx},
-        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source)
+        fit={k: fit_percent(y[k], simulated[k]) for k in outputs},
+        simulated=SimResult(t=run.t, u=run.u, states={**run.states, **simulated}),
+        residual=residual, windows=[w for k in outputs for w in worst_windows(t, residual[k], k)],
+        regimes=regimes(residual, dx=dx, theta=theta_measured, x=x_measured, u=u, v_off=v_off),
+        whiteness=whiteness(t, white_input, u), measured={**y, "dx": dx},
+        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source,
+        outputs=outputs, experiment=experiment, free_residual=free_residual, fit_theta_wrapped=wrapped_fit,
+        turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of)
+
+
+def _outputs(model) -> tuple:
+    """The positions the model's experiment measures (both, unless a part was held or removed)."""
+    try:
+        return tuple(model.equations.outputs())
+    except AttributeError:   # equations without an experiment: the full model
+        return OUTPUTS
+
+
+def wrap_difference(angle):
+    """An angle difference folded into (-pi, pi]: whole turns do not count."""
+    return -((-np.asarray(angle, dtype=np.float64) + np.pi) % TURN - np.pi)
+
+
+def turns_apart(t, theta_error) -> tuple[int, float | None]:
+    """The largest whole number of turns in ``|theta_error|`` and when one turn is first reached."""
+    e = np.abs(np.asarray(theta_error, dtype=np.float64))
+    turns = int(np.floor(e.max() / TURN)) if len(e) else 0
+    return turns, (float(t[int(np.argmax(e >= TURN))]) if turns else None)
 
 
 def fit_percent(y, yhat) -> float:
@@ -230,127 +362,3 @@ def regimes(residual: dict, dx, theta, x, u, v_off: float) -> list:
                             "rms": math.sqrt(part / k) if k else None,
                             "fraction_of_time": k / n, "samples": k})
     return out
-
-
-def decimate(y, q: int) -> np.ndarray:
-    """Means of consecutive blocks of ``q`` samples (a trailing partial block is dropped).
-
-    Block means are a crude but ringing-free anti-alias filter; they also smooth the
-    encoder staircase, itself a fast component the whiteness test should not see."""
-    n = len(y) // q * q
-    return np.asarray(y[:n], dtype=np.float64).reshape(-1, q).mean(axis=1)
-
-
-def allowed_outside(lags: int, p: float = 0.01, level: float = 0.05) -> int:
-    """How many of ``lags`` independent 99 % tests a white signal fails, at most, in 95 % of cases.
-
-    Demanding *every* lag inside the band would call white noise non-white one time
-    in five with 25 lags (1 - 0.99^25 = 22 %); the binomial count keeps the false
-    alarm below ``level``: 1 lag for 25, 2 for 51."""
-    tail, k = 1.0, 0
-    while True:
-        tail -= math.comb(lags, k) * p**k * (1 - p) ** (lags - k)   # P(K > k)
-        if tail <= level:
-            return k
-        k += 1
-
-
-def _verdict(lags, values, band: float) -> dict:
-    """Band test over ``lags``: it fails when more lags leave the 99 % band than
-    :func:`allowed_outside` tolerates, or when one lag lies beyond ``limit``, the band
-    widened (Bonferroni) so that white noise reaches it at any of the lags only 1 % of
-    the time: a single huge spike is as damning as many small excursions."""
-    z_limit = NormalDist().inv_cdf(1 - 0.005 / max(1, len(lags)))
-    limit = band * z_limit / Z99
-    outside = [k for k, r in zip(lags, values) if abs(r) > band]
-    allowed = allowed_outside(len(lags))
-    passed = len(outside) <= allowed and all(abs(r) <= limit for r in values)
-    return {"band": band, "limit": limit, "outside": outside, "allowed": allowed, "passed": passed}
-
-
-def _acf(e, lags: int) -> np.ndarray:
-    """Normalized autocorrelation of mean-free ``e`` at lags 0..lags (biased estimator)."""
-    n, energy = len(e), float(e @ e)
-    if energy == 0.0:
-        return np.r_[1.0, np.zeros(lags)]
-    return np.array([float(e[: n - k] @ e[k:]) / energy for k in range(lags + 1)])
-
-
-def autocorrelation(e, lags: int = LAGS) -> dict:
-    """Normalized autocorrelation of ``e`` (mean removed) at lags 0..``lags`` and its verdict.
-
-    ``band`` is ±2.58/sqrt(N), the 99 % interval of a white sequence; ``white`` is the
-    :func:`_verdict` over lags 1..``lags``. A residual that is exactly constant has no
-    structure and counts as white."""
-    e = np.asarray(e, dtype=np.float64) - np.mean(e)
-    n = len(e)
-    lags = max(0, min(lags, n - 1))
-    acf = _acf(e, lags)
-    v = _verdict(range(1, lags + 1), acf[1:], Z99 / math.sqrt(n))
-    white = v.pop("passed")
-    return {"lags": list(range(lags + 1)), "acf": acf.tolist(), **v, "white": white, "samples": n}
-
-
-def cross_correlation(e, v, lags: int = LAGS) -> dict:
-    """Normalized cross-correlation ``ccf[k] = corr(e(t), v(t - k))`` for k = -lags..lags.
-
-    k > 0 pairs the residual with *earlier* input: correlation there means the input
-    drives part of the error, i.e. the model's input-to-output path is wrong. The 99 %
-    band follows Bartlett (as MATLAB's resid): for independent e and v the variance of
-    a lag is sum_m r_ee(m) r_vv(m) / N, which reduces to 1/N when either is white;
-    it is never taken narrower than that white band."""
-    e = np.asarray(e, dtype=np.float64) - np.mean(e)
-    v = np.asarray(v, dtype=np.float64) - np.mean(v)
-    n = len(e)
-    lags = max(0, min(lags, n - 1))
-    denom = math.sqrt(float(e @ e) * float(v @ v))
-    ks = list(range(-lags, lags + 1))
-    if denom == 0.0:
-        ccf = np.zeros(len(ks))
-    else:
-        ccf = np.array([float(e[k:] @ v[: n - k]) if k >= 0 else float(e[: n + k] @ v[-k:]) for k in ks]) / denom
-    factor = max(1.0, 1.0 + 2.0 * float(_acf(e, lags)[1:] @ _acf(v, lags)[1:]))
-    verdict = _verdict(ks, ccf, Z99 * math.sqrt(factor / n))
-    independent = verdict.pop("passed")
-    return {"lags": ks, "ccf": ccf.tolist(), **verdict, "independent": independent, "samples": n}
-
-
-def whiteness(t, residual: dict, u) -> dict:
-    """Correlation tests of each residual, on a residual decimated to ~``WHITENESS_DT``.
-
-    Why decimate: the data are sampled at ~1 kHz while the plant moves at ~1 Hz
-    (pendulum 0.9 Hz, cart time constant M/b_x ~ 0.12 s), so at full rate 25 lags span
-    25 ms, in which any error is trivially correlated with itself. At 10 ms a lag
-    still resolves everything the stimuli excite (Nyquist 50 Hz) and 25 lags span
-    0.25 s, about the cart's time constant. Short runs are decimated less, to keep at
-    least ``MIN_WHITENESS_SAMPLES``. Returns ``{output: autocorrelation + lag_seconds,
-    ..., "xcorr": {output: cross-correlation with u + lag_seconds}}``.
-    """
-    t = np.asarray(t, dtype=np.float64)
-    h = float(np.median(np.diff(t)))
-    q = max(1, min(int(round(WHITENESS_DT / h)), len(t) // MIN_WHITENESS_SAMPLES))
-    ud = decimate(u, q)
-    out, xcorr = {}, {}
-    for k, r in residual.items():
-        rd = decimate(r, q)
-        out[k] = {**autocorrelation(rd), "lag_seconds": q * h, "decimation": q}
-        xcorr[k] = {**cross_correlation(rd, ud), "lag_seconds": q * h, "decimation": q}
-    out["xcorr"] = xcorr
-    return out
-
-
-def format_comparison(c: Comparison) -> str:
-    """Plain-words terminal summary: fit, worst windows, regimes by share, whiteness verdicts
-    (rendered by :func:`pendc.ident.report_html.format_text`, which imports this module)."""
-    from .report_html import format_text
-
-    return format_text(c)
-
-
-def write_html_report(c: Comparison, path, title: str | None = None) -> None:
-    """One self-contained HTML report (see :mod:`pendc.ident.report_html`), written atomically.
-
-    Imported on call: the report module imports this one (and matplotlib, when drawing)."""
-    from .report_html import write_html_report as write
-
-    write(c, path, title=title)

@@ -1,0 +1,116 @@
+"""The k-step (prediction-horizon) simulation of one measured run, for figures and plots.
+
+Every ``horizon`` seconds the simulation restarts from the *measured* state (positions
+from the data, velocities from the data's ``dx``/``dtheta`` columns or a Savitzky-Golay
+derivative of the positions, as :mod:`pendc.ident.shooting` does) and runs on the
+measured input until the next restart. What it shows: the error a model makes within
+half a second, which a chaotic swing or a sticking cart cannot blow up, so it is what
+tells two models apart where a free run diverges. :func:`horizon_run` keeps every
+segment's trajectory so the HTML report can draw them over the data.
+
+This is a second, independent implementation of the figure that
+:func:`pendc.ident.shooting.horizon_fit` computes for diagnose and fit (the tests check
+that they agree); compare reports the number of ``horizon_fit`` and plots these segments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PendcError
+from ..sim.simulator import Simulator
+from .shooting import HISTORY, estimate_velocities
+
+DEFAULT_HORIZON = 0.5   # s: the segment length diagnose and fit use
+
+
+@dataclass(frozen=True)
+class HorizonRun:
+    """Segments of a k-step simulation of one run.
+
+    ``outputs`` maps output name to the simulated sensor reading at every sample, each
+    sample predicted by the segment that ends at or runs through it (sample 0, and any
+    tail too short for a segment, is NaN); ``starts`` are the sample indices where a
+    segment restarts from the measured state, whose values are in ``restarts``.
+    ``fit`` is the horizon fit% per output over every predicted sample, normalised by
+    the spread of the whole run (MATLAB's ``compare`` with a prediction horizon).
+    """
+
+    horizon: float
+    t: np.ndarray
+    outputs: dict
+    starts: tuple
+    restarts: dict
+    fit: dict
+
+    def plot_lines(self, output: str) -> tuple[np.ndarray, np.ndarray]:
+        """(t, y) of every segment from its restart to its end, NaN between segments, so one
+        plotted line shows each segment on its own."""
+        t, y = self.t, self.outputs[output]
+        tt, yy = [], []
+        for i, a in enumerate(self.starts):
+            b = self.starts[i + 1] if i + 1 < len(self.starts) else len(t) - 1
+            tt += [t[a:b + 1], [np.nan]]
+            yy += [[self.restarts[output][i]], y[a + 1:b + 1], [np.nan]]
+        return np.concatenate(tt), np.concatenate(yy)
+
+
+def horizon_run(model, data, outputs=("x", "theta"), horizon: float = DEFAULT_HORIZON, dt: float = 1e-4,
+                method: str = "rk4") -> HorizonRun:
+    """Simulate ``data`` with restarts from the measured state every ``horizon`` s.
+
+    ``model`` is a PlantModel (already set to the data's experiment); ``outputs`` the
+    positions to compare. Raises PendcError when a segment diverges (a non-finite state).
+    """
+    if not horizon > 0:
+        raise PendcError(f"the horizon must be positive, got {horizon:g} s")
+    t = np.asarray(data.t, dtype=np.float64)
+    u = np.asarray(data.u, dtype=np.float64)
+    if len(t) < 3:
+        raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
+    measured = {k: _position(data, k, len(t)) for k in ("x", "theta")}
+    velocity = {}
+    for pos, vel in (("x", "dx"), ("theta", "dtheta")):
+        column = data.columns.get(vel)
+        velocity[pos] = (np.asarray(column, dtype=np.float64) if column is not None
+                         else estimate_velocities(t, measured[pos]))
+    sim = Simulator(model, dt=dt, method=method)
+    p = sim.param_vector
+    offset = sim.offset_values(p) if hasattr(sim, "offset_values") else {"x": 0.0, "theta": 0.0}
+    h = float(np.median(np.diff(t)))
+    step = max(2, int(round(horizon / h)))
+    history = int(np.ceil(HISTORY / h))
+    predicted = {k: np.full(len(t), np.nan) for k in ("x", "theta")}
+    # as shooting does: a tail shorter than two samples is no segment
+    starts = tuple(a for a in range(0, len(t) - 1, step) if min(a + step, len(t) - 1) - a >= 2)
+    for a in starts:
+        b = min(a + step, len(t) - 1)
+        s0 = np.array([measured["x"][a] - offset["x"], velocity["x"][a],
+                       measured["theta"][a] - offset["theta"], velocity["theta"][a]])
+        h0 = max(0, a - history)
+        states, valid = sim.raw(t[h0:b + 1], u[h0:b + 1], s0, p, a - h0)
+        if valid < b + 1 - h0:
+            raise PendcError(f"{data.source}: the simulation diverged in the horizon segment at t = {t[a]:.6g} s")
+        for i, k in ((0, "x"), (2, "theta")):
+            predicted[k][a + 1:b + 1] = states[a - h0 + 1:, i] + offset[k]
+    fit = {k: _segment_fit(measured[k], predicted[k]) for k in outputs}
+    return HorizonRun(horizon=float(horizon), t=t, outputs={k: predicted[k] for k in outputs}, starts=starts,
+                      restarts={k: measured[k][list(starts)] for k in outputs}, fit=fit)
+
+
+def _position(data, name: str, n: int) -> np.ndarray:
+    """The measured position, or zeros for an axis the file does not have (a held cart)."""
+    column = data.columns.get(name)
+    return np.zeros(n) if column is None else np.asarray(data.column(name), dtype=np.float64)
+
+
+def _segment_fit(y, yhat) -> float:
+    """fit% over the predicted samples (NaN marks the unpredicted ones); NaN for a constant output."""
+    y, yhat = np.asarray(y, dtype=np.float64), np.asarray(yhat, dtype=np.float64)
+    keep = np.isfinite(yhat)
+    spread = float(np.linalg.norm(y[keep] - np.mean(y)))
+    if spread == 0.0:
+        return float("nan")
+    return 100.0 * (1.0 - float(np.linalg.norm(y[keep] - yhat[keep])) / spread)

@@ -1,0 +1,107 @@
+"""Several models compared on the same measured runs: ``pendc compare DATA --model A --model B``.
+
+Each model is compared with each run exactly as :func:`pendc.ident.compare.compare`
+does; what is added is one headline per run shared by all models (the same metric for
+every model, or the comparison would mean nothing), and the change of every figure from
+the first model to each other one, so "watch the error fall" is one command.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import headline as hl
+from .compare import Comparison, _clean, compare, model_name
+from .horizon import DEFAULT_HORIZON
+
+
+@dataclass(frozen=True)
+class SideBySide:
+    """``runs[i][j]`` is model ``j`` compared with data file ``i``; ``labels[j]`` names model j
+    (``A: file stem``, ``B: ...``)."""
+
+    labels: tuple
+    runs: tuple
+
+    def headline(self, i: int) -> tuple[hl.Headline, int]:
+        """The headline of run ``i`` shared by every model, and the index of the model that
+        decided it: the horizon fit as soon as one model's free run is not meaningful."""
+        heads = [c.headline for c in self.runs[i]]
+        for j, h in enumerate(heads):
+            if h.metric == hl.HORIZON:
+                return h, j
+        worst = min(range(len(heads)), key=lambda j: min(heads[j].twin_fit.values(), default=100.0))
+        return heads[worst], worst
+
+    def headline_fits(self, i: int) -> list:
+        """Per model, the fit% per output of run ``i``'s shared headline metric."""
+        h, _ = self.headline(i)
+        return [c.fit_horizon if h.metric == hl.HORIZON else c.fit for c in self.runs[i]]
+
+    def rows(self, i: int) -> list:
+        """The table of run ``i``: ``(figure, unit, [value per model])``, headline metric first."""
+        h, _ = self.headline(i)
+        cs = self.runs[i]
+        outputs = cs[0].outputs
+        free = [(f"free-run fit {k}", "%", [c.fit[k] for c in cs]) for k in outputs]
+        horizon = [(f"{hl.horizon_label(cs[0].horizon)} {k}", "%", [c.fit_horizon[k] for c in cs]) for k in outputs]
+        out = horizon + free if h.metric == hl.HORIZON else free + horizon
+        if "theta" in outputs:
+            out.append(("free-run fit theta, angle wrapped", "%", [c.fit_theta_wrapped for c in cs]))
+            out.append(("free-run theta, whole turns apart (max)", "turns", [float(c.turns) for c in cs]))
+        for k in outputs:
+            scale, unit = (1e3, "mm") if k == "x" else (1e3, "mrad")
+            out.append((f"free-run rms error {k}", unit, [scale * c.rms_free_run()[k] for c in cs]))
+        if "theta" in outputs:
+            out.append(("free-run rms error theta, wrapped", "mrad",
+                        [1e3 * c.rms_free_run()["theta_wrapped"] for c in cs]))
+        return out
+
+    def to_json(self) -> dict:
+        """Plain JSON: per run, the shared headline, every model's comparison and the changes."""
+        runs = []
+        for i, cs in enumerate(self.runs):
+            h, j = self.headline(i)
+            fits = self.headline_fits(i)
+            runs.append({
+                "data": cs[0].data_source,
+                "headline": {**h.to_json(), "decided_by": self.labels[j],
+                             "fit": {lab: f for lab, f in zip(self.labels, fits)},
+                             "change": {lab: {k: f[k] - fits[0][k] for k in f} for lab, f in
+                                        zip(self.labels[1:], fits[1:])}},
+                "table": [{"figure": name, "unit": unit, "values": dict(zip(self.labels, values)),
+                           "change": {lab: v - values[0] for lab, v in zip(self.labels[1:], values[1:])}}
+                          for name, unit, values in self.rows(i)],
+                "models": [c.to_json() for c in cs]})
+        return _clean({"models": list(self.labels), "runs": runs})
+
+
+def labels_for(models) -> tuple:
+    """``A: stem``, ``B: stem``...: short, distinct names for the table's columns."""
+    out = []
+    for j, m in enumerate(models):
+        letter = chr(ord("A") + j) if j < 26 else f"M{j + 1}"
+        name = model_name(m)
+        out.append(f"{letter}: {Path(name).stem}" if m is not None and m.source else f"{letter}: {name}")
+    return tuple(out)
+
+
+def compare_models(models, datasets, dt: float = 1e-4, method: str = "rk4",
+                   horizon: float = DEFAULT_HORIZON) -> SideBySide:
+    """Compare every model in ``models`` with every run in ``datasets`` (see :class:`SideBySide`)."""
+    runs = tuple(tuple(compare(m, d, dt=dt, method=method, horizon=horizon) for m in models) for d in datasets)
+    return SideBySide(labels=labels_for(models), runs=runs)
+
+
+def change_words(before: float, after: float) -> str:
+    """``+5.5 points`` / ``-1.2 points`` / ``n/a``: the change of a fit%."""
+    if not (math.isfinite(before) and math.isfinite(after)):
+        return "n/a"
+    return f"{after - before:+.2f} points"
+
+
+def as_side_by_side(c: Comparison) -> SideBySide:
+    """One comparison as a one-model, one-run :class:`SideBySide`."""
+    return SideBySide(labels=labels_for([c.model]), runs=((c,),))
