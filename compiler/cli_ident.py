@@ -1,11 +1,15 @@
-"""The identification commands diagnose and fit (a thin layer over pendc.ident); compare is in cli_compare."""
+"""The identification commands diagnose and fit (a thin layer over pendc.ident); compare is in cli_compare.
+
+Every figure printed says what it is (the 0.5 s horizon fit or the free-run fit, pooled
+or for which file); notes about what was left out go to stderr as ``pendc: note: ...``.
+"""
 
 from __future__ import annotations
 
 import json
 import sys
 
-from .cli_data import add_data_options, load_datasets, load_model_and_data
+from .cli_data import add_data_options, load_datasets, load_model_and_data, note
 from .errors import PendcError
 
 
@@ -24,38 +28,60 @@ def _progress(enabled: bool):
     return show
 
 
-def _fit_of(model, datasets) -> dict:
-    """fit% per output with a 0.5 s prediction horizon (see pendc.ident.shooting.horizon_fit)."""
-    from .ident.shooting import horizon_fit
+def _notes(lines) -> None:
+    for line in dict.fromkeys(lines):
+        note(line)
 
-    return horizon_fit(model, datasets)
+
+def _figure_lines(fig: dict, indent: str = "") -> list:
+    """The pooled figure, then one line per file when there are several."""
+    from .ident.figures import describe
+
+    lines = [indent + describe(fig) + (f" (pooled over {len(fig['files'])} files)" if len(fig["files"]) > 1 else "")]
+    if len(fig["files"]) > 1:
+        for f in fig["files"]:
+            parts = ", ".join(f"{o} {v:.1f} %" for o, v in f["fit"].items())
+            lines.append(f"{indent}  {f['file']} ({f['experiment']}): {parts}")
+    return lines
 
 
 def cmd_diagnose(args) -> int:
     from .ident.diagnose import diagnose
+    from .ident.outputs import parse_outputs
+    from .ident.shooting import horizon_figures
 
     model, datasets = load_model_and_data(args)
-    before = _fit_of(model, datasets)
-    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json))
+    outputs = parse_outputs(args.outputs)
+    before = horizon_figures(model, datasets, outputs=outputs)
+    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json), outputs=outputs)
+    _notes(d.notes)
     out = d.to_json()
+    out["fit_now"] = before
     for c, row in zip(d.candidates, out["candidates"]):
-        row["fit_before"] = before
-        row["fit_after"] = _fit_of(model.with_effect(c.effect, c.params), datasets) if c.score > 0.05 else before
+        row["fit_after"] = (horizon_figures(model.with_effect(c.effect, c.params), datasets, outputs=outputs)
+                            if c.score > 0.05 else before)
     if args.json:
         json.dump(out, sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
-    lines = [f"fit now: x {before['x']:.1f} %, theta {before['theta']:.1f} %", ""]
-    lines.append(f"{'rank':4s} {'effect':18s} {'score':>6s} {'fit x':>7s} {'fit theta':>9s}  parameters")
+    shown = list(before["pooled"])
+    lines = _figure_lines(before, "now: ") + [""]
+    heads = " ".join(f"{'fit ' + o:>9s}" for o in shown)
+    lines.append(f"{'rank':4s} {'effect':18s} {'score':>6s} {heads}  parameters (0.5 s horizon fit after adding it)")
     for i, row in enumerate(out["candidates"], 1):
         params = ", ".join(f"{k}={v:.4g}" for k, v in row["params"].items())
-        lines.append(f"{i:<4d} {row['effect']:18s} {row['score']:6.3f} {row['fit_after']['x']:7.1f} "
-                     f"{row['fit_after']['theta']:9.1f}  {params}")
+        figs = " ".join(f"{row['fit_after']['pooled'].get(o, float('nan')):9.1f}" for o in shown)
+        lines.append(f"{i:<4d} {row['effect']:18s} {row['score']:6.3f} {figs}  {params}")
     lines.append("")
-    if d.unexplained:
-        lines.append("No catalogue effect explains the error (the best removes less than half of it).")
+    ratio = ", ".join(f"{o} {r:.2f}x" for o, r in (d.noise_ratio or {}).items())
+    if d.at_noise_level:
+        lines.append(f"Nothing systematic left: the remaining error is at the noise level of the measurement "
+                     f"chain (encoder quantisation and input noise; residual / noise-only residual: {ratio}).")
+    elif d.unexplained:
+        lines.append("No catalogue effect explains the error (the best removes less than half of it), and it is "
+                     f"above the noise level ({ratio} the noise-only residual).")
         lines.append("The unexplained force/torque correlates with:")
-        lines += [f"  {r['target']:12s} ~ {r['signal']:16s} r = {r['r']:+.2f}" for r in d.correlations]
+        lines += [f"  {r['target']:12s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
@@ -65,14 +91,51 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
+def _command(args) -> str:
+    """The fit command line, rebuilt from the parsed options (paths as given)."""
+    parts = ["pendc fit", *args.data]
+    for flag, value in (("--model", args.model), ("--add", args.add), ("--free", args.free),
+                        ("--outputs", args.outputs), ("--experiment", getattr(args, "experiment", None))):
+        if value:
+            parts += [flag, str(value)]
+    if args.validate:
+        parts += ["--validate", *args.validate]
+    return " ".join(parts + ["-o", str(args.output)])
+
+
+def _provenance(args, free: list, before: dict, after: dict) -> dict:
+    """Where a fitted model came from: source model, data (by content hash), command, figures."""
+    from .model.modelfile import data_fingerprint
+
+    meta = {"generator": "pendc fit", "source_model": args.model or "models/sct_thesis_final.toml",
+            "data": "; ".join(data_fingerprint(p) for p in args.data),
+            "command": _command(args),
+            "fitted": ", ".join(free)}
+    if args.validate:
+        meta["validation_data"] = "; ".join(data_fingerprint(p) for p in args.validate)
+    for o, v in before["pooled"].items():
+        meta[f"horizon_fit_{o}_before"] = round(v, 3)
+    for o, v in after["pooled"].items():
+        meta[f"horizon_fit_{o}_after"] = round(v, 3)
+    return meta
+
+
 def cmd_fit(args) -> int:
-    from .ident.fit import fit_parameters
+    from pathlib import Path
+
     from .ident.diagnose import free_parameters
-    from .model.modelfile import save_model
+    from .ident.figures import free_run_figures
+    from .ident.fit import fit_parameters
+    from .ident.outputs import parse_outputs
+    from .ident.shooting import horizon_figures
+    from .atomic import write_atomic
+    from .model.modelfile import default_model_path, dumps_fitted
 
     model, datasets = load_model_and_data(args)
+    outputs = parse_outputs(args.outputs)
     validation = load_datasets(args, args.validate) if args.validate else datasets
-    before = _fit_of(model, validation)           # the model as given, before anything is added
+    before = horizon_figures(model, validation, outputs=outputs)   # the model as given
+    free_before = free_run_figures(model, validation, outputs=outputs)
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     for effect in added:
         model = model.with_effect(effect)
@@ -80,28 +143,47 @@ def cmd_fit(args) -> int:
     free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)
     if not free:
         raise PendcError("nothing to fit: name effects with --add or parameters with --free")
-    result = fit_parameters(model, datasets, free, max_evaluations=args.max_evaluations)
+    result = fit_parameters(model, datasets, free, max_evaluations=args.max_evaluations, outputs=outputs)
+    _notes(result.notes)
     if not result.converged:
         raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations); "
                          f"no model written")
-    after = _fit_of(result.model, validation)
-    meta = {"generator": "pendc fit", "data": " ".join(args.data), "fitted": ", ".join(free),
-            "fit_x_before": round(before["x"], 3), "fit_x_after": round(after["x"], 3),
-            "fit_theta_before": round(before["theta"], 3), "fit_theta_after": round(after["theta"], 3)}
-    save_model(result.model, args.output, meta=meta)
-    out = {"fit_before": before, "fit_after": after,
-           "params": {p: {"value": result.values[p], "ci95": result.ci95[p]} for p in free},
+    if result.unidentifiable and not args.force:
+        raise PendcError(f"the data do not identify {', '.join(result.unidentifiable)} "
+                         f"({result.refused()}); no model written (--force writes it anyway)")
+    after = horizon_figures(result.model, validation, outputs=outputs)
+    free_after = free_run_figures(result.model, validation, outputs=outputs)
+    source = Path(args.model) if args.model else default_model_path()
+    text = dumps_fitted(result.model, source.read_text(encoding="utf-8"), _provenance(args, free, before, after),
+                        {p: result.ci95[p] for p in free if p not in result.unidentifiable})
+    write_atomic(args.output, text)
+    for p, why in result.unidentifiable.items():
+        note(f"{p} is not identified by these data ({why}); written because of --force")
+    out = {"fit_before": before, "fit_after": after, "free_run_before": free_before, "free_run_after": free_after,
+           "params": {p: {"value": result.values[p], "ci95": result.ci95[p],
+                          "identifiable": p not in result.unidentifiable} for p in free},
            "model": args.output}
     if args.json:
         json.dump(out, sys.stdout, indent=2)
         sys.stdout.write("\n")
-    else:
-        print(f"fit x {before['x']:.1f} % -> {after['x']:.1f} %, theta {before['theta']:.1f} % -> {after['theta']:.1f} %")
-        for p in free:
-            lo, hi = result.ci95[p]
-            print(f"  {p:10s} = {result.values[p]:.6g}   95 % CI [{lo:.6g}, {hi:.6g}]")
-        print(f"wrote {args.output}")
+        return 0
+    lines = ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
+    lines += ["before: " + line for line in _figure_lines(free_before)]
+    lines += ["after:  " + line for line in _figure_lines(free_after)]
+    for p in free:
+        lo, hi = result.ci95[p]
+        flag = "   NOT IDENTIFIED" if p in result.unidentifiable else ""
+        lines.append(f"  {p:10s} = {result.values[p]:.6g}   95 % CI [{lo:.6g}, {hi:.6g}]{flag}")
+    lines.append(f"wrote {args.output}")
+    sys.stdout.write("\n".join(lines) + "\n")
     return 0
+
+
+def _add_ident_options(p) -> None:
+    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--outputs", help="outputs to compare: x, theta or x,theta (default: every output the data "
+                                     "move; held or missing ones are left out with a note)")
+    p.add_argument("--json", action="store_true")
 
 
 def add_parsers(sub) -> None:
@@ -111,18 +193,20 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("diagnose", help="which catalogue effect is missing from the model?")
     add_data_options(p)
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--json", action="store_true")
+    _add_ident_options(p)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.set_defaults(func=cmd_diagnose)
 
-    p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file")
+    p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file",
+                       description="Files of different experiments fit together, each simulated under its own "
+                                   "experiment; any plant constant (g M m L I) or effect parameter can be freed.")
     add_data_options(p)
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    _add_ident_options(p)
     p.add_argument("--add", help="effects to add, comma-separated (their parameters are fitted)")
-    p.add_argument("--free", help="more parameters to fit, comma-separated")
+    p.add_argument("--free", help="more parameters to fit, comma-separated (e.g. I,L,alpha,V_off)")
     p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
     p.add_argument("-o", "--output", required=True, help="new model file")
     p.add_argument("--max-evaluations", type=int, default=200, help="budget of model evaluations (default 200)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--force", action="store_true",
+                   help="write the model even if the data do not identify every fitted parameter")
     p.set_defaults(func=cmd_fit)

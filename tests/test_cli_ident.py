@@ -22,8 +22,11 @@ def test_fit_writes_a_model_and_json(tmp_path, capsys):
     rc, text, err = run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out, "--json")
     assert rc == 0, err
     result = json.loads(text)
-    assert set(result) == {"fit_before", "fit_after", "params", "model"}
-    assert result["fit_after"]["x"] > result["fit_before"]["x"]
+    assert set(result) == {"fit_before", "fit_after", "free_run_before", "free_run_after", "params", "model"}
+    assert result["fit_before"]["label"] == "0.5 s horizon fit" and result["free_run_after"]["label"] == "free-run fit"
+    assert result["fit_after"]["pooled"]["x"] > result["fit_before"]["pooled"]["x"]
+    assert [f["file"] for f in result["fit_after"]["files"]] == [str(DATA / "hidden_spring.csv")]
+    assert err == ""
     assert set(result["params"]) == {"k_c", "x_0"} and len(result["params"]["k_c"]["ci95"]) == 2
     fitted = load_model(out)
     assert fitted.effects["cart_spring"]["k_c"] == pytest.approx(result["params"]["k_c"]["value"])

@@ -6,7 +6,8 @@ generalized force on the cart and torque at the pivot that the data *needed*, an
 the model's own force/torque at the measured states is subtracted. What remains is
 the residual a missing effect has to supply. Samples where the cart is nearly at
 rest are left out of cart-force statistics: there the model's friction is a sticking
-rule that a measured (never exactly zero) velocity cannot exercise.
+rule that a measured (never exactly zero) velocity cannot exercise. A held cart has no
+cart-force statistics, a removed pendulum no pivot torque (and no pendulum mass).
 """
 
 from __future__ import annotations
@@ -16,9 +17,13 @@ import sympy as sp
 from scipy.signal import savgol_filter
 
 from ..model.plant import PlantModel
+from .outputs import experiment_of
 
 WINDOW = 0.051
 MOVING = 0.005   # m/s
+MIN_SAMPLES = 20  # fewer samples than this give no correlation worth reporting
+# wavelengths (m) of the position-periodic forces looked for: rail ripple, screw pitch, cogging
+WAVELENGTHS = (0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.12, 0.2)
 
 
 def _derivatives(t, y):
@@ -30,18 +35,25 @@ def _derivatives(t, y):
 
 
 def signals(data) -> dict:
+    """Positions, their smoothed derivatives, the input and the experiment of ``data``."""
     t = np.asarray(data.t, float)
     x, th = np.asarray(data.column("x"), float), np.asarray(data.column("theta"), float)
     dx, ddx = _derivatives(t, x)
     dth, ddth = _derivatives(t, th)
+    exp = experiment_of(data)
+    if exp == "cart_held":
+        dx, ddx = np.zeros_like(x), np.zeros_like(x)
+    elif exp == "pendulum_removed":
+        dth, ddth = np.zeros_like(th), np.zeros_like(th)
     return {"t": t, "u": np.asarray(data.u, float), "x": x, "dx": dx, "ddx": ddx, "theta": th, "dtheta": dth,
-            "ddtheta": ddth}
+            "ddtheta": ddth, "experiment": exp}
 
 
 def _numeric(model: PlantModel, name: str):
     """numpy function of (x, dx, theta, dtheta, u) for an assignment of the model (F_m -> F_in)."""
     eq = model.equations
     values = dict(zip(eq.params, model.parameter_vector()))
+    offsets = dict(eq.sensor_offsets)
     sym = next((s for s, _ in eq.assignments if s.name == name), None)
     if sym is None:
         return lambda **kw: np.zeros_like(kw["x"])
@@ -49,8 +61,10 @@ def _numeric(model: PlantModel, name: str):
     lag = [s for s in eq.states[4:]]
     if lag:
         expr = expr.subs({s: eq.inline(sp.Symbol("F_in", real=True)) for s in lag})
-    expr = expr.subs(values)
     x, dx, theta, dtheta = eq.states[:4]
+    # the data are sensor readings: the true position is the reading minus the offset
+    expr = expr.subs({x: x - offsets.get("x", 0), theta: theta - offsets.get("theta", 0)}, simultaneous=True)
+    expr = expr.subs(values)
     f = sp.lambdify((x, dx, theta, dtheta, eq.input), expr, "numpy")
     return lambda **kw: np.broadcast_to(f(kw["x"], kw["dx"], kw["theta"], kw["dtheta"], kw["u"]),
                                         kw["x"].shape).astype(float)
@@ -60,7 +74,12 @@ def residuals(model: PlantModel, sig: dict) -> tuple[np.ndarray, np.ndarray]:
     """(cart force, pivot torque) the data need beyond what ``model`` supplies."""
     p = model.plant
     M, m, L, I, g = p["M"], p["m"], p["L"], p["I"], p["g"]
-    th, dth = sig["theta"], sig["dtheta"]
+    exp = sig.get("experiment", "free")
+    model = model.for_experiment(exp)
+    if exp == "pendulum_removed":
+        m = 0.0
+    off = dict((n, model.parameter_values()[e.name]) for n, e in model.equations.sensor_offsets)
+    th, dth = sig["theta"] - off.get("theta", 0.0), sig["dtheta"]
     need_x = (M + m) * sig["ddx"] - m * L * np.cos(th) * sig["ddtheta"] + m * L * dth**2 * np.sin(th)
     need_t = (m * L**2 + I) * sig["ddtheta"] - m * L * np.cos(th) * sig["ddx"] + m * g * L * np.sin(th)
     kw = {k: sig[k] for k in ("x", "dx", "theta", "dtheta", "u")}
@@ -68,9 +87,12 @@ def residuals(model: PlantModel, sig: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _corr(a, b) -> float:
+    """Pearson correlation; 0 when either side is constant or there are too few samples."""
+    if a.size < MIN_SAMPLES:
+        return 0.0
     a, b = a - a.mean(), b - b.mean()
     den = float(np.sqrt((a @ a) * (b @ b)))
-    return float(a @ b / den) if den > 0 else 0.0
+    return float(a @ b / den) if den > 1e-300 else 0.0
 
 
 SENTENCES = {
@@ -86,6 +108,10 @@ SENTENCES = {
     "motor_lag": "the force builds up with a first-order lag after input changes",
     "input_delay": "the response starts a fixed time after the input changes: a transport delay",
     "velocity_limit": "the cart speed saturates",
+    "quadratic_pendulum": "the residual torque at the pivot grows with -dtheta|dtheta|: air drag on the swing",
+    "theta_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
+    "x_offset": "the cart's forces look shifted along the track: an offset of the position sensor",
+    "end_stops": "the cart is pushed back hard near the ends of the track: end stops",
 }
 
 
@@ -109,9 +135,12 @@ def _contribution_correlation(base, fitted, datasets):
         cx = _numeric(fitted, "F_cart")(**kw) - _numeric(base, "F_cart")(**kw)
         ct = _numeric(fitted, "tau_pend")(**kw) - _numeric(base, "tau_pend")(**kw)
         moving = np.abs(sig["dx"]) > MOVING
-        if np.std(ct) > 0 and np.std(ct) * 50 > np.std(cx) * (base.plant["L"]):
+        cart_ok = sig["experiment"] != "cart_held" and np.count_nonzero(moving) >= MIN_SAMPLES
+        pend_ok = sig["experiment"] != "pendulum_removed"
+        spread_x = float(np.std(cx[moving])) if cart_ok else 0.0
+        if pend_ok and np.std(ct) > 0 and np.std(ct) * 50 > spread_x * base.plant["L"]:
             rs.append(_corr(rt, ct))
-        elif np.std(cx[moving]) > 0:
+        elif cart_ok and spread_x > 0:
             rs.append(_corr(rx[moving], cx[moving]))
     return float(np.mean(rs)) if rs else None
 
@@ -123,15 +152,24 @@ def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> li
         sig = signals(data)
         rx, rt = residuals(model, sig)
         v_off = model.effects.get("drive", {}).get("V_off", 5.0)
+        x = sig["x"]
         basis = {
-            "x": sig["x"], "dx": sig["dx"], "sgn(dx)": np.sign(sig["dx"]), "dx*|dx|": sig["dx"] * np.abs(sig["dx"]),
-            "theta": sig["theta"], "sin(theta)": np.sin(sig["theta"]), "dtheta": sig["dtheta"],
-            "sgn(dtheta)": np.sign(sig["dtheta"]), "dtheta*|dtheta|": sig["dtheta"] * np.abs(sig["dtheta"]),
-            "u - V_off": sig["u"] - v_off,
+            "x": x, "dx": sig["dx"], "sgn(dx)": np.sign(sig["dx"]), "dx*|dx|": sig["dx"] * np.abs(sig["dx"]),
+            "theta": sig["theta"], "sin(theta)": np.sin(sig["theta"]), "cos(theta)": np.cos(sig["theta"]),
+            "dtheta": sig["dtheta"], "sgn(dtheta)": np.sign(sig["dtheta"]),
+            "dtheta*|dtheta|": sig["dtheta"] * np.abs(sig["dtheta"]), "u - V_off": sig["u"] - v_off,
         }
+        for lam in WAVELENGTHS:   # position-periodic forces (ripple, cogging) show only against x
+            basis[f"sin(2 pi x/{lam:g})"] = np.sin(2 * np.pi * x / lam)
+            basis[f"cos(2 pi x/{lam:g})"] = np.cos(2 * np.pi * x / lam)
         moving = np.abs(sig["dx"]) > MOVING
+        targets = []
+        if sig["experiment"] != "cart_held" and np.count_nonzero(moving) >= MIN_SAMPLES:
+            targets.append(("cart force", rx[moving], moving))
+        if sig["experiment"] != "pendulum_removed":
+            targets.append(("pivot torque", rt, slice(None)))
         for name, b in basis.items():
-            rows.append({"signal": name, "target": "cart force", "r": _corr(rx[moving], b[moving])})
-            rows.append({"signal": name, "target": "pivot torque", "r": _corr(rt, b)})
+            for target, r, keep in targets:
+                rows.append({"signal": name, "target": target, "r": _corr(r, b[keep]), "file": data.source})
     rows.sort(key=lambda r: -abs(r["r"]))
     return rows[:top]

@@ -5,8 +5,10 @@ magnitude) so that b_x ~ 900 and tau_c ~ 0.004 are equally easy to move. Bounds 
 the catalogue's physical ranges. When mu_s and mu_c are both free, mu_s is
 parametrised as mu_c + d with d >= 0, so every fit satisfies mu_s >= mu_c. Confidence
 intervals come from the Jacobian at the optimum (Gauss-Newton covariance scaled by
-the residual variance); residual samples within a segment are correlated, so read
-them as lower bounds of the true uncertainty.
+the residual variance) and a cluster-robust one, whichever is wider. A parameter the
+data do not excite (a direction of the Jacobian with no singular value, or an
+interval as wide as the value) is reported as not identifiable, never given a value
+with a falsely narrow interval.
 """
 
 from __future__ import annotations
@@ -21,7 +23,20 @@ from ..model.effects import CATALOGUE
 from ..model.plant import PlantModel
 from .shooting import ShootingProblem
 
-PLANT_BOUNDS = (1e-9, 1e9)
+# Physical ranges of the rigid-body constants when a fit frees them (``--free I,L,m``):
+# wide enough for any bench pendulum and cart, narrow enough to keep the optimiser sane.
+PLANT_BOUNDS = {
+    "g": (9.7, 9.9),
+    "M": (0.05, 1e4),       # virtual mass: motor and spindle inertia make it large
+    "m": (1e-3, 100.0),
+    "L": (1e-3, 5.0),
+    "I": (1e-7, 10.0),
+}
+NULL_SINGULAR = 1e-7     # singular values below this fraction of the largest span no direction
+# Residuals within a segment are correlated, so the segments are the independent pieces of
+# evidence; fewer than this many per parameter cannot support an interval (0.5 s of data is
+# one segment: any two-parameter fit to it would be an invention).
+SEGMENTS_PER_PARAMETER = 3
 
 
 @dataclass(frozen=True)
@@ -37,14 +52,23 @@ class FitResult:
     evaluations: int
     converged: bool
     message: str
+    unidentifiable: dict = None   # parameter -> why the data do not determine it (empty: all fine)
+    notes: tuple = ()             # what the output weighting left out, one line each
+
+    def refused(self) -> str:
+        """One line naming the parameters the data do not determine, or '' when all are."""
+        if not self.unidentifiable:
+            return ""
+        return "; ".join(f"{p}: {why}" for p, why in self.unidentifiable.items())
 
 
 def parameter_bounds(model: PlantModel, name: str) -> tuple[float, float]:
+    """Physical range of parameter ``name``: the catalogue's, or :data:`PLANT_BOUNDS`."""
     for effect in model.effects:
         for p in CATALOGUE[effect].params:
             if p.name == name:
                 return p.lo, p.hi
-    return PLANT_BOUNDS
+    return PLANT_BOUNDS[name]
 
 
 class _Transform:
@@ -67,7 +91,7 @@ class _Transform:
             for p in CATALOGUE[effect].params:
                 if p.name == name:
                     return max(abs(p.default), (p.hi - p.lo) * 1e-2, 1e-6)
-        return 1e-6
+        return model.plant[name]   # a rigid-body constant: its own size
 
     def to_z(self, values: np.ndarray) -> np.ndarray:
         v = np.array(values, float)
@@ -103,6 +127,10 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
 
     for i in range(len(z)):
         a, b = lo[i], hi[i]
+        if tf.free[i] in PLANT_BOUNDS and z[i] > 0:
+            # a rigid-body constant is known to a factor of a few (it was measured or
+            # computed); its physical range is for the optimiser's safety, not a search space
+            a, b = max(a, z[i] / 4), min(b, z[i] * 4)
         if a >= 0 and b > 0:
             a = max(a, b * 1e-4)
             grid = np.geomspace(a, b, points) if b / a > 20 else np.linspace(a, b, points)
@@ -125,13 +153,14 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
 
 def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | None = None,
                    dt: float = 1e-4, segment: float = 0.5, max_evaluations: int = 200,
-                   search: bool = True, subset: str = "all") -> FitResult:
+                   search: bool = True, subset: str = "all", outputs=None) -> FitResult:
     """Fit ``free`` parameters of ``model`` to ``datasets`` (Measurements); others stay fixed.
 
-    ``search`` runs a coarse grid search per parameter before the local optimiser."""
+    Each data set is simulated under its own experiment; ``outputs`` restricts the compared
+    outputs. ``search`` runs a coarse grid search per parameter before the local optimiser."""
     if not free:
         raise PendcError("nothing to fit: no free parameters")
-    problem = ShootingProblem(model, datasets, free, dt=dt, segment=segment, subset=subset)
+    problem = ShootingProblem(model, datasets, free, dt=dt, segment=segment, subset=subset, outputs=outputs)
     x0 = problem.start_values()
     if start:
         for i, p in enumerate(free):
@@ -144,37 +173,69 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
     if search:
         z0 = grid_search(problem, tf, z0)
     try:
-        sol = least_squares(lambda z: problem.residual(tf.to_values(z)), z0, bounds=(lo, hi), method="trf",
-                            diff_step=1e-2, x_scale="jac", max_nfev=max_evaluations)
-    except (ValueError, FloatingPointError) as exc:
+        with np.errstate(all="ignore"):
+            sol = least_squares(lambda z: problem.residual(tf.to_values(z)), z0, bounds=(lo, hi), method="trf",
+                                diff_step=1e-2, x_scale="jac", max_nfev=max_evaluations)
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         raise PendcError(f"fit failed to run: {exc}") from None
     values = tf.to_values(sol.x)
-    ci = _intervals(sol, tf, values, problem.segment_blocks())
+    ci, null = _intervals(sol, tf, values, problem.segment_blocks())
+    why = _unidentifiable(model, free, values, ci, null)
+    segments = len(problem.segment_blocks())
+    if segments < SEGMENTS_PER_PARAMETER * len(free):
+        short = (f"only {segments} independent {segment:g} s segment(s) of data for {len(free)} parameter(s) "
+                 f"(at least {SEGMENTS_PER_PARAMETER} per parameter are needed)")
+        why = {p: why.get(p, short) for p in free}
     fitted = model.with_params(dict(zip(free, values)))
     return FitResult(model=fitted, values=dict(zip(free, map(float, values))), ci95=ci,
                      cost_before=cost_before, cost_after=float(sol.cost), n_residuals=problem.size,
-                     evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message))
+                     evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message),
+                     unidentifiable=why, notes=problem.notes)
 
 
-def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> dict:
-    """95 % intervals from a cluster-robust (sandwich) covariance, one cluster per segment:
-    residuals inside a segment are strongly correlated, so treating them as independent
-    (plain Gauss-Newton) would make the intervals far too narrow."""
-    J, r = sol.jac, sol.fun
-    try:
-        bread = np.linalg.pinv(J.T @ J)
-    except np.linalg.LinAlgError:
-        return {p: [float("-inf"), float("inf")] for p in tf.free}
-    meat = np.zeros_like(bread)
+def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict, null: set) -> dict:
+    """Parameters the data do not determine, with the reason in words."""
+    why = {}
+    for p, v in zip(free, values):
+        lo, hi = parameter_bounds(model, p)
+        half = 0.5 * (ci[p][1] - ci[p][0])
+        if p in null or not np.isfinite(half):
+            why[p] = "the data do not excite it (the cost does not change when it moves)"
+        elif lo >= 0 and half >= abs(v):
+            why[p] = f"its 95 % interval [{ci[p][0]:.3g}, {ci[p][1]:.3g}] is wider than its value"
+        elif lo < 0 and half > 0.1 * (hi - lo):
+            why[p] = f"its 95 % interval [{ci[p][0]:.3g}, {ci[p][1]:.3g}] spans a tenth of its physical range"
+    return why
+
+
+def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> tuple[dict, set]:
+    """95 % intervals and the parameters in the Jacobian's null space.
+
+    The covariance is the wider of a cluster-robust (sandwich) one, one cluster per segment
+    (residuals inside a segment are strongly correlated, so plain Gauss-Newton makes the
+    intervals too narrow on long data), and the Gauss-Newton one (the sandwich degenerates
+    with few segments: one segment gives a zero-width interval at any optimum)."""
+    J, r = np.asarray(sol.jac, float), np.asarray(sol.fun, float)
+    n, k = J.shape
+    _, sv, vt = np.linalg.svd(J, full_matrices=False)
+    live = sv > NULL_SINGULAR * max(float(sv[0]) if sv.size else 0.0, 1e-300)
+    null = {tf.free[j] for i in np.flatnonzero(~live) for j in np.flatnonzero(np.abs(vt[i]) > 0.1)}
+    inv_s2 = np.where(live, 1.0 / np.where(live, sv, 1.0) ** 2, 0.0)
+    bread = (vt.T * inv_s2) @ vt                        # pseudo-inverse of J^T J on the live directions
+    meat = np.zeros((k, k))
     for a, b in blocks:
         g = J[a:b].T @ r[a:b]
         meat += np.outer(g, g)
     n_clusters = max(len(blocks), 2)
-    cov_z = bread @ meat @ bread * n_clusters / (n_clusters - 1)
+    cov_sandwich = bread @ meat @ bread * n_clusters / (n_clusters - 1)
+    cov_gn = bread * float(r @ r) / max(n - k, 1)
     # map the covariance of the scaled variables to the parameters (linear map)
     A = np.diag(tf.scale)
     if tf.ordered:
         A[tf.i_s, tf.i_c] = tf.scale[tf.i_c]
-    cov = A @ cov_z @ A.T
-    half = 1.96 * np.sqrt(np.maximum(np.diag(cov), 0.0))
-    return {p: [float(v - h), float(v + h)] for p, v, h in zip(tf.free, values, half)}
+    var = np.maximum(np.diag(A @ cov_sandwich @ A.T), np.diag(A @ cov_gn @ A.T))
+    half = 1.96 * np.sqrt(np.maximum(var, 0.0))
+    ci = {}
+    for p, v, h in zip(tf.free, values, half):
+        ci[p] = [float("-inf"), float("inf")] if p in null else [float(v - h), float(v + h)]
+    return ci, null

@@ -8,8 +8,12 @@ so a failed write never leaves half a model behind.
 
 from __future__ import annotations
 
+import hashlib
+import math
 import os
+import re
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 from ..atomic import write_atomic
@@ -47,16 +51,27 @@ def parse_model(text: str, source: str = "<model>") -> PlantModel:
     if "plant" not in doc:
         raise PendcError(f"{source}: missing [plant] table")
     fit = doc.get("fit", {})
-    if not isinstance(fit, dict) or set(fit) - {"free"}:
-        raise PendcError(f"{source}: [fit] may only hold 'free = [...]'")
+    if not isinstance(fit, dict) or set(fit) - {"free", "intervals"}:
+        raise PendcError(f"{source}: [fit] may only hold 'free = [...]' and an [fit.intervals] table")
     free = fit.get("free", [])
     if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
         raise PendcError(f"{source}: [fit] free must be a list of parameter names")
+    _check_intervals(fit.get("intervals", {}), source)
     hardware = doc.get("hardware", {})
     if not isinstance(hardware, dict):
         raise PendcError(f"{source}: [hardware] must be a table")
     return PlantModel(plant=doc["plant"], effects=doc.get("effects", {}), free=tuple(free), source=source,
                       hardware=hardware)
+
+
+def _check_intervals(intervals, source: str) -> None:
+    """``[fit.intervals]``: parameter -> [low, high] (the 95 % interval a fit reported)."""
+    if not isinstance(intervals, dict):
+        raise PendcError(f"{source}: [fit.intervals] must be a table of [low, high] pairs")
+    for name, pair in intervals.items():
+        if (not isinstance(pair, list) or len(pair) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in pair)):
+            raise PendcError(f"{source}: fit.intervals.{name} must be [low, high], got {pair!r}")
 
 
 def _number(v: float) -> str:
@@ -103,4 +118,67 @@ def _value(v) -> str:
 
 
 def save_model(model: PlantModel, path: str | os.PathLike, meta: dict | None = None) -> None:
+    """Write ``model`` (and ``meta``) as a model file, atomically."""
     write_atomic(path, dumps_model(model, meta))
+
+
+_TABLE = re.compile(r"^\s*\[([A-Za-z0-9_.]+)\]\s*(#.*)?$")
+_ASSIGN = re.compile(r"^(\s*)([A-Za-z_][A-Za-z0-9_]*)(\s*=\s*)([^#]*?)(\s*#.*)?$")
+
+
+def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dict) -> str:
+    """A fitted model's file written over its source model's text.
+
+    The source's comments and layout stay; each value is replaced by the fitted one,
+    effects the fit added are appended, ``[meta]`` records where the model came from and
+    ``[fit.intervals]`` holds each fitted value's 95 % interval. The source's own ``[meta]``
+    and ``[fit]`` tables are replaced. The result reads back as exactly ``model``."""
+    values = {"plant": model.plant, **{f"effects.{e}": p for e, p in model.effects.items()}}
+    out, table, seen, skip = [], None, set(), False
+    for line in source_text.splitlines():
+        head = _TABLE.match(line)
+        if head:
+            table = head.group(1)
+            skip = table in ("meta", "fit") or table.startswith(("meta.", "fit.")) or \
+                (table.startswith("effects.") and table not in values)
+            seen.add(table)
+            if skip:
+                continue
+        elif skip:
+            continue
+        else:
+            assign = _ASSIGN.match(line)
+            if assign and table in values and assign.group(2) in values[table]:
+                indent, key, eq, _, comment = assign.groups()
+                line = f"{indent}{key}{eq}{_number(values[table][key])}{comment or ''}"
+        out.append(line)
+    for table, params in values.items():
+        if table not in seen:
+            out += ["", f"[{table}]"] + [f"{k} = {_number(v)}" for k, v in params.items()]
+    head = ["# Fitted by pendc; see [meta] for the data and the command, [fit.intervals] for 95 % intervals.", "",
+            "[meta]"]
+    head += [f"{k} = {_number(v) if isinstance(v, (int, float)) else _string(str(v))}" for k, v in meta.items()]
+    tail = []
+    if model.free:
+        tail += ["", "[fit]", "free = [" + ", ".join(_string(p) for p in model.free) + "]"]
+    finite = {k: v for k, v in intervals.items() if all(map(math.isfinite, v))}
+    if finite:
+        tail += ["", "[fit.intervals]"] + [f"{k} = [{_number(lo)}, {_number(hi)}]" for k, (lo, hi) in finite.items()]
+
+    def assemble(body: str) -> str:
+        return "\n".join(head) + "\n\n" + body.strip("\n") + "\n" + ("\n".join(tail) + "\n" if tail else "")
+
+    text = assemble("\n".join(out))
+    back = parse_model(text, source="<fitted model>")
+    if back.plant != model.plant or back.effects != model.effects:
+        # the source's layout defeated the line editor (e.g. inline tables, a fitted optional
+        # parameter the source left out): write the values plainly, keeping the provenance
+        plain = replace(model, free=())
+        text = assemble(dumps_model(plain))
+    return text
+
+
+def data_fingerprint(path: str | os.PathLike) -> str:
+    """``name (sha256 first 16 hex)``: which data a fit used, reproducibly (no dates)."""
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    return f"{Path(path).name} (sha256 {digest})"

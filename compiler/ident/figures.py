@@ -1,0 +1,72 @@
+"""Labelled fit figures: what a percentage means, on which file.
+
+"fit %" used to mean three things without a label. Every figure here says what it is:
+the *k-step horizon fit* (the simulation restarts from the measured state every
+``horizon`` seconds: what identification minimises) or the *free-run fit* (one
+simulation from the first sample to the last), per file and pooled.
+fit% = 100 (1 - |sim - data| / |data - mean(data)|) per output (MATLAB's ``compare``).
+A free-run theta fit counts each extra turn of an unwrapped angle as 2 pi of error, so
+the wrapped-angle error (the angle difference folded into (-pi, pi]) is given beside it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.plant import PlantModel
+from ..sim.simulator import Simulator
+from .shooting import ShootingProblem, horizon_figures
+
+
+def _fit(err: np.ndarray, y: np.ndarray) -> float:
+    den = float(np.sum((y - np.mean(y)) ** 2))
+    if den <= 0:
+        return 0.0
+    return 100.0 * (1.0 - float(np.sqrt(np.sum(err ** 2) / den)))
+
+
+def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, outputs=None) -> dict:
+    """Free-run fit per file and pooled: ``{"label", "pooled", "files": [{"file", "experiment",
+    "fit", "wrapped_theta_rms"}]}``; a run that diverges scores -inf."""
+    problem = ShootingProblem(model, datasets, [], dt=dt, segment=1e9, outputs=outputs)
+    files, num, den = [], {}, {}
+    for rec in problem.records:
+        sim = problem.sims[rec.experiment]
+        p = sim.param_vector
+        s0 = sim.true_state(np.array([rec.x[0], rec.dx[0], rec.theta[0], rec.dtheta[0]]), p)
+        states, valid = sim.raw(rec.t, rec.u, s0, p)
+        off = sim.offset_values(p)
+        fit, extra = {}, {}
+        for o, col in (("x", 0), ("theta", 2)):
+            if o not in rec.outputs:
+                continue
+            y = {"x": rec.x, "theta": rec.theta}[o]
+            if valid < rec.t.size:
+                fit[o] = float("-inf")
+                continue
+            err = states[:, col] + off[o] - y
+            fit[o] = _fit(err, y)
+            num[o] = num.get(o, 0.0) + float(err @ err)
+            den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))
+            if o == "theta":
+                wrapped = np.angle(np.exp(1j * err))
+                extra["wrapped_theta_rms"] = float(np.sqrt(np.mean(wrapped ** 2)))
+        files.append({"file": rec.source, "experiment": rec.experiment, "fit": fit, **extra})
+    pooled = {o: (100.0 * (1.0 - float(np.sqrt(num[o] / den[o]))) if den[o] > 0 else 0.0) for o in num}
+    for f in files:   # a diverged file makes the pooled figure meaningless
+        for o, v in f["fit"].items():
+            if not np.isfinite(v):
+                pooled[o] = v
+    return {"label": "free-run fit", "pooled": pooled, "files": files}
+
+
+def figures(model: PlantModel, datasets: list, horizon: float = 0.5, dt: float = 1e-4, outputs=None) -> dict:
+    """Both labelled figures: ``{"horizon": ..., "free_run": ...}``."""
+    return {"horizon": horizon_figures(model, datasets, horizon, dt, outputs),
+            "free_run": free_run_figures(model, datasets, dt, outputs)}
+
+
+def describe(fig: dict) -> str:
+    """``0.5 s horizon fit: x 97.1 %, theta 88.0 %`` (pooled)."""
+    parts = ", ".join(f"{o} {v:.1f} %" for o, v in fig["pooled"].items())
+    return f"{fig['label']}: {parts or 'no output compared'}"

@@ -1,0 +1,124 @@
+"""Which measured outputs identification compares, and how each is weighted.
+
+Why this exists: an output that the data do not excite (a clamped cart's constant x, a
+column the file did not have) carries no information, yet scaled by its tiny spread it
+used to outweigh everything else (a micrometre of modelled cart creep against a
+constant x beat the whole swing of theta). So each output is scaled by the larger of
+its spread and its measurement resolution (the encoder count, or the quantisation step
+the file declares or shows), and outputs that are held, constant, missing, outside the
+experiment or not asked for are dropped, each with a one-line note for the user.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PendcError
+from ..model.experiments import DEFAULT_EXPERIMENT, EXPERIMENTS
+from ..sim.encoders import THETA_COUNT, X_COUNT
+
+POSITIONS = ("x", "theta")
+DEFAULT_RESOLUTION = {"x": X_COUNT, "theta": THETA_COUNT}
+HELD_COUNTS = 2.0   # an output that never moves more than this many resolution steps is held
+
+
+def experiment_of(data) -> str:
+    """The experiment a measurement declares (``free`` when it says nothing)."""
+    name = getattr(data, "experiment", None) or DEFAULT_EXPERIMENT
+    if name not in EXPERIMENTS:
+        raise PendcError(f"{getattr(data, 'source', '<data>')}: unknown experiment '{name}' "
+                         f"(known: {', '.join(EXPERIMENTS)})")
+    return name
+
+
+def _looks_quantised(y: np.ndarray, step: float) -> bool:
+    """Most sample-to-sample changes are whole multiples of ``step``."""
+    d = np.abs(np.diff(y))
+    d = d[d > 0]
+    if d.size < 10:
+        return False
+    k = d / step
+    return float(np.mean(np.abs(k - np.round(k)) < 0.05)) > 0.9
+
+
+def resolution_of(data, name: str) -> float:
+    """Measurement resolution of column ``name``: as the file or user gives it, else the
+    quantisation step the data show, else the SCT's x4 encoder count."""
+    given = (getattr(data, "resolution", None) or {}).get(name)
+    if given is not None and np.isfinite(given) and given > 0:
+        return float(given)
+    y = np.asarray(data.column(name), float)
+    d = np.abs(np.diff(y))
+    d = d[d > 0]
+    if d.size >= 10:
+        step = float(np.min(d))
+        if step > 0 and _looks_quantised(y, step):
+            return max(step, 1e-12)
+    return DEFAULT_RESOLUTION[name]
+
+
+@dataclass(frozen=True)
+class OutputPlan:
+    """Per data set, the outputs compared; per output, its scale; and notes on what was dropped."""
+
+    outputs: tuple        # per data set: tuple of output names
+    scales: dict          # output name -> scale (max of spread and resolution)
+    resolution: dict      # output name -> resolution (the finest over the data sets)
+    notes: tuple
+
+
+def plan_outputs(datasets: list, requested=None) -> OutputPlan:
+    """Choose and weight the outputs of ``datasets``; ``requested`` (e.g. ``("theta",)``)
+    restricts them. Raises PendcError when nothing is left to compare."""
+    if requested is not None:
+        requested = tuple(requested)
+        bad = [o for o in requested if o not in POSITIONS]
+        if bad:
+            raise PendcError(f"unknown output(s) {', '.join(bad)} (choose from: {', '.join(POSITIONS)})")
+    per_set, notes = [], []
+    values = {o: [] for o in POSITIONS}
+    resolution = {}
+    for data in datasets:
+        exp = experiment_of(data)
+        source = getattr(data, "source", "<data>")
+        missing = set(getattr(data, "missing", ()) or ())
+        used = []
+        for o in POSITIONS:
+            if requested is not None and o not in requested:
+                continue
+            if o in missing:
+                notes.append(f"{source}: no {o} column: {o} is not compared")
+                continue
+            if exp == "cart_held" and o == "x":
+                continue
+            if exp == "pendulum_removed" and o == "theta":
+                continue
+            y = np.asarray(data.column(o), float)
+            res = resolution_of(data, o)
+            if float(np.ptp(y)) <= HELD_COUNTS * res:
+                hint = " (the cart looks held: --experiment cart_held)" if o == "x" and exp == "free" else ""
+                notes.append(f"{source}: {o} does not move beyond {HELD_COUNTS:g} resolution steps "
+                             f"({res:.3g}): {o} is not compared{hint}")
+                continue
+            used.append(o)
+            values[o].append(y)
+            resolution[o] = min(res, resolution.get(o, np.inf))
+        if not used:
+            raise PendcError(f"{source}: no output left to compare (experiment {exp}; "
+                             f"x and theta are held, missing or not asked for)")
+        per_set.append(tuple(used))
+    scales = {o: max(float(np.std(np.concatenate(v))), resolution[o]) for o, v in values.items() if v}
+    return OutputPlan(outputs=tuple(per_set), scales=scales, resolution=resolution, notes=tuple(notes))
+
+
+def parse_outputs(text: str | None):
+    """``--outputs theta`` or ``x,theta`` -> tuple, or None for "all"."""
+    if not text:
+        return None
+    names = tuple(o.strip() for o in text.split(",") if o.strip())
+    bad = [o for o in names if o not in POSITIONS]
+    if bad or not names:
+        raise PendcError(f"--outputs takes x, theta or x,theta, got '{text}'")
+    return names
