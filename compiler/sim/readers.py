@@ -152,13 +152,20 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
         raise PendcError(f"{table.source}: no time column (names found: {', '.join(table.names())}): map one with "
                          f"--columns t=NAME, or give --sample-time S")
     t = np.asarray(t, dtype=np.float64)
-    for name in ("theta", "x", "u", "dx", "dtheta"):
-        src = origin.get(name)
-        if src is None:
-            continue
-        own = table.times.get(src)
-        if own is not None and (len(own) != len(t) or not np.array_equal(own, t)):
-            columns[name] = np.interp(t, own, columns[name])
+    mapped = [n for n in ("theta", "x", "u", "dx", "dtheta") if n in origin]
+    others = [n for n in mapped if origin[n] in table.times and not np.array_equal(table.times[origin[n]], t)]
+    if others:  # keep only the time span every signal covers: no extrapolation
+        lo = max(float(table.times[origin[n]][0]) for n in others)
+        hi = min(float(table.times[origin[n]][-1]) for n in others)
+        keep = (t >= lo) & (t <= hi)
+        if not keep.all():
+            for n in [m for m in mapped if m not in others and len(columns[m]) == len(t)]:
+                columns[n] = columns[n][keep]
+            t = t[keep]
+    for name in mapped:
+        src = origin[name]
+        if name in others:
+            columns[name] = np.interp(t, table.times[src], columns[name])
             notes.append(f"{table.source}: '{src}' has its own time vector: interpolated onto t")
         elif len(columns[name]) != len(t):
             raise PendcError(f"{table.source}: '{src}' has {len(columns[name])} samples but the time "
@@ -301,10 +308,11 @@ def _check(table: Table, columns: dict, options: ReadOptions) -> None:
         plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
                             ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
     if "x" in columns:
+        # In centimetres no position reaches 75 (the track's length): beyond that, millimetres.
+        mm = float(np.percentile(np.abs(columns["x"]), 99)) > 75.0
         plaus.check_bounded(table, "x", columns["x"], plaus.X_LIMIT, "m", "the track is 0.75 m long",
-                            ("millimetres" if float(np.abs(columns["x"]).max()) > 100 else "centimetres",
-                             "check --x-unit" if options.x_unit else
-                             f"use --x-unit {'mm' if float(np.abs(columns['x']).max()) > 100 else 'cm'}"))
+                            ("millimetres" if mm else "centimetres",
+                             "check --x-unit" if options.x_unit else f"use --x-unit {'mm' if mm else 'cm'}"))
     for name, limit in (("dx", plaus.DX_LIMIT), ("dtheta", plaus.DTHETA_LIMIT)):
         if name in columns:
             plaus.check_bounded(table, name, columns[name], limit, "per s", "faster than the rig can move",

@@ -34,7 +34,7 @@ MAX_GAP_STEPS = 5
 
 def hertz(rate: float) -> str:
     """'10 kHz', '1 kHz', '333.3 Hz'."""
-    return f"{rate / 1000:.4g} kHz" if rate >= 1000 else f"{rate:.4g} Hz"
+    return f"{rate / 1000:.4g} kHz" if rate >= 999.5 else f"{rate:.4g} Hz"
 
 
 def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None):

@@ -1,0 +1,314 @@
+"""Other labs' measurement files: every format and reading option, through the library API.
+
+Each test writes a file the way the other tool writes it (scipy.io.savemat with
+Simulink's To Workspace layouts, CSV with other names, separators and units) and checks
+the values pendc reads against the truth they were made from.
+"""
+
+import io
+import math
+import sys
+
+import numpy as np
+import pytest
+import scipy.io as sio
+
+from pendc.errors import PendcError
+from pendc.sim.measurements import format_csv, parse_measurements, read_measurements
+from pendc.sim.readers import ReadOptions, estimate_resolution
+
+Q_THETA = 2 * math.pi / 20000   # the SCT's encoder steps (spec section 5)
+Q_X = 2.5e-6
+
+
+def truth(rate=1000.0, duration=3.0):
+    """Smooth, physically plausible signals: a swing, a cart motion, an input around 5 V."""
+    t = np.arange(int(round(duration * rate))) / rate
+    theta = 0.8 * np.sin(2 * np.pi * 0.9 * t) * np.exp(-0.2 * t)
+    x = 0.1 * np.sin(2 * np.pi * 0.5 * t)
+    u = 5.0 + 2.0 * np.sin(2 * np.pi * 0.5 * t)
+    return t, theta, x, u
+
+
+def opts(**kw):
+    return ReadOptions(**kw)
+
+
+def simulink_struct(t, values, label="", block="rig/To Workspace", time=True):
+    """A To Workspace 'Structure with time' (or 'Structure' with time=False) as MATLAB saves it."""
+    values = np.asarray(values)
+    width = 1 if values.ndim == 1 else values.shape[1]
+    signals = {"values": values if values.ndim == 2 else values[:, None], "dimensions": float(width),
+               "label": label, "blockName": block}
+    return {"time": t[:, None] if time else np.zeros((0, 0)), "signals": signals}
+
+
+# ---------------------------------------------------------------- .mat
+
+def test_simulink_structure_with_time_10khz_degrees_from_upright(tmp_path):
+    """The issue's file: one To Workspace block, [theta x u] at 10 kHz, theta in degrees from upright."""
+    t, theta, x, u = truth(rate=10_000.0)
+    theta_file = np.degrees(theta - math.pi)  # 0 upright; pendc's theta = file + pi
+    path = tmp_path / "swing.mat"
+    sio.savemat(path, {"simout": simulink_struct(t, np.column_stack([theta_file, x, u]))})
+    m = read_measurements(path, options=opts(columns={"theta": "simout:1", "x": "simout:2", "u": "simout:3"},
+                                             theta_unit="deg", theta_zero="upright", uniform=True))
+    assert np.allclose(np.diff(m.t), 1e-3)  # decimated to 1 kHz
+    assert len(m.t) == len(t) // 10
+    assert any("decimated from 10 kHz" in n and "1 kHz" in n for n in m.notes)
+    # Each sample is the mean of a 10-sample block, placed at the block's centre: compare with the
+    # truth there (the boxcar's curvature error is ~(1 ms)^2/24 * |theta''| < 1e-6 rad).
+    t_true, th_true, x_true, u_true = truth(rate=10_000.0)
+    centre = t_true[: len(m.t) * 10].reshape(-1, 10).mean(axis=1)
+    assert np.allclose(m.t, centre)
+    assert np.max(np.abs(m.theta - np.interp(m.t, t_true, th_true))) < 1e-5
+    assert np.max(np.abs(m.x - np.interp(m.t, t_true, x_true))) < 1e-6
+    assert m.experiment == "free" and m.missing == ()
+
+
+def test_simulink_signals_array_with_labels_map_themselves(tmp_path):
+    t, theta, x, u = truth()
+    dtype = [("values", "O"), ("dimensions", "O"), ("label", "O"), ("blockName", "O")]
+    signals = np.array([(theta[:, None], 1.0, "theta", "rig/Angle"), (x[:, None], 1.0, "x", "rig/Pos"),
+                        (u[:, None], 1.0, "u", "rig/Drive")], dtype=dtype).reshape(1, 3)
+    path = tmp_path / "run.mat"
+    sio.savemat(path, {"logs": {"time": t[:, None], "signals": signals}})
+    m = read_measurements(path)
+    assert np.array_equal(m.t, t) and np.array_equal(m.theta, theta) and np.array_equal(m.u, u)
+
+
+def test_one_variable_per_block_with_tout(tmp_path):
+    """Several To Workspace blocks ('Structure', no time) plus the model's tout, combined."""
+    t, theta, x, u = truth()
+    path = tmp_path / "run.mat"
+    sio.savemat(path, {"Theta": simulink_struct(t, theta, time=False), "X": simulink_struct(t, x, time=False),
+                       "U": simulink_struct(t, u, time=False), "tout": t[:, None]})
+    m = read_measurements(path)  # names match case-insensitively, tout is the time
+    assert np.array_equal(m.t, t) and np.array_equal(m.x, x) and np.array_equal(m.theta, theta)
+
+
+def test_structure_without_time_needs_sample_time(tmp_path):
+    t, theta, x, u = truth()
+    path = tmp_path / "run.mat"
+    sio.savemat(path, {"data": simulink_struct(t, np.column_stack([u, x, theta]), time=False)})
+    cols = {"u": "data:1", "x": "data:2", "theta": "data:3"}
+    with pytest.raises(PendcError) as info:
+        read_measurements(path, options=opts(columns=cols))
+    msg = str(info.value)
+    assert "no time" in msg and "--sample-time" in msg and "data:1, data:2, data:3" in msg
+    m = read_measurements(path, options=opts(columns=cols, sample_time=1e-3))
+    assert np.allclose(m.t, t) and np.array_equal(m.theta, theta)
+    assert any("no time vector" in n for n in m.notes)
+
+
+def test_array_format_matrix_and_named_vectors(tmp_path):
+    t, theta, x, u = truth()
+    path = tmp_path / "arr.mat"
+    sio.savemat(path, {"rec": np.column_stack([t, u, x, theta])})  # Simulink 'Array' with time first
+    m = read_measurements(path, options=opts(columns={"t": "rec:1", "u": "rec:2", "x": "rec:3", "theta": "rec:4"}))
+    assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t)
+    path = tmp_path / "vec.mat"
+    sio.savemat(path, {"t": t, "u": u, "x": x, "theta": theta, "experiment": "free"})  # row vectors
+    m = read_measurements(path)
+    assert np.array_equal(m.x, x) and m.meta["experiment"] == "free"
+
+
+def test_timeseries_like_structs(tmp_path):
+    t, theta, x, u = truth()
+    path = tmp_path / "ts.mat"
+    sio.savemat(path, {name: {"Time": t[:, None], "Data": v[:, None]} for name, v in
+                       (("theta", theta), ("x", x), ("u", u))})
+    m = read_measurements(path)
+    assert np.array_equal(m.t, t) and np.array_equal(m.theta, theta)
+
+
+def test_signals_with_different_time_vectors_are_interpolated(tmp_path):
+    t, theta, x, u = truth()
+    t2 = t[::2]
+    path = tmp_path / "two_rates.mat"
+    sio.savemat(path, {"theta": simulink_struct(t, theta), "x": simulink_struct(t, x),
+                       "u": simulink_struct(t2, u[::2])})
+    m = read_measurements(path)
+    assert np.array_equal(m.t, t[:-1])  # t2 ends one sample earlier: nothing is extrapolated
+    assert np.array_equal(m.theta, theta[:-1])
+    assert np.max(np.abs(m.u - u[:-1])) < 1e-4  # linear interpolation of a 0.5 Hz sine at 500 Hz
+    assert any("own time vector" in n for n in m.notes)
+
+
+def test_mat_that_cannot_be_mapped_lists_the_names(tmp_path):
+    t, theta, x, u = truth()
+    path = tmp_path / "odd.mat"
+    sio.savemat(path, {"a": t, "b": theta, "c": np.column_stack([x, u])})
+    with pytest.raises(PendcError) as info:
+        read_measurements(path)
+    msg = str(info.value)
+    assert "\n" not in msg and "missing" in msg and "a, b, c:1, c:2" in msg and "--columns" in msg
+    with pytest.raises(PendcError, match=r"--columns theta=q: no such column.*names found: a, b, c:1, c:2"):
+        read_measurements(path, options=opts(columns={"theta": "q"}))
+
+
+def test_mat_v73_is_refused_with_the_way_out(tmp_path):
+    path = tmp_path / "big.mat"
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 ."
+    path.write_bytes(header.ljust(512, b" ") + b"\x89HDF\r\n\x1a\n" + bytes(64))
+    with pytest.raises(PendcError) as info:
+        read_measurements(path)
+    msg = str(info.value)
+    assert "v7.3" in msg and "-v7" in msg and "\n" not in msg
+
+
+def test_damaged_mat_file(tmp_path):
+    path = tmp_path / "cut.mat"
+    good = tmp_path / "good.mat"
+    t, theta, x, u = truth()
+    sio.savemat(good, {"t": t, "u": u, "x": x, "theta": theta})
+    path.write_bytes(good.read_bytes()[:300])
+    with pytest.raises(PendcError) as info:
+        read_measurements(path)
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+# ---------------------------------------------------------------- CSV dialects and units
+
+def test_csv_other_names_semicolons_and_units():
+    t, theta, x, u = truth()
+    rows = [f"{a!r};{b!r};{c!r};{d!r}" for a, b, c, d in
+            zip((t * 1e3).tolist(), (x * 1e3).tolist(), (u * 1e3).tolist(), np.degrees(theta).tolist())]
+    text = "Time_ms;CartPos_mm;Vin_mV;Theta1\n" + "\n".join(rows) + "\n"
+    m = parse_measurements(text, options=opts(columns={"t": "Time_ms", "x": "CartPos_mm", "u": "Vin_mV",
+                                                       "theta": "Theta1"},
+                                              t_unit="ms", x_unit="mm", u_unit="mV", theta_unit="deg"))
+    assert np.allclose(m.t, t, rtol=0, atol=1e-12) and np.allclose(m.x, x, atol=1e-12)
+    assert np.allclose(m.u, u, atol=1e-9) and np.allclose(m.theta, theta, atol=1e-12)
+    assert list(m.columns)[:4] == ["t", "u", "x", "theta"]
+
+
+@pytest.mark.parametrize("sep, option", [("\t", ...), ("\t", "\t"), ("   ", ...), (" ", None), (";", ...),
+                                         (";", ";"), ("|", "|")])
+def test_separators_detected_or_given(sep, option):
+    """``...`` detects the separator from the header; None is runs of whitespace."""
+    t, theta, x, u = truth(duration=0.2)
+    rows = [sep.join(repr(v) for v in r) for r in zip(t.tolist(), u.tolist(), x.tolist(), theta.tolist())]
+    text = "# rig: B\n" + sep.join(["t", "u", "x", "theta"]) + "\n" + "\n".join(rows) + "\n"
+    m = parse_measurements(text, options=opts(separator=option))
+    assert np.array_equal(m.theta, theta) and m.meta == {"rig": "B"}
+
+
+def test_theta_zero_upright_and_sign():
+    t, theta, x, u = truth()
+    cols = {"t": t, "u": u, "x": x, "theta": -(theta - math.pi)}  # from upright, counter-clockwise
+    m = parse_measurements(format_csv(cols), options=opts(theta_zero="upright", theta_sign=-1.0))
+    assert np.allclose(m.theta, theta, atol=1e-12)
+
+
+def test_decimal_comma_is_named():
+    with pytest.raises(PendcError, match=r"line 3: column 'x': not a number: '0,5' \(decimal comma"):
+        parse_measurements("t;u;x;theta\n0;5;0;0\n0.001;5;0,5;0\n")
+
+
+def test_standard_input(monkeypatch):
+    t, theta, x, u = truth(duration=0.1)
+    data = format_csv({"t": t, "u": u, "x": x, "theta": theta}).encode()
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+    m = read_measurements("-")
+    assert m.source == "<stdin>" and np.array_equal(m.theta, theta)
+
+
+# ---------------------------------------------------------------- experiments and missing axes
+
+def test_cart_held_file_without_x_and_u():
+    t, theta, _, _ = truth()
+    text = "# experiment: cart_held\n" + format_csv({"t": t, "theta": theta})
+    m = parse_measurements(text)
+    assert m.experiment == "cart_held" and m.missing == ("x", "u")
+    assert np.array_equal(m.x, np.zeros_like(t)) and np.array_equal(m.u, np.zeros_like(t))
+    assert any("filled" in n for n in m.notes)
+    m = parse_measurements(format_csv({"t": t, "theta": theta}), options=opts(experiment="cart_held", u_value=5.26))
+    assert np.all(m.u == 5.26)
+
+
+def test_pendulum_removed_without_theta_and_user_allowed_missing():
+    t, _, x, u = truth()
+    m = parse_measurements(format_csv({"t": t, "u": u, "x": x}), options=opts(experiment="pendulum_removed"))
+    assert m.missing == ("theta",) and np.all(m.theta == 0)
+    m = parse_measurements(format_csv({"t": t, "x": x, "theta": x}), options=opts(allow_missing=("u",)))
+    assert m.missing == ("u",) and m.experiment == "free"
+
+
+def test_missing_axis_without_permission_says_how():
+    t, theta, _, _ = truth()
+    with pytest.raises(PendcError) as info:
+        parse_measurements(format_csv({"t": t, "theta": theta}), source="swing.csv")
+    msg = str(info.value)
+    assert msg.startswith("swing.csv: missing column(s) u, x") and "--experiment cart_held" in msg
+
+
+def test_unknown_experiment_names_the_known_ones():
+    with pytest.raises(PendcError, match=r"run.csv: unknown experiment 'clamped' \(known: free, cart_held"):
+        parse_measurements("# experiment: clamped\nt,u,x,theta\n0,5,0,0\n", source="run.csv")
+
+
+# ---------------------------------------------------------------- resolution
+
+def test_resolution_estimated_from_encoder_counts():
+    t, theta, x, u = truth()
+    rng = np.random.default_rng(3)
+    cols = {"t": t, "u": u + rng.normal(0, 0.01, len(t)), "x": np.round(x / Q_X) * Q_X,
+            "theta": np.round(theta / Q_THETA) * Q_THETA}
+    m = parse_measurements(format_csv(cols))
+    assert m.resolution["theta"] == pytest.approx(Q_THETA, rel=1e-6)
+    assert m.resolution["x"] == pytest.approx(Q_X, rel=1e-6)
+    assert "u" not in m.resolution  # noisy analogue input: no step to find
+    m = parse_measurements(format_csv(cols), options=opts(resolution={"theta": 1e-3}))
+    assert m.resolution["theta"] == 1e-3
+
+
+def test_resolution_of_a_12_bit_input_and_of_unquantised_data():
+    lsb = 10.0 / 4095
+    u = np.round((5 + 3 * np.sin(np.linspace(0, 20, 5000))) / lsb) * lsb
+    assert estimate_resolution(u) == pytest.approx(lsb, rel=1e-6)
+    assert estimate_resolution(np.sin(np.linspace(0, 20, 5000))) is None
+    assert estimate_resolution(np.zeros(100)) is None
+
+
+# ---------------------------------------------------------------- sample rates
+
+def test_uniform_1khz_file_is_kept_as_is():
+    t, theta, x, u = truth()
+    m = parse_measurements(format_csv({"t": t, "u": u, "x": x, "theta": theta}), options=opts(uniform=True))
+    assert np.array_equal(m.t, t) and m.notes == ()
+
+
+def test_30_percent_rows_dropped_is_resampled_with_a_note():
+    t, theta, x, u = truth(duration=5.0)
+    keep = np.random.default_rng(5).random(len(t)) > 0.3
+    keep[[0, -1]] = True
+    cols = {"t": t[keep], "u": u[keep], "x": x[keep], "theta": theta[keep]}
+    m = parse_measurements(format_csv(cols), options=opts(uniform=True))
+    assert np.allclose(np.diff(m.t), 1e-3)
+    assert m.notes and "non-uniform" in m.notes[0] and "linear interpolation" in m.notes[0]
+    assert np.max(np.abs(m.theta - np.interp(m.t, t, theta))) < 1e-3
+
+
+def test_long_gap_is_refused_with_its_line():
+    t, theta, x, u = truth()
+    keep = np.ones(len(t), bool)
+    keep[1000:1050] = False   # 51 ms without data
+    keep[200] = False
+    cols = {"t": t[keep], "u": u[keep], "x": x[keep], "theta": theta[keep]}
+    with pytest.raises(PendcError) as info:
+        parse_measurements(format_csv(cols), source="gappy.csv", options=opts(uniform=True))
+    msg = str(info.value)
+    assert "gappy.csv: line 1001: a gap of 0.051 s" in msg and "too long" in msg
+
+
+def test_rate_option_downsamples_and_upsamples():
+    t, theta, x, u = truth()
+    cols = format_csv({"t": t, "u": u, "x": x, "theta": theta})
+    m = parse_measurements(cols, options=opts(uniform=True, rate=500.0))
+    assert np.allclose(np.diff(m.t), 2e-3) and "blocks of 2" in m.notes[0]
+    m = parse_measurements(cols, options=opts(uniform=True, rate=300.0))  # not an integer ratio
+    assert np.allclose(np.diff(m.t), 1 / 300) and "each output interval" in m.notes[0]
+    assert np.max(np.abs(m.x - np.interp(m.t, t, x))) < 1e-4
+    m = parse_measurements(cols, options=opts(uniform=True, rate=2000.0))
+    assert np.allclose(np.diff(m.t), 5e-4) and "upsampled" in m.notes[0]
