@@ -1,4 +1,4 @@
-"""pendc compare (pendc.ident.compare, report_html): fit%, windows, regimes, whiteness, report.
+"""pendc compare (pendc.ident.compare): fit% (free run, wrapped, horizon), headline, windows, regimes, whiteness.
 
 Data are made here by simulating a known model on short stimuli, so every
 expectation is exact: the same model fits 100 %, a model missing a cable spring
@@ -16,10 +16,8 @@ import pytest
 
 from pendc.errors import PendcError
 from pendc.ident import compare as cmp
-from pendc.ident import report_html
 from pendc.ident.compare import (Comparison, allowed_outside, autocorrelation, compare, cross_correlation,
                                  fit_percent, regimes, worst_windows)
-from pendc.ident.report_html import write_html_report
 from pendc.ident.report_text import format_text as format_comparison
 from pendc.model.modelfile import load_model
 from pendc.sim import stimuli
@@ -221,46 +219,126 @@ def test_missing_output_is_one_line_error(drop):
     assert "\n" not in msg and drop in msg and "run.csv" in msg
 
 
-def test_html_report_is_self_contained(spring, tmp_path):
-    path = tmp_path / "report.html"
-    write_html_report(spring, path)
-    text = path.read_text(encoding="utf-8")
-    assert text.startswith("<!DOCTYPE html>") and "data:image/png;base64," in text
-    # horizon segments (whole run and zoom), free run, residual clouds, correlations
-    assert len(re.findall(r"data:image/png;base64,", text)) == 5
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]*)""", text, re.IGNORECASE)
-    assert refs and all(r.startswith("data:image/png;base64,") for r in refs)
-    assert "<link" not in text and "@import" not in text and "url(" not in text
-    assert "cart motion" in text and "worst windows (residual of the free run)" in text
-    assert [p.name for p in tmp_path.iterdir()] == ["report.html"]     # no temporary left behind
-
-
-def test_html_report_written_atomically(spring, tmp_path, monkeypatch):
-    path = tmp_path / "report.html"
-    path.write_text("old report")
-    calls = []
-    real = report_html.write_atomic
-    monkeypatch.setattr(report_html, "write_atomic", lambda p, text: (calls.append(p), real(p, text)))
-    write_html_report(spring, path, title="run <7>")
-    assert calls == [path] and "run &lt;7&gt;" in path.read_text()
-
-    def broken(fig):
-        raise RuntimeError("renderer died")
-    path.write_text("old report")
-    monkeypatch.setattr(report_html, "_png", broken)
-    with pytest.raises(RuntimeError):
-        write_html_report(spring, path)
-    assert path.read_text() == "old report"                      # a failed render leaves the old file
-    assert [p.name for p in tmp_path.iterdir()] == ["report.html"]
-
-
-def test_html_report_into_missing_folder(same, tmp_path):
-    with pytest.raises(PendcError) as info:
-        write_html_report(same, tmp_path / "missing" / "r.html")
-    assert "does not exist" in str(info.value)
-
-
 def test_comparison_is_frozen(same):
     assert isinstance(same, Comparison)
     with pytest.raises(Exception):
         same.fit = {}
+
+
+# --- labelled figures: wrapped angle, turns, horizon fit, headline ---------------------------------
+
+def test_wrap_difference_is_half_open():
+    from pendc.ident.compare import wrap_difference
+    got = wrap_difference([np.pi, -np.pi, 3 * np.pi, 2 * np.pi + 0.1, -0.1, 0.0, -2 * np.pi - 0.1])
+    assert got == pytest.approx([np.pi, np.pi, np.pi, 0.1, -0.1, 0.0, -0.1], abs=1e-12)
+    many = wrap_difference(np.linspace(-20, 20, 4001))
+    assert np.all(many > -np.pi) and np.all(many <= np.pi)
+
+
+def test_turns_apart():
+    from pendc.ident.compare import turns_apart
+    t = np.arange(10) * 0.1
+    assert turns_apart(t, np.zeros(10)) == (0, None)
+    e = np.r_[np.zeros(4), np.full(3, 2 * np.pi + 0.01), np.full(3, -4.1 * np.pi)]
+    assert turns_apart(t, e) == (2, pytest.approx(0.4))
+
+
+def test_extra_turn_is_counted_and_wrapped(model):
+    """Data that are the model's own run except that theta reads one turn more after 1 s: the
+    free-run theta fit pays 2 pi per sample for it, the wrapped fit is perfect, and the report says so."""
+    t, u = stimuli.chirp(duration=3)
+    d = measured(model, t, u)
+    theta = d.columns["theta"] + np.where(t >= 1.0, 2 * np.pi, 0.0)
+    d = Measurement(t=d.t, u=d.u, columns={**d.columns, "theta": theta}, meta={}, source="turned.csv")
+    c = compare(model, d)
+    assert c.turns == 1 and c.turn_time == pytest.approx(1.0)
+    assert c.fit["theta"] < 0.0
+    assert c.fit_theta_wrapped == pytest.approx(100.0, abs=1e-9)
+    text = format_comparison(c)
+    assert "1 whole turn away" in text and "2π of error" in text
+    assert re.search(r"angle error wrapped to \(-π, π\]: free-run fit 100\.00 %", text)
+    out = c.to_json()
+    assert out["turns"]["max"] == 1 and out["fit_theta_wrapped"]["theta"] == pytest.approx(100.0)
+
+
+def test_horizon_fit_agrees_with_shooting(model):
+    """Two implementations of the 0.5 s horizon fit (compare's segments, the shooting residual
+    that diagnose and fit use) give the same figure on quantised data with a missing spring."""
+    from pendc.ident.shooting import horizon_fit
+    t, u = stimuli.chirp(duration=3)
+    r = Simulator(model.with_effect("cart_spring", SPRING), 1e-4, "rk4")(t, u, quantize=True)
+    data = parse_measurements(format_csv({"t": t, "u": u, "x": r["x"], "theta": r["theta"]}))
+    c = compare(model, data)
+    reference = horizon_fit(model, [data])
+    for k in ("x", "theta"):
+        assert c.fit_horizon[k] == pytest.approx(float(reference[k]), abs=1e-6)
+    assert c.fit_horizon["x"] > c.fit["x"]        # restarts keep the missing spring's error from growing
+
+
+def test_horizon_segments_restart_from_the_data(spring):
+    run = spring.horizon_run
+    assert run.horizon == 0.5 and run.starts[:3] == (0, 500, 1000)
+    for k in ("x", "theta"):
+        assert run.restarts[k] == pytest.approx(spring.measured[k][list(run.starts)])
+        tt, yy = run.plot_lines(k)
+        assert tt.shape == yy.shape and np.isnan(tt).sum() == len(run.starts)
+        # each plotted segment starts on the measured value
+        first = np.r_[0, np.flatnonzero(np.isnan(tt))[:-1] + 1]
+        assert yy[first] == pytest.approx(spring.measured[k][list(run.starts)])
+
+
+def test_headline_is_free_run_where_a_free_run_is_reproducible(spring):
+    h = spring.headline
+    assert h.metric == "free_run" and min(h.twin_fit.values()) > 90.0
+    first, why = format_comparison(spring).splitlines()[:2]
+    assert first.startswith("headline: free-run fit ") and "meaningful" in why
+    assert spring.residual_of == "free run"
+
+
+@pytest.fixture(scope="module")
+def sensitive():
+    """The first 12 s of the shipped validation run (a swing-up that goes over the top), as
+    measured, with the model that made it: a free run from one encoder count away diverges."""
+    from pendc.sim.measurements import read_measurements
+    from pathlib import Path
+    d = read_measurements(Path(__file__).resolve().parents[1] / "data" / "hidden_spring_validation.csv")
+    n = 12000
+    cut = parse_measurements(format_csv({k: d.columns[k][:n] for k in ("t", "u", "x", "theta")}),
+                             source="validation_12s.csv")
+    return cut
+
+
+def test_headline_is_horizon_where_the_free_run_diverges(model, sensitive):
+    truth = model.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05})   # data/generate.py's values
+    c = compare(truth, sensitive)
+    assert c.headline.metric == "horizon" and c.headline.twin_fit["theta"] < 90.0
+    first, why = format_comparison(c).splitlines()[:2]
+    assert first.startswith("headline: 0.5 s horizon fit x ") and "not meaningful" in why
+    assert "one encoder count away" in why
+    assert c.fit_horizon["theta"] > 99.0 and c.fit["theta"] < c.fit_horizon["theta"]
+    assert c.residual_of == "0.5 s horizon simulation"
+    assert c.to_json()["headline"]["metric"] == "horizon"
+
+
+def test_twin_fit_measures_the_divergence_of_the_model_itself():
+    from pendc.ident.headline import choose, twin_fit
+    y = {"x": np.linspace(0, 1, 100)}
+    steady = twin_fit(lambda s: {"x": np.full(100, s[0])}, np.zeros(4), y)   # moves by exactly one count
+    assert steady["x"] == pytest.approx(100 * (1 - 10 * X_COUNT / np.linalg.norm(y["x"] - 0.5)))
+    blown = twin_fit(lambda s: {"x": np.full(100, 1e6 * s[0])}, np.zeros(4), y)
+    assert choose(steady, 0.5).metric == "free_run" and choose(blown, 0.5).metric == "horizon"
+    assert choose({"x": float("nan")}, 0.5).metric == "free_run"       # nothing varies: nothing to lose
+
+
+def test_held_cart_compares_theta_only(model):
+    """A free swing with the cart clamped: the model is simulated as held and only theta is compared."""
+    held = model.for_experiment("cart_held")
+    t = np.arange(0, 4, 1e-3)
+    u = np.full_like(t, model.effects["drive"]["V_off"])
+    r = Simulator(held, 1e-4, "rk4")(t, u, x0=(0.0, 0.0, 0.6, 0.0), quantize=True)
+    text = format_csv({"t": t, "u": u, "x": np.zeros_like(t), "theta": r["theta"]}, meta={"experiment": "cart_held"})
+    c = compare(model, parse_measurements(text, source="held.csv"))
+    assert c.experiment == "cart_held" and c.outputs == ("theta",)
+    # free run: the initial velocity is a 10 ms slope of a swing released from rest, a little off
+    assert set(c.fit) == {"theta"} and c.fit["theta"] > 95.0 and c.fit_horizon["theta"] > 99.0
+    assert "experiment cart_held" in format_comparison(c)

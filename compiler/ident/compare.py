@@ -189,7 +189,11 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     experiment = experiment_of(data)
     if experiment != getattr(model, "experiment", "free") and hasattr(model, "for_experiment"):
         model = model.for_experiment(experiment)
-    outputs = _outputs(model)
+    absent = set(getattr(data, "missing", ()))     # axes the file lacked, filled with a constant
+    outputs = tuple(k for k in _outputs(model) if k not in absent)
+    if not outputs:
+        raise PendcError(f"{data.source}: nothing to compare: the file has neither x nor theta "
+                         f"(experiment {experiment})")
     missing = " or ".join(repr(k) for k in outputs if k not in data.columns)
     if missing:
         raise PendcError(f"{data.source}: compare needs measured {' and '.join(outputs)}; no column {missing} "

@@ -82,7 +82,7 @@ def _figures(c: Comparison) -> list:
         free.append(f"  theta: the simulated pendulum ends up {c.turns} whole turn{'s' if c.turns > 1 else ''} "
                     f"away from the measured one (first at t = {c.turn_time:.2f} s); the free-run fit counts "
                     f"each extra turn as 2π of error")
-    if "theta" in c.outputs:
+    if "theta" in c.outputs and (c.turns or abs(c.fit_theta_wrapped - c.fit["theta"]) >= 0.005):
         free.append(f"  theta with the angle error wrapped to (-π, π]: free-run fit {percent(c.fit_theta_wrapped)}, "
                     f"rms error {amount('theta', rms['theta_wrapped'])}")
     horizon = [f"{hl.horizon_label(c.horizon)} (restarting every {c.horizon:g} s from the measured state; the "

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import PendcError
 from . import headline as hl
 from .compare import Comparison, _clean, compare, model_name
 from .horizon import DEFAULT_HORIZON
@@ -79,20 +80,30 @@ class SideBySide:
 
 
 def labels_for(models) -> tuple:
-    """``A: stem``, ``B: stem``...: short, distinct names for the table's columns."""
-    out = []
+    """``A: stem``, ``B: stem``...: short, distinct names for the table's columns. Two models
+    from the same file (one changed in memory) are told apart by the effects they differ in."""
+    out, seen = [], []
     for j, m in enumerate(models):
         letter = chr(ord("A") + j) if j < 26 else f"M{j + 1}"
-        name = model_name(m)
-        out.append(f"{letter}: {Path(name).stem}" if m is not None and m.source else f"{letter}: {name}")
+        name = Path(model_name(m)).stem if m is not None and m.source else model_name(m)
+        if name in seen and m is not None:
+            first = models[seen.index(name)]
+            diff = [f"+{e}" for e in m.effects if e not in first.effects] + \
+                [f"-{e}" for e in first.effects if e not in m.effects]
+            name = f"{name} {' '.join(diff)}" if diff else f"{name} #{j + 1}"
+        seen.append(Path(model_name(m)).stem if m is not None and m.source else model_name(m))
+        out.append(f"{letter}: {name}")
     return tuple(out)
 
 
 def compare_models(models, datasets, dt: float = 1e-4, method: str = "rk4",
-                   horizon: float = DEFAULT_HORIZON) -> SideBySide:
-    """Compare every model in ``models`` with every run in ``datasets`` (see :class:`SideBySide`)."""
+                   horizon: float = DEFAULT_HORIZON, labels=None) -> SideBySide:
+    """Compare every model in ``models`` with every run in ``datasets`` (see :class:`SideBySide`);
+    ``labels`` name the models (default: :func:`labels_for`)."""
+    if labels is not None and len(labels) != len(models):
+        raise PendcError(f"{len(labels)} labels for {len(models)} models")
     runs = tuple(tuple(compare(m, d, dt=dt, method=method, horizon=horizon) for m in models) for d in datasets)
-    return SideBySide(labels=labels_for(models), runs=runs)
+    return SideBySide(labels=tuple(labels) if labels is not None else labels_for(models), runs=runs)
 
 
 def change_words(before: float, after: float) -> str:
