@@ -118,7 +118,7 @@ def add_data_options(p, many: bool = True) -> None:
                    help="where the file's theta is 0 (default hanging); upright: theta = theta_file + pi")
     g.add_argument("--theta-sign", type=int, choices=(1, -1), default=1,
                    help="-1 when the file's theta grows counter-clockwise (pendc's grows clockwise, "
-                        "seen from the front, x positive to the left; spec section 1)")
+                        "with x positive to the left; spec section 1)")
     g.add_argument("--experiment", metavar="NAME[,NAME...]",
                    help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
                         f"'# experiment:' line or free); one name, or one per file")

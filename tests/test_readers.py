@@ -312,3 +312,53 @@ def test_rate_option_downsamples_and_upsamples():
     assert np.max(np.abs(m.x - np.interp(m.t, t, x))) < 1e-4
     m = parse_measurements(cols, options=opts(uniform=True, rate=2000.0))
     assert np.allclose(np.diff(m.t), 5e-4) and "upsampled" in m.notes[0]
+
+
+def test_wrapped_angle_is_unwrapped_with_a_note():
+    t = np.arange(3000) * 1e-3
+    theta = 20.0 * t  # 60 rad: about ten turns
+    wrapped = (theta + math.pi) % (2 * math.pi) - math.pi
+    m = parse_measurements(format_csv({"t": t, "u": t * 0 + 5, "x": t * 0, "theta": wrapped}))
+    assert np.allclose(m.theta, theta, atol=1e-9)
+    assert any("wrapped" in n and "unwrapped" in n for n in m.notes)
+
+
+# ---------------------------------------------------------------- streaming
+
+MEMORY_PROBE = r"""
+import json, resource, sys
+import numpy as np, scipy.io
+from pendc.sim import csvread, matread, plausibility, readers, resample
+from pendc.sim.measurements import read_measurements
+from pendc.model import experiments
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+m = read_measurements(sys.argv[1], options=readers.ReadOptions(uniform=True))
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(json.dumps({"rows": len(m.t), "extra": peak - base}))
+"""
+FIXED_BYTES = 12 << 20   # the reader's text blocks and loadtxt's buffers, whatever the file's length
+BYTES_PER_ROW = 64       # 4 float64 columns (32 B) plus the checks' largest temporaries
+
+
+def test_reading_streams_in_bounded_memory(tmp_path):
+    """Peak memory grows by at most FIXED_BYTES + BYTES_PER_ROW * rows: a 1e7-row file then needs
+    under 0.75 GiB (bench/bench_read_csv.py measures the real thing). Reading the whole text at
+    once and splitting it into lines (the reader before streaming) costs ~4 bytes per byte of file:
+    ~136 B per row here, 41 MB for this file, above the bound."""
+    import json
+    import subprocess
+
+    rows = 300_000
+    t = np.arange(rows) * 1e-3
+    data = np.column_stack([t, 5 + np.sin(t), np.round(0.1 * np.sin(t) / Q_X) * Q_X,
+                            np.round(np.sin(3 * t) / Q_THETA) * Q_THETA])
+    path = tmp_path / "long.csv"
+    with open(path, "w") as f:
+        f.write("t,u,x,theta\n")
+        np.savetxt(f, data, fmt=["%.3f", "%.6f", "%.7g", "%.9g"], delimiter=",")
+    res = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(path)], capture_output=True, text=True,
+                         check=True)
+    probe = json.loads(res.stdout)
+    assert probe["rows"] == rows
+    assert probe["extra"] < FIXED_BYTES + BYTES_PER_ROW * rows, probe
+    assert FIXED_BYTES + BYTES_PER_ROW * 10_000_000 < 0.75 * (1 << 30)

@@ -78,10 +78,10 @@ def check_time_unit(table: Table, t: np.ndarray, given: bool) -> None:
 def check_bounded(table: Table, name: str, values: np.ndarray, limit: float, unit: str, why: str,
                   fix: str) -> None:
     """Values beyond ``limit``: in a few rows an outlier (named), in many a unit mistake."""
+    if float(values.max()) <= limit and float(values.min()) >= -limit:  # no full-length temporaries
+        return
     out = np.abs(values) > limit
     count = int(np.count_nonzero(out))
-    if not count:
-        return
     if count > UNIT_FRACTION * len(values):
         peak = float(np.abs(values).max())
         raise PendcError(f"{table.source}: column '{name}' looks like {fix[0]} ({count} of {len(values)} values beyond "
@@ -93,18 +93,40 @@ def check_bounded(table: Table, name: str, values: np.ndarray, limit: float, uni
 
 def check_spikes(table: Table, name: str, values: np.ndarray, limit: float, unit: str) -> None:
     """A sample that leaves both neighbours by more than ``limit`` while they agree: an outlier."""
-    if len(values) < 3:
-        return
-    with np.errstate(invalid="ignore", over="ignore"):
-        before = np.abs(values[1:-1] - values[:-2])
-        after = np.abs(values[1:-1] - values[2:])
-        around = np.abs(values[2:] - values[:-2])
-        spike = (np.minimum(before, after) > limit) & (around < 0.5 * np.minimum(before, after))
-    if spike.any():
-        k = int(np.argmax(spike)) + 1
-        raise PendcError(f"{table.source}: {table.where(k)}: {name} = {float(values[k]):.6g} is an outlier (it jumps "
-                         f"more than {limit:g} {unit} away from both neighbours, "
-                         f"{float(values[k - 1]):.6g} and {float(values[k + 1]):.6g})")
+    block = 1 << 20  # in blocks, so a 1e7-row file needs no full-length temporaries
+    for start in range(0, max(len(values) - 2, 0), block):
+        v = values[start:start + block + 2]
+        with np.errstate(invalid="ignore", over="ignore"):
+            before = np.abs(v[1:-1] - v[:-2])
+            after = np.abs(v[1:-1] - v[2:])
+            jump = np.minimum(before, after)
+            spike = (jump > limit) & (np.abs(v[2:] - v[:-2]) < 0.5 * jump)
+        if spike.any():
+            _spike_error(table, name, values, start + int(np.argmax(spike)) + 1, limit, unit)
+
+
+def _spike_error(table: Table, name: str, values: np.ndarray, k: int, limit: float, unit: str) -> None:
+    raise PendcError(f"{table.source}: {table.where(k)}: {name} = {float(values[k]):.6g} is an outlier (it jumps "
+                     f"more than {limit:g} {unit} away from both neighbours, "
+                     f"{float(values[k - 1]):.6g} and {float(values[k + 1]):.6g})")
+
+
+def unwrap_if_wrapped(theta: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(theta, count)``: an angle recorded modulo one turn, unwrapped, and its number of wraps.
+
+    A jump of more than pi between samples is a wrap when it is within 0.5 rad of a
+    whole turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample at 100 Hz);
+    angles in degrees jump by 360 and are left for :func:`check_radians`.
+    """
+    d = np.diff(theta)
+    jumps = np.abs(d) > math.pi
+    if not jumps.any():
+        return theta, 0
+    big = d[jumps]
+    turns = np.round(big / (2 * math.pi))
+    if np.any(np.abs(big - 2 * math.pi * turns) > 0.5) or np.any(turns == 0):
+        return theta, 0
+    return np.unwrap(theta), int(jumps.sum())
 
 
 def degrees_suspected(names: list) -> list:
@@ -125,9 +147,12 @@ def check_radians(table: Table, t: np.ndarray, theta: np.ndarray, given: bool) -
     metadata entry is refused unless the unit was given (``--theta-unit``).
     """
     unit = table.meta.get("theta_unit", "").strip().lower()
-    peak = float(np.abs(theta).max())
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rate = float(np.abs(np.diff(theta) / np.diff(t)).max()) if len(t) > 1 else 0.0
+    peak = max(float(theta.max()), -float(theta.min()))
+    rate, block = 0.0, 1 << 20  # in blocks: no full-length temporaries on a 1e7-row file
+    for start in range(0, len(t) - 1, block):
+        th, tt = theta[start:start + block + 1], t[start:start + block + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rate = max(rate, float(np.abs(np.diff(th) / np.diff(tt)).max()))
     if unit in _DEG_UNITS and not given:
         why = f"metadata theta_unit: {unit}"
     elif peak > 200.0 or (peak > 2 * math.pi and rate > MAX_RAD_RATE):

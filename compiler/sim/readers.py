@@ -242,7 +242,7 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
         if name in origin:
             plaus.check_finite(table, name, np.asarray(values))
     convert_units(columns, options)
-    _check(table, columns, options)
+    _check(table, columns, options, notes)
     resolution = {n: estimate_resolution(columns[n]) for n in RESOLUTION_COLUMNS if n in columns}
     resolution = {n: q for n, q in resolution.items() if q is not None}
     resolution.update(options.resolution)
@@ -298,18 +298,25 @@ def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
                      f"with --columns NAME=FILE_NAME{why}")
 
 
-def _check(table: Table, columns: dict, options: ReadOptions) -> None:
-    """The plausibility checks, in the order that gives the most telling message."""
+def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> None:
+    """The plausibility checks, in the order that gives the most telling message (appends notes)."""
     t = columns["t"]
     plaus.check_time(table, t)
     if "theta" in columns:
         plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
+        unwrapped, wraps = plaus.unwrap_if_wrapped(columns["theta"])
+        if wraps:
+            columns["theta"] = unwrapped
+            notes.append(f"{table.source}: theta was wrapped to one turn ({wraps} jumps of a whole turn between "
+                         f"samples, which the pendulum cannot make): unwrapped")
     if "u" in columns:
         plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
                             ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
     if "x" in columns:
         # In centimetres no position reaches 75 (the track's length): beyond that, millimetres.
-        mm = float(np.percentile(np.abs(columns["x"]), 99)) > 75.0
+        x = columns["x"]
+        mm = float(x.max()) > plaus.X_LIMIT or float(x.min()) < -plaus.X_LIMIT  # then, only, look closer
+        mm = mm and float(np.percentile(np.abs(x), 99)) > 75.0
         plaus.check_bounded(table, "x", columns["x"], plaus.X_LIMIT, "m", "the track is 0.75 m long",
                             ("millimetres" if mm else "centimetres",
                              "check --x-unit" if options.x_unit else f"use --x-unit {'mm' if mm else 'cm'}"))
