@@ -36,8 +36,9 @@ demo: setup
 	$(BIN)/pendc compare data/hidden_spring.csv --html demo_out/compare_before.html
 	$(BIN)/pendc diagnose data/hidden_spring.csv
 	$(BIN)/pendc fit data/hidden_spring.csv --add cart_spring --validate data/hidden_spring_validation.csv data/hidden_spring_swing_up.csv -o demo_out/with_spring.toml
-	$(BIN)/pendc compare data/hidden_spring_validation.csv --model demo_out/with_spring.toml --html demo_out/compare_after.html
 	$(BIN)/pendc build --model demo_out/with_spring.toml -o demo_out/hdl_with_spring
+	# watch the error fall: the thesis' model and the fitted one side by side (table and HTML)
+	$(BIN)/pendc compare data/hidden_spring_validation.csv --model models/sct_thesis_final.toml --model demo_out/with_spring.toml --html demo_out/compare.html
 	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"
 
 SIM ?= both
