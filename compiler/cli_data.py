@@ -26,6 +26,15 @@ measurement files:
   'Structure with time' / 'Structure' / 'Array' (one variable or one per block, e.g.
   theta, x, u, tout), timeseries-like structs with Time and Data. A file that cannot be
   mapped is refused with the names it holds.
+  Resampling: a uniform file faster than 1 kHz is averaged down to 1 kHz (boxcar blocks);
+  a non-uniform one is interpolated linearly onto a uniform grid at its median step,
+  unless a gap is longer than max(20 ms, 5 median steps), which is refused.
+  Plausibility checks, each a one-line error naming the column or line: t sampled slower
+  than 10 Hz (milliseconds?), |x| beyond 1 m in many rows (the track is 0.75 m long:
+  millimetres or centimetres?), |u| beyond 100 V (the drive takes 0-10 V: millivolts?),
+  theta beyond 200 or turning faster than 60 rad/s (degrees?); the same beyond the
+  limits in a few rows, or a theta sample 1 rad away from both neighbours, is an
+  outlier; NaN, inf, time not strictly increasing, rows with missing fields.
 
 reading other formats, examples:
   CSV with other names, semicolons, degrees and millimetres:
