@@ -25,7 +25,7 @@ import numpy as np
 from ..atomic import write_atomic
 from . import headline as hl
 from .compare import WINDOW, Comparison, model_name, worst_windows, wrap_angle, wrap_difference
-from .report_text import concentrated, format_side_by_side, side_by_side_headline
+from .report_text import concentrated, format_side_by_side, short, side_by_side_headline
 from .sidebyside import SideBySide, as_side_by_side
 
 MAX_SCATTER = 4000       # points per scatter panel: enough to see a trend, keeps the PNG small
@@ -155,7 +155,7 @@ def _colour(j: int) -> str:
 
 
 def _fits(values: list, labels: tuple) -> str:
-    return ", ".join(f"{lab.split(':')[0]} {v:.2f} %" if np.isfinite(v) else f"{lab.split(':')[0]} undefined"
+    return ", ".join(f"{short(lab)} {v:.2f} %" if np.isfinite(v) else f"{short(lab)} undefined"
                      for lab, v in zip(labels, values)) if len(labels) > 1 else \
         (f"{values[0]:.2f} %" if np.isfinite(values[0]) else "undefined")
 
@@ -320,7 +320,7 @@ def _figures_table(s: SideBySide, i: int) -> str:
     e = html.escape
     h, _ = s.headline(i)
     lead = "free-run fit " if h.metric == hl.FREE_RUN else hl.horizon_label(s.runs[i][0].horizon) + " "
-    changes = [f"{lab.split(':')[0]} − {s.labels[0].split(':')[0]}" for lab in s.labels[1:]]
+    changes = [f"{short(lab)} − {short(s.labels[0])}" for lab in s.labels[1:]]
     head = ("<tr><th class=l>figure</th>" + "".join(f"<th>{e(lab)}</th>" for lab in s.labels)
             + "".join(f"<th>{e(ch)}</th>" for ch in changes) + "</tr>")
     rows = []

@@ -153,6 +153,11 @@ def whiteness_words(k: str, a: dict, x: dict, rms: float) -> list:
                   f"band (r = {x['ccf'][lag + mid]:+.2f} with {when}): the drive, friction or delay is wrong"]
 
 
+def short(label: str) -> str:
+    """A model's short name: the letter of ``A: stem``, else the whole label."""
+    return label.split(":")[0] if ":" in label else label
+
+
 def side_by_side_headline(s: SideBySide, i: int) -> list:
     """The two first lines of run ``i``: the shared headline with every model's value and the trend."""
     h, j = s.headline(i)
@@ -165,7 +170,8 @@ def side_by_side_headline(s: SideBySide, i: int) -> list:
     for k in fits[0]:
         values = " -> ".join(percent(f[k]) for f in fits)
         per_output.append(f"{k} {values}")
-    trends = "; ".join(f"{s.labels[0][0]} -> {lab[0]}: {trend(fits[0], f)}" for lab, f in zip(s.labels[1:], fits[1:]))
+    trends = "; ".join(f"{short(s.labels[0])} -> {short(lab)}: {trend(fits[0], f)}"
+                       for lab, f in zip(s.labels[1:], fits[1:]))
     return [f"headline: {h.label} on {data}, {' -> '.join(s.labels)}: {', '.join(per_output)} ({trends})",
             f"  why: {h.reason} (model {s.labels[j]})"]
 
@@ -191,15 +197,16 @@ def _table(s: SideBySide, i: int) -> list:
     rows = s.rows(i)
     first = max(len(f"{name} ({unit})" if unit else name) for name, unit, _ in rows)
     width = max(12, *(len(lab) for lab in s.labels))
-    changes = [f"{lab[0]} - {s.labels[0][0]}" for lab in s.labels[1:]]
+    changes = [f"{short(lab)} - {short(s.labels[0])}" for lab in s.labels[1:]]
     head = f"{'figure':{first}s}  " + "  ".join(f"{lab:>{width}s}" for lab in s.labels) + "  " + \
-        "  ".join(f"{ch:>9s}" for ch in changes)
+        "  ".join(f"{ch:>{max(9, len(ch))}s}" for ch in changes)
     out = [head]
     for name, unit, values in rows:
         label = f"{name} ({unit})" if unit else name
         digits = 0 if unit == "turns" else 2
         cells = "  ".join(f"{_num(v, digits=digits):>{width}s}" for v in values)
-        delta = "  ".join(f"{_num(v - values[0], sign=True, digits=digits):>9s}" for v in values[1:])
+        delta = "  ".join(f"{_num(v - values[0], sign=True, digits=digits):>{max(9, len(ch))}s}"
+                          for v, ch in zip(values[1:], changes))
         out.append(f"{label:{first}s}  {cells}  {delta}")
     return out
 
