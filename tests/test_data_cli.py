@@ -198,3 +198,22 @@ def test_help_shows_every_reading_option_with_examples(capsys):
 def _write(path, cols):
     path.write_text(format_csv(cols))
     return str(path)
+
+
+def test_clamped_cart_swing_mat_through_fit(tmp_path, capsys):
+    """The issue's recording: a free swing with the cart clamped, Simulink To Workspace at 10 kHz,
+    theta in degrees from upright, no x and no u logged, the experiment named in the file."""
+    t = np.arange(0, 3.0, 1e-4)
+    q = 2 * math.pi / 20000
+    theta = np.round(0.6 * np.cos(2 * math.pi * 1.07 * t) * np.exp(-0.05 * t) / q) * q
+    path = tmp_path / "held.mat"
+    sio.savemat(path, {"experiment": "cart_held", "theta": {"time": t[:, None], "signals": {
+        "values": np.degrees(theta - math.pi)[:, None], "dimensions": 1.0, "label": "Theta",
+        "blockName": "rig/Theta"}}})
+    out_model = tmp_path / "fitted.toml"
+    rc, out, err = run(["fit", str(path), "--theta-unit", "deg", "--theta-zero", "upright", "--free", "I",
+                        "-o", str(out_model), "--max-evaluations", "8"], capsys)
+    assert rc == 0, err
+    assert "no x, u in the file (cart_held experiment)" in err and "decimated from 10 kHz" in err
+    assert all(line.startswith("pendc: note: ") for line in err.strip().splitlines()), err
+    assert out_model.exists() and "I" in out
