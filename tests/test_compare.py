@@ -413,3 +413,17 @@ def test_no_warning_on_hostile_files(capsys, tmp_path):
         assert "Warning" not in err and "Traceback" not in err
         assert (rc == 0 and err == "" and out.startswith("headline: ")) or \
             (rc == 2 and err.startswith("pendc: error: ") and err.count("\n") == 1), err
+
+
+def test_sensor_offset_is_part_of_the_output_map(model):
+    """A model whose encoder reads theta + 0.05 rad: the same model fits its own data exactly in
+    free run and horizon (the initial state is the true one, the outputs what the sensor reads)."""
+    m = model.with_effect("theta_offset", {"theta_off": 0.05})
+    t, u = stimuli.chirp(duration=2)
+    r = Simulator(m, 1e-4, "rk4")(t, u, x0=(0.0, 0.0, 0.3, 0.0))
+    d = Measurement(t=t, u=u, columns={"t": t, "u": u, "x": r.measured("x"), "theta": r.measured("theta"),
+                                       "dx": r["dx"], "dtheta": r["dtheta"]}, meta={}, source="offset")
+    c = compare(m, d)
+    for k in ("x", "theta"):
+        assert c.fit[k] == pytest.approx(100.0, abs=1e-6) and c.fit_horizon[k] == pytest.approx(100.0, abs=1e-6)
+    assert compare(model, d).fit_horizon["theta"] < 90.0       # without the offset the model is visibly off
