@@ -69,6 +69,8 @@ HOSTILE = {
     "outlier_u": (csv(with_row(BASE, "u", 77, 1e30)), [], ["line 79: u = 1e+30 is an outlier"]),
     "outlier_theta": (csv(with_row(BASE, "theta", 4000, 1e30)), [], ["line 4002: theta = 1e+30 is an outlier"]),
     "outlier_t": (csv(with_row(BASE, "t", 500, 1e30)), [], ["line 502: t = 1e+30 is an outlier"]),
+    "outlier_last_t": (csv(with_row(BASE, "t", 19999, 1e30)), [], ["line 20001: t jumps from 19.998 to 1e+30",
+                                                                  "an outlier"]),
     "nan_theta": (csv(with_row(BASE, "theta", 10, np.nan)), [], ["line 12: column 'theta' is nan"]),
     "inf_u": (csv(with_row(BASE, "u", 10, np.inf)), [], ["line 12: column 'u' is inf"]),
     "time_decreases": (csv(with_row(BASE, "t", 100, 0.05)), [], ["line 102: time decreases"]),

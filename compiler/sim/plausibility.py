@@ -51,6 +51,12 @@ def check_time(table: Table, t: np.ndarray, label: str = "t") -> None:
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0.0)
     if not bad.size:
+        typical = float(np.median(step)) if len(step) else 0.0
+        k = int(np.argmax(step)) if len(step) else 0
+        if len(step) > 2 and step[k] > max(1.0, 1000 * typical):  # one run has no hour-long hole
+            raise PendcError(f"{table.source}: {table.where(k + 1)}: {label} jumps from {float(t[k])!r} to "
+                             f"{float(t[k + 1])!r} ({float(step[k]) / typical:.3g} median steps): an outlier, or "
+                             f"two recordings in one file")
         return
     k = int(bad[0]) + 1
     a, b = float(t[k - 1]), float(t[k])
