@@ -86,6 +86,11 @@ class CompareReport:
         """The report's first line: which fit leads, its values and, for several models, the trend."""
         return self.text().splitlines()[0]
 
+    @property
+    def notes(self) -> list:
+        """What was left out of the comparison and why (held or missing outputs)."""
+        return self.result.notes()
+
     def text(self) -> str:
         """The plain-text report, as ``pendc compare`` prints it."""
         from .ident.report_text import text_report
@@ -110,7 +115,7 @@ class CompareReport:
         return self.text()
 
 
-def compare(model, data, *, horizon: float = 0.5, dt: float = 1e-4, method: str = "rk4",
+def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4, method: str = "rk4",
             labels=None, **reading) -> CompareReport:
     """How well does ``model`` reproduce ``data``, where and why not (``pendc compare``).
 
@@ -118,7 +123,8 @@ def compare(model, data, *, horizon: float = 0.5, dt: float = 1e-4, method: str 
     list of them to put side by side (a table of every figure per model with the change
     from the first; ``labels`` names them). ``data``: a file path or Measurement, or a
     list of them (a report per file). ``horizon``: seconds between restarts of the
-    horizon fit. ``**reading``: :class:`~pendc.sim.readers.ReadOptions` fields for paths.
+    horizon fit. ``outputs``: ``("theta",)`` to compare theta only (default: every output
+    the data move; ``report.notes`` says what was left out). ``**reading``: :class:`~pendc.sim.readers.ReadOptions` fields for paths.
     The headline (``report.headline``) is the free-run fit where a free run is meaningful
     on the data, else the horizon fit, and says why.
     """
@@ -129,4 +135,5 @@ def compare(model, data, *, horizon: float = 0.5, dt: float = 1e-4, method: str 
     models = [_model(m) for m in _as_list(model)]
     datasets = _datasets(data, reading)
     with np.errstate(all="ignore"):   # undefined figures are NaN by design, never a warning
-        return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels))
+        return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels,
+                                            outputs=None if outputs is None else tuple(_as_list(outputs))))

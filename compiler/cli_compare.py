@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from .cli_data import add_data_options, load_datasets
+from .cli_data import add_data_options, load_datasets, note
 from .errors import PendcError
 
 EPILOG = """\
@@ -21,6 +21,7 @@ data, else the 0.5 s horizon fit, and the next line says why."""
 def cmd_compare(args) -> int:
     import numpy as np
 
+    from .ident.outputs import parse_outputs
     from .ident.report_html import write_html_report
     from .ident.report_text import text_report
     from .ident.sidebyside import compare_models
@@ -31,8 +32,10 @@ def cmd_compare(args) -> int:
     paths = args.model or [None]
     models = [load_model(p) for p in paths]
     datasets = load_datasets(args)
-    with np.errstate(all="ignore"):   # a constant output's fit is NaN by design; no warning for it
-        s = compare_models(models, datasets, horizon=args.horizon)
+    with np.errstate(all="ignore"):   # an undefined figure is NaN by design; no warning for it
+        s = compare_models(models, datasets, horizon=args.horizon, outputs=parse_outputs(args.outputs))
+        for line in s.notes():
+            note(line)
         if args.html:
             write_html_report(s, args.html)
     if args.json:
@@ -55,6 +58,8 @@ def add_parser(sub) -> None:
                    help="model file; repeat to put models side by side (default: models/sct_thesis_final.toml)")
     p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
                    "(default 0.5, as diagnose and fit)")
+    p.add_argument("--outputs", help="outputs to compare: x, theta or x,theta (default: every output the data "
+                                     "move; held or missing ones are left out with a note)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--html", help="write a self-contained HTML report here")
     p.set_defaults(func=cmd_compare)

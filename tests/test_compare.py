@@ -179,13 +179,23 @@ def test_to_json_round_trips(spring):
     assert out["fit"]["x"] == pytest.approx(spring.fit["x"]) and out["data"] == "test"
 
 
-def test_undefined_fit_is_null_in_json(model):
-    t = np.arange(300) * 1e-3
-    u = np.full_like(t, model.effects["drive"]["V_off"])   # no force: the cart never moves
-    c = compare(model, measured(model, t, u))
-    assert math.isnan(c.fit["x"])
-    assert json.loads(json.dumps(c.to_json(), allow_nan=False))["fit"]["x"] is None
-    assert "undefined" in format_comparison(c)
+def test_held_axis_is_left_out_with_a_note(model):
+    """A cart that never moves in a 'free' run: x is left out as diagnose and fit leave it out
+    (with the note that suggests --experiment cart_held); a run where nothing moves is refused."""
+    t = np.arange(2000) * 1e-3
+    theta = 0.3 * np.cos(2 * np.pi * 0.9 * t)
+    u = np.full_like(t, model.effects["drive"]["V_off"])
+    d = Measurement(t=t, u=u, columns={"t": t, "u": u, "x": np.zeros_like(t), "theta": theta}, meta={},
+                    source="held.csv")
+    c = compare(model, d)
+    assert c.outputs == ("theta",) and set(c.fit) == {"theta"}
+    assert any("x does not move" in n and "cart_held" in n for n in c.notes)
+    assert json.loads(json.dumps(c.to_json(), allow_nan=False))["notes"] == list(c.notes)
+    assert compare(model, d, outputs=("theta",)).outputs == ("theta",)
+    still = Measurement(t=t, u=u, columns={"t": t, "u": u, "x": np.zeros_like(t), "theta": np.zeros_like(t)},
+                        meta={}, source="still.csv")
+    with pytest.raises(PendcError, match="no output left to compare"):
+        compare(model, still)
 
 
 def test_format_comparison_in_words(spring):

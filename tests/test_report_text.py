@@ -105,11 +105,16 @@ def test_compare_does_not_import_its_reports():
     assert "compare" in imports("report_text.py") and "report_text" in imports("report_html.py")
 
 
-def test_constant_outputs_are_undefined_not_warnings(model, recwarn):
-    t = np.arange(300) * 1e-3
-    u = np.full_like(t, model.effects["drive"]["V_off"])
-    s = compare_models([model, model], [measured(model, t, u, "rest.csv")])
+def test_undefined_figures_are_na_not_warnings(side, recwarn):
+    """A figure that cannot be computed (here: made undefined by hand) prints n/a, is null in
+    JSON, and no warning is raised on the way."""
+    import dataclasses
+    c = side.runs[0][0]
+    blank = dataclasses.replace(c, fit={k: float("nan") for k in c.fit}, fit_theta_wrapped=float("nan"))
+    s = dataclasses.replace(side, runs=((blank, side.runs[0][1]),))
     text = format_side_by_side(s)
-    assert "undefined" in text and "n/a" in text
-    assert json.loads(json.dumps(s.to_json(), allow_nan=False))["runs"][0]["table"][0]["values"][s.labels[0]] is None
+    assert "x undefined" in text and "n/a" in text
+    out = json.loads(json.dumps(s.to_json(), allow_nan=False))
+    row = next(r for r in out["runs"][0]["table"] if r["figure"] == "free-run fit x")
+    assert row["values"][s.labels[0]] is None and row["change"][s.labels[1]] is None
     assert not recwarn.list

@@ -43,6 +43,7 @@ from ..sim.measurements import Measurement
 from ..sim.simulator import SimResult, Simulator
 from . import headline as hl
 from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run
+from .outputs import experiment_of, plan_outputs
 from .shooting import SAVGOL_WINDOW, estimate_velocities
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
                         autocorrelation, cross_correlation, decimate, whiteness)
@@ -72,7 +73,8 @@ class Comparison:
     the horizon simulation's, as ``residual_of`` says; ``free_residual`` is always the free
     run's, and ``whiteness`` tests it (theta wrapped to (-pi, pi]). ``measured`` holds the data's positions and the cart velocity
     ``dx`` used to classify regimes (``dx_source`` says where it came from). ``outputs``
-    are the positions compared (a held cart's run compares theta only).
+    are the positions compared (a held cart's run compares theta only); ``notes`` say
+    which were left out and why.
     """
 
     fit: dict
@@ -97,6 +99,7 @@ class Comparison:
     horizon_run: HorizonRun | None = None
     headline: hl.Headline | None = None
     residual_of: str = "free run"
+    notes: tuple = ()
 
     @property
     def fit_horizon(self) -> dict:
@@ -142,7 +145,7 @@ class Comparison:
                       "label": "largest whole number of turns between simulated and measured theta (free run)"},
             "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
             "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness, "V_off": self.v_off,
-            "dx_source": self.dx_source})
+            "dx_source": self.dx_source, "notes": list(self.notes)})
 
 
 def model_name(model) -> str:
@@ -165,17 +168,15 @@ def _clean(obj):
     return obj
 
 
-def experiment_of(data) -> str:
-    """The experiment a measurement declares (attribute or ``# experiment:`` line), else ``free``."""
-    return getattr(data, "experiment", None) or data.meta.get("experiment") or "free"
-
-
 def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str = "rk4",
-            horizon: float = DEFAULT_HORIZON) -> Comparison:
+            horizon: float = DEFAULT_HORIZON, outputs=None) -> Comparison:
     """Simulate ``model`` on ``data``'s input, in free run and with a ``horizon`` s restart,
     and compare the outputs (see the module docstring).
 
-    The model is set to the experiment the data declare (a held cart does not move).
+    The model is set to the experiment the data declare (a held cart does not move), and
+    the outputs compared are chosen as diagnose and fit choose them
+    (:func:`pendc.ident.outputs.plan_outputs`: held, constant or missing ones are left out,
+    ``notes`` says which; ``outputs``, e.g. ``("theta",)``, restricts them further).
     Why 0.1 ms RK4 and not the 1 us Euler reference: identification calls this many
     times (every candidate, every data set), and 0.1 ms RK4 is ~40x faster. Measured
     on the 20 s chirp (``stimuli.chirp()``) with the Table 14 model, it stays within
@@ -189,17 +190,11 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     experiment = experiment_of(data)
     if experiment != getattr(model, "experiment", "free") and hasattr(model, "for_experiment"):
         model = model.for_experiment(experiment)
-    absent = set(getattr(data, "missing", ()))     # axes the file lacked, filled with a constant
-    outputs = tuple(k for k in _outputs(model) if k not in absent)
-    if not outputs:
-        raise PendcError(f"{data.source}: nothing to compare: the file has neither x nor theta "
-                         f"(experiment {experiment})")
-    missing = " or ".join(repr(k) for k in outputs if k not in data.columns)
-    if missing:
-        raise PendcError(f"{data.source}: compare needs measured {' and '.join(outputs)}; no column {missing} "
-                         f"(columns: {', '.join(data.columns)})")
     if len(data.t) < 3:
         raise PendcError(f"{data.source}: too short to compare ({len(data.t)} samples; at least 3 needed)")
+    # the same choice as diagnose and fit: held, constant, missing or unasked outputs are left out
+    plan = plan_outputs([data], requested=outputs)
+    outputs = plan.outputs[0]
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
     sim = Simulator(model, dt=dt, method=method)
@@ -250,15 +245,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         whiteness=whiteness(t, white_input, u), measured={**y, "dx": dx},
         model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source,
         outputs=outputs, experiment=experiment, free_residual=free_residual, fit_theta_wrapped=wrapped_fit,
-        turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of)
-
-
-def _outputs(model) -> tuple:
-    """The positions the model's experiment measures (both, unless a part was held or removed)."""
-    try:
-        return tuple(model.equations.outputs())
-    except AttributeError:   # equations without an experiment: the full model
-        return OUTPUTS
+        turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
+        notes=tuple(plan.notes))
 
 
 def wrap_difference(angle):

@@ -60,6 +60,10 @@ class SideBySide:
                         [1e3 * c.rms_free_run()["theta_wrapped"] for c in cs]))
         return out
 
+    def notes(self) -> list:
+        """What was left out of each run's comparison and why (one line each, once per run)."""
+        return [n for run in self.runs for n in run[0].notes]
+
     def to_json(self) -> dict:
         """Plain JSON: per run, the shared headline, every model's comparison and the changes."""
         runs = []
@@ -97,12 +101,14 @@ def labels_for(models) -> tuple:
 
 
 def compare_models(models, datasets, dt: float = 1e-4, method: str = "rk4",
-                   horizon: float = DEFAULT_HORIZON, labels=None) -> SideBySide:
+                   horizon: float = DEFAULT_HORIZON, labels=None, outputs=None) -> SideBySide:
     """Compare every model in ``models`` with every run in ``datasets`` (see :class:`SideBySide`);
-    ``labels`` name the models (default: :func:`labels_for`)."""
+    ``labels`` name the models (default: :func:`labels_for`), ``outputs`` restricts what is
+    compared (see :func:`pendc.ident.compare.compare`)."""
     if labels is not None and len(labels) != len(models):
         raise PendcError(f"{len(labels)} labels for {len(models)} models")
-    runs = tuple(tuple(compare(m, d, dt=dt, method=method, horizon=horizon) for m in models) for d in datasets)
+    runs = tuple(tuple(compare(m, d, dt=dt, method=method, horizon=horizon, outputs=outputs) for m in models)
+                 for d in datasets)
     return SideBySide(labels=tuple(labels) if labels is not None else labels_for(models), runs=runs)
 
 
