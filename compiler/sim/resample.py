@@ -37,14 +37,20 @@ def hertz(rate: float) -> str:
     return f"{rate / 1000:.4g} kHz" if rate >= 999.5 else f"{rate:.4g} Hz"
 
 
+def median_step(steps: np.ndarray, most: int = 1_000_000) -> float:
+    """The median of ``steps``, from at most ``most`` evenly spread of them (no full-length copy)."""
+    stride = max(1, len(steps) // most)
+    return float(np.median(steps[::stride]))
+
+
 def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None):
     """``(t, columns, note)`` on a uniform grid (see the module docstring); note is None
     when nothing was done. ``where(k)`` names row k in messages."""
     if len(t) < 3:
         return t, columns, None
     steps = np.diff(t)
-    h = float(np.median(steps))
-    uniform = float(np.max(np.abs(steps - h))) <= UNIFORM_TOLERANCE * h
+    h = median_step(steps)
+    uniform = max(float(steps.max()) - h, h - float(steps.min())) <= UNIFORM_TOLERANCE * h
     if not uniform:
         k = int(np.argmax(steps))
         limit = max(MAX_GAP_S, MAX_GAP_STEPS * h)
