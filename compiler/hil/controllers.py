@@ -26,6 +26,9 @@ VELOCITY_TAU = 0.004           # s, time constant of the velocity filter
 # LQR weights: 1/(acceptable excursion)^2 for x, dx, phi, dphi and the input
 LQR_Q = (1 / 0.01**2, 1 / 0.5**2, 1 / 0.02**2, 1 / 0.5**2)
 LQR_R = 1 / 1.0**2
+# supervisor: switch to balance within CATCH_ANGLE (rad) of the upright below CATCH_RATE (rad/s),
+# back to swinging beyond DROP_ANGLE
+CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
 
 
 @dataclass(frozen=True)
@@ -180,7 +183,7 @@ class Supervisor:
     Both controllers see every sample, so their filters are warm at a switch."""
 
     def __init__(self, consts: PendulumConstants, period: float = 1e-3, x_ref=0.0,
-                 catch_angle: float = 0.4, catch_rate: float = 5.0, drop_angle: float = 0.8):
+                 catch_angle: float = CATCH_ANGLE, catch_rate: float = CATCH_RATE, drop_angle: float = DROP_ANGLE):
         self.swing = EnergySwingUp(consts, period)
         self.balance = LqrBalance(consts, period, x_ref=x_ref)
         self.catch_angle, self.catch_rate, self.drop_angle = catch_angle, catch_rate, drop_angle

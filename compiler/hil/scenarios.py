@@ -1,0 +1,144 @@
+"""The thesis' HIL tests (Fig. IV.21-IV.23) and a model-mismatch test, each with its pass criterion.
+
+Every scenario runs the builtin controllers against a stepping plant and returns a
+:class:`ScenarioResult`: the run, the figures the criterion looks at, and the list of
+criteria that failed (empty when it passes). The plants start hanging at rest (power-on),
+so the step-disturbance scenario first swings the pendulum up and then, balanced, moves
+the cart's set point 4 cm to the left as Fig. IV.21 does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model.plant import PlantModel
+from .controllers import CATCH_ANGLE, EnergySwingUp, PendulumConstants, Supervisor, wrap_upright
+from .loop import UPRIGHT_TOLERANCE, HilRun, run_closed_loop
+
+TRACK_LIMIT = 0.3        # m: |x| allowed throughout (the track ends at ±0.375 m)
+HOLD_SECONDS = 3.0       # upright for the last 3 s of the run
+STEP_SIZE = 0.04         # m, to the left (+x), Fig. IV.21
+STEP_AT = 7.0            # s, when the set point moves (the pendulum is balanced by then)
+SETTLE_LIMIT = 2.0       # s
+SETTLE_BAND = 0.1        # of the step: |x - x_ref| within 4 mm counts as settled
+
+
+@dataclass(frozen=True)
+class ScenarioResult:
+    """A scenario's run, its figures of merit and the criteria it failed."""
+
+    name: str
+    criterion: str
+    run: HilRun
+    figures: dict
+    failures: tuple = field(default_factory=tuple)
+
+    @property
+    def passed(self) -> bool:
+        """True when every criterion holds."""
+        return not self.failures
+
+
+def _phi(run: HilRun) -> np.ndarray:
+    return np.array([wrap_upright(v) for v in run.theta])
+
+
+def _common_failures(run: HilRun) -> list:
+    out = []
+    if run.stopped is not None:
+        out.append(f"the run stopped early: {run.stopped}")
+    if run.x.size and np.max(np.abs(run.x)) >= TRACK_LIMIT:
+        out.append(f"|x| reached {np.max(np.abs(run.x)):.3f} m (limit {TRACK_LIMIT} m)")
+    return out
+
+
+def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design: PlantModel | None = None,
+                         period: float = 1e-3, plant_name: str = "") -> ScenarioResult:
+    """Fig. IV.23: from rest, swing up and hold upright. Pass: |theta - pi| (mod 2 pi) < 0.05 rad
+    for the last 3 s and |x| < 0.3 m throughout. ``design`` is the model the controller is
+    designed on (default: the plant's own model)."""
+    consts = PendulumConstants.from_model(design or model)
+    run = run_closed_loop(plant, Supervisor(consts, period), seconds, period=period, plant_name=plant_name)
+    phi = _phi(run)
+    last = run.t >= run.t[-1] - HOLD_SECONDS + 1e-9 if run.t.size else np.zeros(0, bool)
+    worst = float(np.max(np.abs(phi[last]))) if last.any() else float("inf")
+    failures = _common_failures(run)
+    if worst >= UPRIGHT_TOLERANCE:
+        failures.append(f"|theta - pi| reached {worst:.3f} rad in the last {HOLD_SECONDS:g} s")
+    figures = {**run.summary(), "worst_last_3s_rad": worst}
+    return ScenarioResult("swing-up and balance (Fig. IV.23)",
+                          "|theta - pi| < 0.05 rad for the last 3 s of the run, |x| < 0.3 m throughout",
+                          run, figures, tuple(failures))
+
+
+def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float = 1e-3,
+                  plant_name: str = "", within: float = 5.0) -> ScenarioResult:
+    """Fig. IV.22: the energy swing-up alone brings the pendulum into the supervisor's catch
+    window (|theta - pi| < 0.4 rad) within 5 s, with |x| < 0.3 m throughout. It does not
+    hold it there: energy pumping keeps it swinging about the upright."""
+    run = run_closed_loop(plant, EnergySwingUp(PendulumConstants.from_model(model), period), seconds,
+                          period=period, plant_name=plant_name)
+    phi = np.abs(_phi(run))
+    near = np.flatnonzero(phi < CATCH_ANGLE)
+    failures = _common_failures(run)
+    if not near.size:
+        failures.append(f"the pendulum came no closer than {phi.min():.3f} rad to the upright")
+    elif run.t[near[0]] > within:
+        failures.append(f"the pendulum first came within {CATCH_ANGLE} rad of the upright at "
+                        f"t = {run.t[near[0]]:.3f} s (limit {within:g} s)")
+    figures = {**run.summary(), "first_near_upright_s": float(run.t[near[0]]) if near.size else None,
+               "closest_rad": float(phi.min())}
+    return ScenarioResult("swing-up alone (Fig. IV.22)",
+                          "within 0.4 rad of the upright (the catch window) by t = 5 s, |x| < 0.3 m throughout",
+                          run, figures, tuple(failures))
+
+
+def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name: str = "") -> ScenarioResult:
+    """Fig. IV.21: balanced upright, the cart's set point steps 4 cm left at t = 7 s. Pass: within
+    2 s after the step, |x - x_ref| < 4 mm and |theta - pi| < 0.05 rad and they stay so until
+    the end (t = 11 s); upright before the step; |x| < 0.3 m throughout."""
+    def x_ref(t: float) -> float:
+        return STEP_SIZE if t >= STEP_AT else 0.0
+
+    seconds = STEP_AT + 2 * SETTLE_LIMIT
+    run = run_closed_loop(plant, Supervisor(PendulumConstants.from_model(model), period, x_ref=x_ref),
+                          seconds, period=period, plant_name=plant_name)
+    phi = _phi(run)
+    after = run.t >= STEP_AT
+    off = after & ((np.abs(run.x - STEP_SIZE) >= SETTLE_BAND * STEP_SIZE) | (np.abs(phi) >= UPRIGHT_TOLERANCE))
+    settle = float(run.t[np.flatnonzero(off)[-1]] - STEP_AT + period) if off.any() else 0.0
+    before = (run.t >= STEP_AT - 1.0) & ~after
+    failures = _common_failures(run)
+    if not (before.any() and np.all(np.abs(phi[before]) < UPRIGHT_TOLERANCE)):
+        failures.append("the pendulum was not balanced in the second before the step")
+    if settle > SETTLE_LIMIT:
+        failures.append(f"settled {settle:.3f} s after the step (limit {SETTLE_LIMIT:g} s)")
+    overshoot = float(np.max(run.x[after]) - STEP_SIZE) if after.any() else None
+    figures = {**run.summary(), "settle_s": settle, "overshoot_m": overshoot}
+    return ScenarioResult("4 cm set-point step while balancing (Fig. IV.21)",
+                          "settled (|x - x_ref| < 4 mm, |theta - pi| < 0.05 rad) within 2 s of the step",
+                          run, figures, tuple(failures))
+
+
+def balance_activity(run: HilRun) -> dict:
+    """Input and cart activity while balancing (from 1 s after the balance starts)."""
+    up_at = run.summary()["upright_at_s"]
+    mask = np.array([m == "balance" for m in run.mode]) & (run.t > (up_at if up_at is not None else np.inf) + 1.0)
+    if not mask.any():
+        return {"u_std_v": None, "x_peak_to_peak_m": None}
+    return {"u_std_v": float(np.std(run.u[mask])), "x_peak_to_peak_m": float(np.ptp(run.x[mask]))}
+
+
+def model_mismatch(make, design: PlantModel, truth: PlantModel, seconds: float = 12.0,
+                   plant_name: str = "") -> dict:
+    """The controller designed on ``design`` run against ``design`` itself (what the designer's
+    simulation predicts) and against ``truth`` (what HIL shows), beside the controller designed
+    on ``truth``. ``make(model)`` builds a fresh plant. Returns the three results by name."""
+    cases = {"predicted": (design, design), "hil": (design, truth), "matched": (truth, truth)}
+    out = {}
+    for name, (d, p) in cases.items():
+        res = swing_up_and_balance(make(p), p, seconds, design=d, plant_name=plant_name)
+        out[name] = res
+    return out
