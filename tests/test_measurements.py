@@ -157,10 +157,17 @@ def test_large_file_parses_fast(tmp_path):
     cols["dtheta"] = np.gradient(cols["theta"], cols["t"])
     path = tmp_path / "big.csv"
     write_csv(path, cols)
+    # Against numpy's own C parser on the same file in the same process, so the bound holds
+    # however loaded the machine is (an absolute "< 1 s" failed on 2 cores shared by 6 jobs);
+    # bench/bench_read_csv.py records absolute times.
+    start = time.perf_counter()
+    reference = np.loadtxt(path, delimiter=",", skiprows=1)
+    numpy_seconds = time.perf_counter() - start
     start = time.perf_counter()
     m = read_measurements(path)
-    assert time.perf_counter() - start < 1.0
+    assert time.perf_counter() - start < 1.5 * numpy_seconds + 0.2
     assert len(m.t) == 200_000
+    assert m.columns["dtheta"].tobytes() == reference[:, 5].tobytes()
 
 
 # ---------------------------------------------------------------- bad input
