@@ -25,8 +25,10 @@ HELD_COUNTS = 2.0   # an output that never moves more than this many resolution 
 
 
 def experiment_of(data) -> str:
-    """The experiment a measurement declares (``free`` when it says nothing)."""
-    name = getattr(data, "experiment", None) or DEFAULT_EXPERIMENT
+    """The experiment a measurement declares (``free`` when it says nothing): its
+    ``experiment`` attribute, else a ``# experiment: NAME`` metadata line."""
+    meta = getattr(data, "meta", None) or {}
+    name = getattr(data, "experiment", None) or meta.get("experiment") or DEFAULT_EXPERIMENT
     if name not in EXPERIMENTS:
         raise PendcError(f"{getattr(data, 'source', '<data>')}: unknown experiment '{name}' "
                          f"(known: {', '.join(EXPERIMENTS)})")
