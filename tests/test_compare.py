@@ -271,17 +271,20 @@ def test_extra_turn_is_counted_and_wrapped(model):
     assert out["turns"]["max"] == 1 and out["fit_theta_wrapped"]["theta"] == pytest.approx(100.0)
 
 
-def test_horizon_fit_agrees_with_shooting(model):
-    """Two implementations of the 0.5 s horizon fit (compare's segments, the shooting residual
-    that diagnose and fit use) give the same figure on quantised data with a missing spring."""
+def test_figures_agree_with_diagnose_and_fit(model):
+    """Two implementations of the 0.5 s horizon fit and of the free-run fit (compare's, and the
+    ones diagnose and fit print) give the same figures on quantised data with a missing spring."""
     from pendc.ident.shooting import horizon_fit
     t, u = stimuli.chirp(duration=3)
     r = Simulator(model.with_effect("cart_spring", SPRING), 1e-4, "rk4")(t, u, quantize=True)
     data = parse_measurements(format_csv({"t": t, "u": u, "x": r["x"], "theta": r["theta"]}))
+    from pendc.ident.figures import free_run_figures
     c = compare(model, data)
     reference = horizon_fit(model, [data])
+    free = free_run_figures(model, [data])["files"][0]["fit"]
     for k in ("x", "theta"):
         assert c.fit_horizon[k] == pytest.approx(float(reference[k]), abs=1e-6)
+        assert c.fit[k] == pytest.approx(free[k], abs=1e-6)     # and the free run starts where fit's does
     assert c.fit_horizon["x"] > c.fit["x"]        # restarts keep the missing spring's error from growing
 
 

@@ -1,7 +1,8 @@
 """``pendc compare``: how well does a model reproduce one measured run, where and why not.
 
 The model is simulated in free run (no resets to the data) from the data's initial
-state on the measured input (zero-order hold), and in 0.5 s segments that restart from
+state (velocities as diagnose and fit estimate them: the ``dx``/``dtheta`` columns, else a
+31 ms Savitzky-Golay derivative) on the measured input (zero-order hold), and in 0.5 s segments that restart from
 the measured state (:mod:`pendc.ident.horizon`). Every figure says which it is:
 
 * **free-run fit** and **horizon fit** per output, as MATLAB's ``compare``:
@@ -42,7 +43,7 @@ from ..model.plant import PlantModel
 from ..sim.measurements import Measurement
 from ..sim.simulator import SimResult, Simulator
 from . import headline as hl
-from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run
+from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, measured_motion
 from .outputs import experiment_of, plan_outputs
 from .shooting import SAVGOL_WINDOW, estimate_velocities
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
@@ -198,7 +199,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
     sim = Simulator(model, dt=dt, method=method)
-    x0 = np.asarray(data.initial_state(), dtype=np.float64)
+    position, velocity = measured_motion(data)
+    x0 = np.array([position["x"][0], velocity["x"][0], position["theta"][0], velocity["theta"][0]])
     if hasattr(sim, "true_state"):
         x0 = sim.true_state(x0)
 

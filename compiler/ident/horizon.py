@@ -70,12 +70,7 @@ def horizon_run(model, data, outputs=("x", "theta"), horizon: float = DEFAULT_HO
     u = np.asarray(data.u, dtype=np.float64)
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
-    measured = {k: _position(data, k, len(t)) for k in ("x", "theta")}
-    velocity = {}
-    for pos, vel in (("x", "dx"), ("theta", "dtheta")):
-        column = data.columns.get(vel)
-        velocity[pos] = (np.asarray(column, dtype=np.float64) if column is not None
-                         else estimate_velocities(t, measured[pos]))
+    measured, velocity = measured_motion(data)
     sim = Simulator(model, dt=dt, method=method)
     p = sim.param_vector
     offset = sim.offset_values(p) if hasattr(sim, "offset_values") else {"x": 0.0, "theta": 0.0}
@@ -98,6 +93,21 @@ def horizon_run(model, data, outputs=("x", "theta"), horizon: float = DEFAULT_HO
     fit = {k: _segment_fit(measured[k], predicted[k]) for k in outputs}
     return HorizonRun(horizon=float(horizon), t=t, outputs={k: predicted[k] for k in outputs}, starts=starts,
                       restarts={k: measured[k][list(starts)] for k in outputs}, fit=fit)
+
+
+def measured_motion(data) -> tuple[dict, dict]:
+    """``({"x": positions, "theta": ...}, {"x": velocities, "theta": ...})`` of a run: the
+    velocities from the data's ``dx``/``dtheta`` columns, else the Savitzky-Golay derivative
+    that :mod:`pendc.ident.shooting` uses, so every simulation that starts from the data
+    (free run, horizon segments, diagnose, fit) starts from the same state."""
+    t = np.asarray(data.t, dtype=np.float64)
+    measured = {k: _position(data, k, len(t)) for k in ("x", "theta")}
+    velocity = {}
+    for pos, vel in (("x", "dx"), ("theta", "dtheta")):
+        column = data.columns.get(vel)
+        velocity[pos] = (np.asarray(column, dtype=np.float64) if column is not None
+                         else estimate_velocities(t, measured[pos]))
+    return measured, velocity
 
 
 def _position(data, name: str, n: int) -> np.ndarray:
