@@ -362,3 +362,17 @@ def test_reading_streams_in_bounded_memory(tmp_path):
     assert probe["rows"] == rows
     assert probe["extra"] < FIXED_BYTES + BYTES_PER_ROW * rows, probe
     assert FIXED_BYTES + BYTES_PER_ROW * 10_000_000 < 0.75 * (1 << 30)
+
+
+def test_mat_without_numeric_signals_and_cell_arrays(tmp_path):
+    path = tmp_path / "notes.mat"
+    sio.savemat(path, {"comment": "swing test", "names": np.array(["theta", "x"], dtype=object)})
+    with pytest.raises(PendcError, match=r"no numeric signal in the file \(variables found: comment, names\)"):
+        read_measurements(path)
+    t, theta, x, u = truth()
+    cells = np.empty((1, 3), dtype=object)
+    cells[0, 0], cells[0, 1], cells[0, 2] = theta, x, u
+    path = tmp_path / "cells.mat"
+    sio.savemat(path, {"log": cells, "tout": t})
+    m = read_measurements(path, options=opts(columns={"theta": "log{1}", "x": "log{2}", "u": "log{3}"}))
+    assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t)

@@ -12,7 +12,8 @@ Every numeric signal in the file becomes a named column; the names are what
   ``:j`` when its ``values`` has several columns; the struct's ``time`` is kept as that
   signal's own time vector (``v.time`` is also a column);
 - timeseries-like structs with ``Time`` and ``Data`` fields, named like a variable;
-- other structs: each field, named ``struct.field``, by the same rules;
+- other structs: each field, named ``struct.field``, and cell arrays: each cell,
+  named ``cell{i}`` (1-based, column-major as MATLAB counts), by the same rules;
 - a text variable or a scalar -> metadata (so ``experiment = 'cart_held'`` in the
   file declares the experiment, ``Ts = 1e-4`` can give a sample time).
 
@@ -99,6 +100,9 @@ class _Walker:
             self.meta[name] = " ".join(str(v) for v in value.ravel()).strip()
         elif isinstance(value, np.ndarray) and value.size == 0:
             return
+        elif depth < 3 and (isinstance(value, list) or isinstance(value, np.ndarray) and value.dtype.kind == "O"):
+            for i, item in enumerate(value.ravel() if isinstance(value, np.ndarray) else value):  # cells: name{i}
+                self.add(f"{name}{{{i + 1}}}", item, depth + 1)
         else:
             self.objects.append(name)
 
