@@ -101,7 +101,7 @@ class _Walker:
         elif isinstance(value, np.ndarray) and value.size == 0:
             return
         elif depth < 3 and (isinstance(value, list) or isinstance(value, np.ndarray) and value.dtype.kind == "O"):
-            for i, item in enumerate(value.ravel() if isinstance(value, np.ndarray) else value):  # cells: name{i}
+            for i, item in enumerate(value.ravel(order="F") if isinstance(value, np.ndarray) else value):  # cells: name{i}
                 self.add(f"{name}{{{i + 1}}}", item, depth + 1)
         else:
             self.objects.append(name)
