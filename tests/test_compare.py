@@ -440,3 +440,35 @@ def test_sensor_offset_is_part_of_the_output_map(model):
     for k in ("x", "theta"):
         assert c.fit[k] == pytest.approx(100.0, abs=1e-6) and c.fit_horizon[k] == pytest.approx(100.0, abs=1e-6)
     assert compare(model, d).fit_horizon["theta"] < 90.0       # without the offset the model is visibly off
+
+
+def test_docs_clamped_cart_story_error_falls(capsys, tmp_path, model, monkeypatch):
+    """docs/identification.md's second story, small: a clamped-cart free swing of another pendulum
+    (m, L, I 5 % off, stronger pivot damping) saved by Simulink's To Workspace block at 10 kHz in
+    degrees from upright; the lab's model has no pivot damping, the fitted one has it and a new I.
+    `pendc compare swing.mat --model lab --model fitted` must show the error falling first."""
+    import scipy.io as sio
+    from pendc.model.modelfile import save_model
+    from pendc.sim.encoders import quantize_theta
+    from pendc.ident import report_html
+    truth = model.with_params({"m": 0.581 * 1.05, "L": 0.138867 * 1.05, "I": 6.21034e-3 * 1.05,
+                               "b_theta": 0.0025}).for_experiment("cart_held")
+    t = np.arange(0, 4, 1e-4)
+    run = Simulator(truth, 1e-4, "rk4")(t, np.full_like(t, 5.0), x0=(0.0, 0.0, 1.2, 0.0))
+    values = np.degrees(quantize_theta(run["theta"]) - np.pi)[:, None]
+    sio.savemat(tmp_path / "swing.mat", {"pend": {"time": t[:, None], "signals": {
+        "values": values, "dimensions": 1.0, "label": "Theta1", "blockName": "rig/Theta1"}}})
+    lab = model.without_effect("viscous_pendulum")
+    save_model(lab, tmp_path / "lab.toml")
+    save_model(lab.with_effect("viscous_pendulum", {"b_theta": 0.0023}).with_params({"I": 6.474e-3}),
+               tmp_path / "lab_fitted.toml")
+    monkeypatch.setattr(report_html, "_png", lambda fig: "AAAA")
+    rc, out, err = _cli(capsys, "compare", tmp_path / "swing.mat", "--experiment", "cart_held", "--columns",
+                        "theta=pend", "--theta-unit", "deg", "--theta-zero", "upright",
+                        "--model", tmp_path / "lab.toml", "--model", tmp_path / "lab_fitted.toml",
+                        "--html", tmp_path / "compare.html")
+    assert rc == 0, err
+    assert all(line.startswith("pendc: note: ") for line in err.strip().splitlines()), err
+    first = out.splitlines()[0]
+    assert first.startswith("headline: ") and "A: lab -> B: lab_fitted: theta " in first
+    assert first.endswith("(A -> B: the error falls)"), first
