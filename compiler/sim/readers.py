@@ -187,7 +187,7 @@ def convert_units(columns: dict, options: ReadOptions) -> None:
         columns["theta"] = columns["theta"] + math.pi
 
 
-def estimate_resolution(values: np.ndarray, max_samples: int = 2_000_000) -> float | None:
+def estimate_resolution(values: np.ndarray, max_samples: int = 500_000) -> float | None:
     """The quantisation step of ``values``, or None when they do not look quantised.
 
     The smallest nonzero jump between samples is a candidate step q; it is accepted
