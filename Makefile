@@ -42,8 +42,9 @@ demo: setup
 	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"
 
 SIM ?= both
+# make sim MODEL=path/to/model.toml: the regression on that model's HDL (built under sim_build/, not hdl_out/)
 sim: setup
-	$(PY) tb/run.py --sim $(SIM)
+	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work sim_build/$(basename $(notdir $(MODEL))))
 
 bench: setup
 	$(PY) bench/bench_simulate.py -o bench/out/simulate.json

@@ -126,7 +126,7 @@ def _build(model, args):
         print("pendc: compiling the model (range analysis and error budget, about half a minute; "
               "cached afterwards)...", file=sys.stderr)
 
-    options = options_from_model(model)
+    options = options_from_model(model, target=getattr(args, "target", None))
     return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False), on_miss=tell)
 
 
@@ -134,6 +134,11 @@ def cmd_build(args) -> int:
     from .backend.hdl import build_hdl, differences, write_hdl
     from .model.modelfile import load_model
 
+    if args.preset is not None and args.ii is not None:
+        raise PendcError("--preset and --ii both choose the schedule: give one of them")
+    for flag, value in (("--ii", args.ii), ("--dsp", args.dsp)):
+        if value is not None and value < 1:
+            raise PendcError(f"{flag} must be a positive integer, got {value}")
     model = load_model(args.model)
     build = _build(model, args)
     source = model.source
@@ -142,7 +147,9 @@ def cmd_build(args) -> int:
         source = str(Path(model.source).resolve().relative_to(Path(__file__).resolve().parents[1]))
     except ValueError:
         pass
-    files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus)
+    request = {"target": build.options.target, "preset": args.preset, "ii": args.ii, "dsp": args.dsp}
+    files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus,
+                      request={k: v for k, v in request.items() if v is not None})
     if args.check:
         diff = differences(args.output, files)
         if diff:
@@ -154,8 +161,12 @@ def cmd_build(args) -> int:
         sys.stdout.write(files["report.json"])
     else:
         report = json.loads(files["report.json"])
+        sched = report["schedule"]
         print(f"pendc: wrote {len(files)} files to {args.output}/ (top {report['wrapper']} around "
-              f"{report['top']}, {report['ii']} clock cycles per model step)", file=sys.stderr)
+              f"{report['top']}, {report['ii']} clock cycles per model step, "
+              f"{report['resources'].get('dsp_scheduled', report['resources'].get('dsp'))} DSP blocks "
+              f"{report['resources'].get('dsp_shape', '')}"
+              f"{', schedule ' + sched['preset'] if sched.get('preset') else ''})", file=sys.stderr)
     return 0
 
 
@@ -163,6 +174,15 @@ def cmd_report(args) -> int:
     from .model.modelfile import load_model
     from . import reports
 
+    if args.what == "synth":
+        from .synth import format_synth_report, synthesize
+        result = synthesize(args.build_dir, args.target or "ecp5-85k", freq_mhz=args.freq, use_cache=not args.no_cache,
+                            log=lambda text: print(f"pendc: {text}", file=sys.stderr))
+        if args.json:
+            _emit_json(result.to_json())
+        else:
+            sys.stdout.write(format_synth_report(result))
+        return 0
     model = load_model(args.model)
     build = _build(model, args)
     if args.what == "qformat":
@@ -210,6 +230,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print report.json")
     p.add_argument("--check", action="store_true", help="only check that the output folder is up to date")
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7", "xcu"),
+                   help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
+    p.add_argument("--preset", choices=("fast", "small", "comb"),
+                   help="schedule: fast = shortest step (100 MHz goal, default), small = 4 shared DSP blocks, "
+                        "comb = no pipelining (one combinational step between table reads)")
+    p.add_argument("--ii", type=int, help="clock cycles per model step: the scheduler packs the step into "
+                   "exactly N cycles with the shortest clock it can")
+    p.add_argument("--dsp", type=int, help="DSP-block budget per cycle: products share multipliers across cycles")
     p.set_defaults(func=cmd_build)
 
     from .cli_ident import add_parsers as add_identification_parsers
@@ -217,10 +245,18 @@ def build_parser() -> argparse.ArgumentParser:
     add_hil_parsers(sub)
     add_identification_parsers(sub)
 
-    p = sub.add_parser("report", help="reports on the compiled model: qformat or resources")
-    p.add_argument("what", choices=("qformat", "resources"))
+    p = sub.add_parser("report", help="reports on the compiled model: qformat, resources, or synth "
+                       "(Yosys + nextpnr on a build folder)")
+    p.add_argument("what", choices=("qformat", "resources", "synth"))
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--json", action="store_true", help="machine-readable output; synth: target, top, ii, fmax_mhz, "
+                   "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")
+    p.add_argument("--build-dir", default="hdl_out", help="synth: the `pendc build` output folder (default hdl_out)")
+    p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"),
+                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only); "
+                        "resources/qformat: whose multiplier shape the formats fit")
+    p.add_argument("--freq", type=_positive_float, default=100.0,
+                   help="synth: clock goal for nextpnr in MHz (default 100)")
     p.add_argument("--drift", action="store_true", help="qformat: also measure fixed-vs-float drift on the "
                    "full 20 s chirp and 5 s swing-up")
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")

@@ -130,6 +130,7 @@ def _rows(trace) -> np.ndarray:
 
 def make_vectors(build, report: dict, log=print) -> dict:
     """Every golden expectation of the core and bus tests."""
+    from pendc.backend.hdl import schedule_of
     from pendc.backend.viewmodel import build_view
     from pendc.golden import GoldenModel
     from pendc.sim.encoders import THETA_COUNT, X_COUNT
@@ -137,7 +138,7 @@ def make_vectors(build, report: dict, log=print) -> dict:
     graph = build.graph
     dt = build.options.dt
     golden = GoldenModel(graph, dt)
-    view = build_view(graph)
+    view = build_view(graph, schedule=schedule_of(graph, (report.get("schedule") or {}).get("request")))
     state_names = [n.name for n in _state_nodes(graph)]
     regs_in_rtl = {name for name, *_ in view.registers} | {f["state"] for f in view.fsms}
     missing = set(_rtl_state(graph, {n: _reset_word(graph, n) for n in state_names})) - regs_in_rtl

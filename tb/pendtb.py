@@ -46,7 +46,7 @@ def source_name(model) -> str:
 
 
 
-def emit_hdl(model, build, out_dir: Path, bus: str = "raptor") -> dict:
+def emit_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | None = None) -> dict:
     """Write what ``pendc build --bus BUS -o OUT_DIR`` writes; returns report.json.
 
     Falls back to the core alone (and a minimal report.json) if the bus wrapper
@@ -58,7 +58,7 @@ def emit_hdl(model, build, out_dir: Path, bus: str = "raptor") -> dict:
     except ImportError:
         build_hdl = None
     if build_hdl is not None:
-        files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=bus)
+        files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=bus, request=request)
     else:
         view, files = render_core(build.graph, source)
         files["report.json"] = dumps_json({"top": view.module, "wrapper": None, "bus": None, "ii": view.ii,
@@ -152,17 +152,21 @@ class Prepared:
     build: object = None          # pendc BuildResult the HDL came from
 
 
-def prepare_hdl(work: Path, use_repo_hdl: bool = True, log=print) -> Prepared:
-    """HDL for both buses and the testbench top under ``work`` (no vectors yet)."""
+def prepare_hdl(work: Path, use_repo_hdl: bool = True, log=print, model_path=None,
+                request: dict | None = None) -> Prepared:
+    """HDL for both buses and the testbench top under ``work`` (no vectors yet): of the
+    model file ``model_path`` (default model if None) with the schedule ``request``
+    (``pendc build`` options: preset, ii, dsp; None: the default). The repository's
+    hdl_out/ is used only for the default model and schedule, and only when current."""
     work = Path(work)
     work.mkdir(parents=True, exist_ok=True)
     timings = {}
     t0 = time.time()
-    model, build = model_and_build()
+    model, build = model_and_build(model_path)
     timings["compile"] = time.time() - t0
     t0 = time.time()
     hdl, reports = {}, {}
-    repo = use_repo_hdl and repo_hdl_current(model, build)
+    repo = use_repo_hdl and model_path is None and not request and repo_hdl_current(model, build)
     if repo:
         reports["raptor"] = json.loads((REPO / "hdl_out" / "report.json").read_text())
         if reports["raptor"].get("bus") == "raptor":
@@ -173,7 +177,7 @@ def prepare_hdl(work: Path, use_repo_hdl: bool = True, log=print) -> Prepared:
         if bus in hdl:
             continue
         out = work / f"hdl_{bus.replace('-', '')}"
-        reports[bus] = emit_hdl(model, build, out, bus)
+        reports[bus] = emit_hdl(model, build, out, bus, request)
         hdl[bus] = out
     timings["emit"] = time.time() - t0
     tb_top = work / f"{TB_TOP}.v"
@@ -196,9 +200,9 @@ def add_vectors(prep: Prepared, log=print) -> Prepared:
     return prep
 
 
-def prepare(work: Path, use_repo_hdl: bool = True, log=print) -> Prepared:
+def prepare(work: Path, use_repo_hdl: bool = True, log=print, model_path=None, request: dict | None = None) -> Prepared:
     """HDL for both buses, the testbench top and the golden vectors, under ``work``."""
-    return add_vectors(prepare_hdl(work, use_repo_hdl, log), log)
+    return add_vectors(prepare_hdl(work, use_repo_hdl, log, model_path, request), log)
 
 
 # ---------------------------------------------------------------- simulators

@@ -1,8 +1,10 @@
-"""Run the cocotb regression: ``python tb/run.py --sim icarus|verilator|both``.
+"""Run the cocotb regression: ``python tb/run.py --sim icarus|verilator|both [--model M.toml]``.
 
 Prepares the HDL of the default model (the repository's hdl_out/ if ``pendc build
---check`` says it is current, else a fresh build under the work folder) and the golden
-vectors once, then runs the suites on each simulator:
+--check`` says it is current, else a fresh build under the work folder) or of the
+model file given by ``--model`` (always built under the work folder, never into
+hdl_out/), with the default schedule or the one ``--preset`` / ``--ii`` / ``--dsp``
+ask for, and the golden vectors once, then runs the suites on each simulator:
 
     core    tb/test_core.py on pendulum_core (with the testbench decoders)
     raptor  tb/test_bus.py on the RAPTOR local-bus wrapper (pendulum_raptor)
@@ -40,7 +42,15 @@ def main(argv=None) -> int:
     ap.add_argument("-k", "--testcase", help="only the cocotb test(s) with this name (comma-separated)")
     ap.add_argument("--waves", action="store_true", help="record waveforms")
     ap.add_argument("--json", help="write a summary JSON here")
+    ap.add_argument("--model", help="model file whose HDL to test (default: the default model)")
+    ap.add_argument("--preset", choices=("fast", "small", "comb"), help="schedule preset (as pendc build)")
+    ap.add_argument("--ii", type=int, help="clock cycles per model step (as pendc build --ii)")
+    ap.add_argument("--dsp", type=int, help="DSP-block budget (as pendc build --dsp)")
     args = ap.parse_args(argv)
+    if args.model is not None and not Path(args.model).is_file():
+        print(f"tb/run.py: error: no model file {args.model}", file=sys.stderr)
+        return 2
+    request = {k: v for k, v in (("preset", args.preset), ("ii", args.ii), ("dsp", args.dsp)) if v is not None}
 
     sims = pendtb.SIMS if args.sim == "both" else (args.sim,)
     suites = tuple(args.suite or pendtb.SUITES)
@@ -51,7 +61,14 @@ def main(argv=None) -> int:
             return 2
     work = Path(args.work)
     t_all = time.time()
-    prep = pendtb.prepare(work, use_repo_hdl=not args.no_repo_hdl)
+    try:
+        prep = pendtb.prepare(work, use_repo_hdl=not args.no_repo_hdl, model_path=args.model, request=request)
+    except Exception as exc:  # a bad model file or schedule: one line, like pendc
+        from pendc.errors import PendcError
+        if not isinstance(exc, (PendcError, OSError, ValueError)):
+            raise
+        print(f"tb/run.py: error: {exc}", file=sys.stderr)
+        return 2
     t_prep = time.time() - t_all
 
     t0 = time.time()

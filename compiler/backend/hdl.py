@@ -16,9 +16,32 @@ def port_formats(graph: Graph) -> dict:
     return {p: {"signed": f.signed, "width": f.width, "frac": f.frac} for p, f in ports.items()}
 
 
-def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "raptor") -> dict:
-    """All output files, ``report.json`` included, as ``{filename: text}``."""
-    view, files = render_core(graph, source)
+def schedule_of(graph: Graph, request: dict | None = None):
+    """The schedule a build request asks for: ``{"target", "preset", "ii", "dsp"}`` (all optional;
+    none: the default preset). Deterministic, so a report.json's request rebuilds the same core."""
+    from ..passes.qformats import MULT_SHAPES
+    from ..passes.schedule import schedule_for
+    req = dict(request or {})
+    target = req.get("target") or "ecp5-85k"
+    preset = req.get("preset")
+    if preset is None and req.get("ii") is None:
+        from ..passes.schedule import DEFAULT_PRESET
+        preset = DEFAULT_PRESET
+    return schedule_for(graph, MULT_SHAPES[target], ii=req.get("ii"), dsp=req.get("dsp"), preset=preset,
+                        target=target)
+
+
+def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "raptor",
+              request: dict | None = None) -> dict:
+    """All output files, ``report.json`` included, as ``{filename: text}``; ``request``: the
+    schedule options (see :func:`schedule_of`)."""
+    schedule = schedule_of(graph, request)
+    view, files = render_core(graph, source, schedule=schedule)
+    if schedule.units:      # shared multipliers: the blocks the units need, not one set per product
+        from ..passes.qformats import MULT_SHAPES
+        from ..passes.resources import dsp_for
+        shape = MULT_SHAPES[schedule.target]
+        resources = dict(resources, dsp_scheduled=sum(dsp_for(*u.widths, shape) for u in schedule.units))
     ident = build_id(files)
     wrapper_files, regmap = render_wrapper(view, port_formats(graph), ident, bus)
     files.update(wrapper_files)
@@ -35,6 +58,7 @@ def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "rapto
         "qformats": {n.name: str(n.qformat) for n in graph.nodes if n.kind is not Kind.CONST},
         "overflow_nodes": sorted({node for _, node in view.net.overflow}),
         "resources": resources,
+        "schedule": dict(schedule.to_json(), request=dict(request or {})),
         "registers": regmap["registers"],
     }
     files["report.json"] = dumps_json(report)
@@ -56,4 +80,4 @@ def differences(out_dir, files: dict) -> list:
     return diff
 
 
-__all__ = ["BUSES", "build_hdl", "write_hdl", "differences", "port_formats"]
+__all__ = ["BUSES", "build_hdl", "write_hdl", "differences", "port_formats", "schedule_of"]

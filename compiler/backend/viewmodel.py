@@ -1,10 +1,11 @@
 """From a typed IR graph to the flat view-model the Verilog templates print.
 
-Timing of one model step (``ii`` clock cycles, ``ii = 1 + number of table stages``):
-a step request is accepted when ``ready`` is high (cycle 0); every table is a
-synchronous ROM whose address comes from the state (and earlier tables), read at the
-end of the cycle of its stage; in the last cycle the state registers, FSMs and the
-sticky overflow flag update. ``u`` must be held from the accepting cycle to the last.
+Timing of one model step (``ii`` clock cycles, from a :class:`pendc.passes.schedule.Schedule`;
+without one, the combinational schedule: ``ii = 1 + number of table stages``): a step
+request is accepted when ``ready`` is high (cycle 0); every table is a synchronous ROM
+whose address is read at the end of its address cycle; nodes run in their scheduled
+cycle (pipeline registers and shared multipliers: :mod:`.timing`); in the last cycle
+the state registers and FSMs update. ``u`` must be held from the accepting cycle to the last.
 """
 
 from __future__ import annotations
@@ -16,7 +17,10 @@ from ..ir import lut as lut_sem
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.qformat import Overflow, QFormat, Rounding
+from ..passes.resources import slope_bits
+from ..passes.schedule import Schedule, schedule_graph
 from .arith import Netlist, aligned, extend, literal, requantize, ulit
+from .timing import Datapath
 
 STATE_PORTS = ("x", "dx", "theta", "dtheta")
 ENCODER_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
@@ -45,6 +49,7 @@ class CoreView:
     roms: list = field(default_factory=list)
     lut_regs: list = field(default_factory=list)    # (name, width, source) registered beside a ROM
     outputs: list = field(default_factory=list)     # (port, wire)
+    dp: Datapath | None = None                      # pipeline registers, shared units, overflow gating
 
 
 def sig(name: str) -> str:
@@ -63,11 +68,13 @@ def table_stages(graph: Graph) -> dict:
     return {n.name: stage[n.name] for n in graph.of_kind(Kind.LUT)}
 
 
-def build_view(graph: Graph, module: str = "pendulum_core") -> CoreView:
-    stages = table_stages(graph)
-    ii = 1 + max(stages.values(), default=0)
+def build_view(graph: Graph, module: str = "pendulum_core", schedule: Schedule | None = None) -> CoreView:
+    """The view-model of the core for ``schedule`` (default: combinational between table reads)."""
+    schedule = schedule or schedule_graph(graph)
+    ii = schedule.ii
     net = Netlist()
     view = CoreView(module=module, ii=ii, phase_width=max(1, (ii - 1).bit_length()), ports=[], net=net)
+    view.dp = Datapath(schedule, net, {n.name: n.kind for n in graph.nodes}, view.phase_width)
     u = graph["u"].qformat
     view.ports = [("input", "u", u.width, True)]
     for port in STATE_PORTS:
@@ -77,17 +84,27 @@ def build_view(graph: Graph, module: str = "pendulum_core") -> CoreView:
         if any(p == port for p, _ in graph.outputs):
             view.ports.append(("output", port, 1, False))
     for n in graph.nodes:
-        _emit_node(view, graph, n, stages)
+        _emit_node(view, graph, n)
+    view.dp.finish()
     view.outputs = [(p, sig(node)) for p, node in graph.outputs]
     return view
 
 
-def _emit_node(view: CoreView, graph: Graph, n, stages) -> None:
+def _use_cycle(view: CoreView, n) -> int:
+    """The cycle a node reads its inputs in."""
+    if n.kind in (Kind.REGISTER, Kind.FSM):
+        return view.ii - 1
+    if n.kind is Kind.LUT:
+        return view.dp.schedule.lut_addr[n.name]
+    return view.dp.schedule.stage.get(n.name, 0)
+
+
+def _emit_node(view: CoreView, graph: Graph, n) -> None:
     net = view.net
     out: QFormat = n.qformat
     name = sig(n.name)
     ins = [graph[i] for i in n.inputs]
-    a = [sig(i) for i in n.inputs]
+    a = [view.dp.ref(i, _use_cycle(view, n), sig(i)) for i in n.inputs]
     f = [i.qformat for i in ins]
     k = n.kind
     if k is Kind.CONST:
@@ -101,15 +118,12 @@ def _emit_node(view: CoreView, graph: Graph, n, stages) -> None:
     elif k in (Kind.GAIN, Kind.MUL):
         if k is Kind.GAIN:
             c = QFormat.parse(n.param("cfmt"))
-            width = f[0].width + c.width
-            rhs = f"$signed({extend(a[0], f[0].width, True, width)}) * $signed({literal(c.from_float(n.param('value')), width)})"
-            frac = f[0].frac + c.frac
+            second = (None, c.width, c.from_float(n.param("value")))
+            width, frac = f[0].width + c.width, f[0].frac + c.frac
         else:
-            width = f[0].width + f[1].width
-            rhs = (f"$signed({extend(a[0], f[0].width, True, width)}) * "
-                   f"$signed({extend(a[1], f[1].width, True, width)})")
-            frac = f[0].frac + f[1].frac
-        x = net.wire(f"{name}_x", width, rhs)
+            second = (a[1], f[1].width, None)
+            width, frac = f[0].width + f[1].width, f[0].frac + f[1].frac
+        x = view.dp.product(name, n.name, (a[0], f[0].width, None), second)
         requantize(net, name, x, width, frac, out, n.rounding, n.overflow, n.name)
     elif k in (Kind.ADD, Kind.SUB, Kind.COMPARE):
         frac = max(q.frac for q in f)
@@ -147,7 +161,7 @@ def _emit_node(view: CoreView, graph: Graph, n, stages) -> None:
             rhs = f"({sel} == {ulit(j, sel_w)}) ? {choices[j]} : {rhs}"
         net.wire(name, out.width, rhs)
     elif k is Kind.LUT:
-        _emit_lut(view, n, a[0], f[0], stages[n.name])
+        _emit_lut(view, n, a[0], f[0])
     else:
         raise ValueError(f"no Verilog for node kind {k}")
 
@@ -186,7 +200,7 @@ def _wide(inp: str, fin: QFormat) -> str:
     return f"$signed({extend(inp, fin.width, fin.signed, fin.width + 1)})"
 
 
-def _emit_lut(view: CoreView, n, inp: str, fin: QFormat, stage: int) -> None:
+def _emit_lut(view: CoreView, n, inp: str, fin: QFormat) -> None:
     net = view.net
     name = sig(n.name)
     p = dict(n.params)
@@ -223,7 +237,7 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat, stage: int) -> None:
                         signed=False)
         frac = net.wire(f"{name}_f", max(shift, 1), f"({below} | {above}) ? {max(shift, 1)}'d0 : {raw_f}", signed=False)
     interp = p["interpolate"]
-    dwid = wo + 1
+    dwid = slope_bits(table)          # the stored slope needs only the largest neighbour difference
     word_w = wo + (dwid if interp else 0)
     words = []
     mask_o, mask_d = (1 << wo) - 1, (1 << dwid) - 1
@@ -242,16 +256,21 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat, stage: int) -> None:
         orr = f"{name}_outside_r"
         view.lut_regs.append((orr, 1, outside))
         net.overflow.append((orr, n.name))
+    if n.name in view.dp.schedule.rom_reg:       # ROM word through a fabric register: cuts clock-to-out
+        view.lut_regs.append((f"{q}_r", word_w, q))
+        q = f"{q}_r"
     y0 = net.wire(f"{name}_y0", wo, f"{q}[{word_w - 1}:{dwid}]" if interp else q)
     if not interp or shift == 0:
         net.wire(name, wo, y0)
         return
     dy = net.wire(f"{name}_dy", dwid, f"{q}[{dwid - 1}:0]")
     pw = dwid + shift + 1
-    prod = net.wire(f"{name}_p", pw, f"$signed({extend(dy, dwid, True, pw)}) * $signed({{{dwid}'d0, 1'b0, {fr}}})")
+    fs = net.wire(f"{name}_fs", shift + 1, f"{{1'b0, {fr}}}")
+    prod = view.dp.product(f"{name}_p", n.name, (dy, dwid, None), (fs, shift + 1, None))
     sw_ = pw - shift + (1 if n.rounding is Rounding.NEAREST else 0)   # wide enough: never overflows
     step = requantize(net, f"{name}_step", prod, pw, shift, QFormat(True, sw_, 0), n.rounding,
                       Overflow.WRAP, n.name)
-    total = net.wire(f"{name}_sum", sw_ + 1, f"{extend(y0, wo, True, sw_ + 1)} + {extend(step, sw_, True, sw_ + 1)}")
-    net.wire(f"{name}_sum_unused", sw_ + 1 - wo, f"{total}[{sw_}:{wo}]", signed=False)
+    tw = max(sw_, wo) + 1
+    total = net.wire(f"{name}_sum", tw, f"{extend(y0, wo, True, tw)} + {extend(step, sw_, True, tw)}")
+    net.wire(f"{name}_sum_unused", tw - wo, f"{total}[{tw - 1}:{wo}]", signed=False)
     net.wire(name, wo, f"{total}[{wo - 1}:0]")

@@ -7,7 +7,10 @@ typed graph over check stimuli and, while a state's error exceeds its budget,
 
 1. widens the state accumulators (register, sum and increment) by 8 fraction bits —
    the outputs keep their meaning, the registers just carry guard bits; then
-2. enlarges the tables whose linear-interpolation error is largest (one address bit
+2. gives the products fitted to one DSP block (see :mod:`qformats`) wider operands, the
+   ones whose output is least accurate relative to its range first, one level a round
+   (a level costs DSP blocks: this is where the budget, not a rule, sets the widths); then
+3. enlarges the tables whose linear-interpolation error is largest (one address bit
    quarters that error).
 
 The float twin is the same graph in real arithmetic with exact table functions, so the
@@ -50,6 +53,7 @@ class ErrorReport:
     actions: tuple
     met: bool
     seconds: float
+    levels: dict = None               # product -> operand level (0: one DSP block); None: not fitted
 
     def to_json(self) -> dict:
         return dict(self.__dict__, actions=list(self.actions))
@@ -102,15 +106,17 @@ def interpolation_error(node, fin) -> float:
 
 
 def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: str = "compiled",
-                      max_rounds: int = 8):
-    """Call ``typed(widen, addr_bits)`` -> typed graph until every state in ``budgets`` is within
-    its budget on the check stimuli. Returns (graph, ErrorReport)."""
+                      max_rounds: int = 16, products: tuple = (), max_level: int = 2):
+    """Call ``typed(widen, addr_bits, levels)`` -> typed graph until every state in ``budgets`` is
+    within its budget on the check stimuli; ``products`` are the nodes whose operand level may
+    rise (up to ``max_level``). Returns (graph, ErrorReport)."""
     stimuli = check_stimuli(seconds)
     widen: dict = {}
     addr: dict = {}
+    levels: dict = {p: 0 for p in products}
     actions = []
     for _ in range(max_rounds):
-        graph = typed(dict(widen), dict(addr))
+        graph = typed(dict(widen), dict(addr), dict(levels)) if products else typed(dict(widen), dict(addr))
         errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine)
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
@@ -121,6 +127,13 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
             for s in STATES:
                 widen[s] = current + WIDEN_STEP
             actions.append(f"{', '.join(over)} over budget: state accumulators +{WIDEN_STEP} fraction bits")
+            continue
+        raise_ = _products_to_widen(graph, node_errors, levels, max_level)
+        if raise_:
+            for n in raise_:
+                levels[n] += 1
+            actions.append(f"{', '.join(over)} over budget: wider multiplier operands for "
+                           + ", ".join(f"{n} (level {levels[n]})" for n in raise_))
             continue
         luts = [n for n in graph.of_kind(Kind.LUT) if n.param("addr_bits") < MAX_ADDR_BITS]
         if not luts:
@@ -135,8 +148,22 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
                          addr_bits={n.name: n.param("addr_bits") for n in graph.of_kind(Kind.LUT)},
-                         actions=tuple(actions), met=met, seconds=seconds)
+                         actions=tuple(actions), met=met, seconds=seconds,
+                         levels=dict(sorted(levels.items())) if products else None)
     return graph, report
+
+
+def _products_to_widen(graph: Graph, node_errors: dict, levels: dict, max_level: int) -> list:
+    """The quarter (at least one) of the products below ``max_level`` whose output error is
+    largest relative to their format's range: where rounding an operand hurt most."""
+    rel = {}
+    for name, level in levels.items():
+        if level >= max_level or name not in graph:
+            continue
+        fmt = graph[name].qformat
+        rel[name] = node_errors.get(name, 0.0) / max(abs(fmt.max_value), fmt.lsb)
+    ranked = sorted(rel, key=lambda n: (-rel[n], n))
+    return ranked[:max(1, len(ranked) // 4)]
 
 
 def _relative_interp_error(graph: Graph, node) -> float:

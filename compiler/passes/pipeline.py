@@ -21,7 +21,7 @@ from .eliminate_common import eliminate_common_subexpressions
 from .error_budget import BudgetError, ErrorReport, meet_error_budget
 from .fold_constants import fold_constants
 from .lower import lower_model
-from .qformats import assign_qformats
+from .qformats import MAX_LEVEL, MULT_SHAPES, assign_qformats, product_kinds
 from .ranges import Ranges, analyze_ranges
 from .resources import Resources, estimate_resources
 from .tabulate import fill_lut_tables, tabulate_luts
@@ -42,6 +42,8 @@ class BuildOptions:
     budget_x: float = 2.5e-6 / 2      # half an encoder count over the check horizon
     budget_theta: float = 3.14e-4 / 2
     error_budget: bool = True
+    target: str = "ecp5-85k"          # whose DSP shape the products are fitted to (qformats.MULT_SHAPES)
+    fit_multipliers: bool = True      # False: the thesis' 32-bit rule for every product
     ranges: dict = field(default_factory=dict)
     qformats: dict = field(default_factory=dict)
     engine: str = "compiled"
@@ -95,6 +97,8 @@ def validate_options(values) -> BuildOptions:
             table[key], ok = float(value), True
         if not ok:
             raise PendcError(f"[hardware] {key} must be a {expected.__name__}, got {value!r}")
+    if table.get("target", defaults.target) not in MULT_SHAPES:
+        raise PendcError(f"[hardware] target must be one of {', '.join(MULT_SHAPES)}, got {table['target']!r}")
     for node, value in table.get("ranges", {}).items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
             raise PendcError(f"[hardware.ranges] {node} must be a positive number (max |value|), got {value!r}")
@@ -129,24 +133,30 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     graph = _checked(tabulate_luts(graph, ranges, margin=opt.lut_margin, addr_bits=opt.lut_addr_bits),
                      "tabulate_luts")
 
-    def typed(widen: dict, addr_bits: dict) -> Graph:
+    shape = MULT_SHAPES[opt.target] if opt.fit_multipliers else None
+    products = tuple(n.name for n in graph.of_kind(*product_kinds())
+                     if n.name not in opt.qformats) if shape else ()
+
+    def typed(widen: dict, addr_bits: dict, levels: dict | None = None) -> Graph:
         g = graph.map_nodes(lambda n: n.with_params(addr_bits=addr_bits[n.name]) if n.name in addr_bits else n)
         g = tabulate_luts(g, ranges, margin=opt.lut_margin) if addr_bits else g
         g = assign_qformats(g, ranges, width=opt.width, margin_bits=opt.margin_bits,
-                            overrides=opt.qformats, widen=widen)
+                            overrides=opt.qformats, widen=widen, shape=shape,
+                            levels=levels if levels is not None else {p: MAX_LEVEL for p in products})
         return _checked(fill_lut_tables(g), "assign_qformats/fill_lut_tables", typed=True)
 
     if opt.error_budget:
         seconds = min(opt.check_seconds, 5.0 * opt.training_scale)  # never check beyond what trained the ranges
         try:
             final, error = meet_error_budget(typed, {"x": opt.budget_x, "theta": opt.budget_theta},
-                                             opt.dt, seconds, engine=opt.engine)
+                                             opt.dt, seconds, engine=opt.engine, products=products,
+                                             max_level=MAX_LEVEL)
         except BudgetError as exc:
             raise PendcError(str(exc)) from None
     else:
         final, error = typed({}, {}), None
     return BuildResult(model=model, options=opt, untyped=untyped, graph=_checked(final, "error budget", True),
-                       ranges=ranges, error=error, resources=estimate_resources(final))
+                       ranges=ranges, error=error, resources=estimate_resources(final, shape or MULT_SHAPES[opt.target]))
 
 
 def _require_nodes(graph: Graph, table: dict, what: str) -> None:

@@ -10,6 +10,14 @@ Rules (thesis section 4.2, spec §5):
 Per-node overrides (``qformat`` from the model file) win over the rules, and
 ``widen`` (node -> extra fraction bits) is how :mod:`error_budget` buys precision for
 accumulators. Multiplier operands wider than 32 bits get a CAST to 32 bits in front.
+
+Fitting the multipliers (``shape``, the target's signed DSP operand widths, e.g. 18x18 on
+ECP5): a product at *level* 0 gets operands (and a GAIN its coefficient) of exactly one
+DSP block, a table its output and interpolation fraction such that slope x fraction is
+one DSP block too; level 1 widens one side (the coefficient of a GAIN, the first operand
+of a MUL, a table back to the thesis' 32-bit rule) and level 2 both, to 32 bits.
+Every product starts at level 0; :mod:`error_budget` raises levels only where the
+budget is missed, so the error budget, not a fixed rule, decides the widths.
 """
 
 from __future__ import annotations
@@ -23,6 +31,29 @@ from .ranges import Ranges
 CONST_BITS = 32
 MULT_OPERAND_BITS = 32
 MAX_WIDTH = 60   # an aligned sum of two such values still fits the 64-bit golden model
+MAX_LEVEL = 2
+# signed operand widths of one DSP block: ECP5 MULT18X18D, iCE40 SB_MAC16, Xilinx DSP48E1, DSP48E2
+MULT_SHAPES = {"ecp5-85k": (18, 18), "ice40-up5k": (16, 16), "xc7": (25, 18), "xcu": (27, 18)}
+
+
+def product_kinds():
+    """Node kinds that need a multiplier (a LUT's linear interpolation is slope x fraction)."""
+    return (Kind.GAIN, Kind.MUL, Kind.LUT)
+
+
+def operand_bits(node, shape: tuple | None, level: int) -> tuple:
+    """(first, second) operand width limits of a product at ``level`` (None: 32-bit rule).
+    GAIN: (operand, coefficient); MUL: (a, b); LUT: (output, fraction + sign)."""
+    if shape is None or level >= MAX_LEVEL:
+        return (MULT_OPERAND_BITS, MULT_OPERAND_BITS)
+    big, small = max(shape), min(shape)
+    if level == 0:
+        return (big, small) if node.kind is not Kind.GAIN else (small, big)
+    if node.kind is Kind.GAIN:        # coefficients are systematic errors: widen them first
+        return (small, MULT_OPERAND_BITS)
+    if node.kind is Kind.LUT:
+        return (MULT_OPERAND_BITS, MULT_OPERAND_BITS)
+    return (MULT_OPERAND_BITS, small)
 
 
 def thesis_format(max_abs: float, width: int = 32, margin_bits: int = 0) -> QFormat:
@@ -45,8 +76,15 @@ def _fixed_format(node, graph) -> QFormat | None:
 
 
 def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0,
-                    overrides: dict | None = None, widen: dict | None = None) -> Graph:
-    """Type every node (see module docstring); returns a new graph."""
+                    overrides: dict | None = None, widen: dict | None = None, shape: tuple | None = None,
+                    levels: dict | None = None) -> Graph:
+    """Type every node (see module docstring); returns a new graph. ``shape`` (DSP operand
+    widths) and ``levels`` (product -> level, default 0) fit products to the multipliers."""
+    levels = dict(levels or {})
+
+    def limits(node) -> tuple:
+        return operand_bits(node, shape, levels.get(node.name, 0))
+
     overrides = {k: QFormat.parse(v) if isinstance(v, str) else v for k, v in (overrides or {}).items()}
     unknown = set(overrides) - set(graph.by_name)
     if unknown:
@@ -72,7 +110,8 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
     for node in graph.nodes:
         fmt = _fixed_format(node, graph)
         if fmt is None and node.kind is not Kind.REGISTER:
-            fmt = thesis_format(magnitude(node), width, margin_bits)
+            w = min(width, limits(node)[0]) if node.kind is Kind.LUT else width
+            fmt = thesis_format(magnitude(node), w, margin_bits)
         if fmt is not None:
             extra = widen.get(node.name, 0) or widen.get(stored_by.get(node.name, ""), 0)
             if extra and node.kind not in (Kind.COMPARE, Kind.SLICE, Kind.FSM):
@@ -87,10 +126,10 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
     def typed(node):
         n = node.typed(formats[node.name])
         if n.kind is Kind.GAIN:
-            n = n.with_params(cfmt=str(thesis_format(abs(n.param("value")), CONST_BITS)))
+            n = n.with_params(cfmt=str(thesis_format(abs(n.param("value")), min(CONST_BITS, limits(n)[1]))))
         return n
 
-    return _narrow_multiplier_operands(graph.map_nodes(typed))
+    return _narrow_multiplier_operands(graph.map_nodes(typed), limits)
 
 
 def accumulator_chain(graph: Graph, register: str) -> list:
@@ -111,25 +150,38 @@ def accumulator_chain(graph: Graph, register: str) -> list:
     return chain
 
 
-def _narrow_multiplier_operands(graph: Graph) -> Graph:
-    """Insert a CAST to 32 bits in front of every multiplier operand that is wider."""
+def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
+    """Insert a CAST in front of every multiplier operand wider than its limit (dropping
+    fraction bits), and in front of a table input whose interpolation fraction would be."""
+    from ..ir import lut as lut_sem
     casts, nodes = {}, []
+
+    def narrowed(i: str, bits: int) -> str:
+        fmt = graph[i].qformat
+        if fmt.width <= bits:
+            return i
+        key = (i, bits)
+        if key not in casts:
+            narrow = QFormat(fmt.signed, bits, fmt.frac - (fmt.width - bits))
+            casts[key] = make(f"{i}_m" if bits == MULT_OPERAND_BITS else f"{i}_m{bits}", Kind.CAST, [i],
+                              qformat=narrow, meaning=f"{i} narrowed to {bits} bits for a multiplier")
+        return casts[key].name
+
     for node in graph.nodes:
         if node.kind in (Kind.GAIN, Kind.MUL):
-            inputs = []
-            for i in node.inputs:
-                src = graph[i]
-                if src.qformat.width > MULT_OPERAND_BITS:
-                    if i not in casts:
-                        fmt = src.qformat
-                        narrow = QFormat(fmt.signed, MULT_OPERAND_BITS, fmt.frac - (fmt.width - MULT_OPERAND_BITS))
-                        casts[i] = make(f"{i}_m", Kind.CAST, [i], qformat=narrow,
-                                        meaning=f"{i} narrowed for a multiplier")
-                    inputs.append(casts[i].name)
-                else:
-                    inputs.append(i)
+            lim = limits(node)
+            inputs = [narrowed(i, lim[j]) for j, i in enumerate(node.inputs)]
             node = make(node.name, node.kind, inputs, node.meaning, node.qformat, node.rounding,
                         node.overflow, **dict(node.params))
+        elif node.kind is Kind.LUT and node.param("interpolate"):
+            frac_bits = limits(node)[1] - 1           # unsigned fraction beside a sign bit
+            fin = graph[node.inputs[0]].qformat
+            p = dict(node.params)
+            shift = lut_sem.grid_shift(p["lo"], p["hi"], p["addr_bits"], fin)
+            if shift > frac_bits and fin.width - (shift - frac_bits) >= 2:
+                inp = narrowed(node.inputs[0], fin.width - (shift - frac_bits))
+                node = make(node.name, node.kind, [inp], node.meaning, node.qformat, node.rounding,
+                            node.overflow, **p)
         nodes.append(node)
     if not casts:
         return graph

@@ -1,0 +1,107 @@
+"""How a schedule (pendc.passes.schedule) shows up in the netlist: pipeline registers,
+shared multiplier units and the cycle-gated overflow flag.
+
+A node's value is read as its own wire in the cycle it is computed in and, in later
+cycles, from a pipeline register loaded at the end of that cycle (only when the
+schedule has a finite clock goal or shared units: a purely combinational schedule
+reads every value directly, since all of them stay stable through the step).
+Products assigned to a shared unit read its product, whose operands are selected by
+the phase counter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..ir.nodes import Kind
+from ..passes.schedule import SOURCES, Schedule
+from .arith import Netlist, extend, literal, ulit
+
+
+@dataclass
+class Datapath:
+    """Schedule-dependent parts of the core's view-model."""
+
+    schedule: Schedule
+    net: Netlist
+    kinds: dict                                       # node name -> Kind
+    phase_width: int
+    pipe_regs: list = field(default_factory=list)     # (name, width, signed, source, stage)
+    unit_ops: dict = field(default_factory=dict)      # unit -> [(stage, a expr, b expr)]
+    _piped: dict = field(default_factory=dict)
+
+    @property
+    def registered(self) -> bool:
+        return not math.isinf(self.schedule.clock_ns) or bool(self.schedule.units)
+
+    def unit_of(self, node: str):
+        for u in self.schedule.units:
+            if any(name == node for name, _ in u.uses):
+                return u
+        return None
+
+    def ref(self, node: str, cycle: int, wire: str) -> str:
+        """The wire to read ``node``'s value (``wire``) from in ``cycle``."""
+        stage = self.schedule.stage.get(node, 0)
+        if self.kinds[node] in SOURCES or stage >= cycle or not self.registered:
+            return wire
+        if wire not in self._piped:
+            self._piped[wire] = (f"{wire}_p", stage)
+        return self._piped[wire][0]
+
+    def finish(self) -> None:
+        """Declare the shared units and the pipeline registers (widths from the wires they copy)."""
+        self.emit_units()
+        decls = {name: (width, signed) for name, width, signed in self.net.decls}
+        self.pipe_regs = [(reg, *decls[wire], wire, stage) for wire, (reg, stage) in self._piped.items()]
+
+    def product(self, base: str, node: str, a: tuple, b: tuple) -> str:
+        """Wire of the exact signed product of operands ``(expr, width, constant or None)``:
+        its own multiplier, or a slice of the shared unit's product."""
+        width = a[1] + b[1]
+        unit = self.unit_of(node)
+        if unit is None:
+            ops = [f"$signed({literal(c, width) if c is not None else extend(e, w, True, width)})" for e, w, c in (a, b)]
+            return self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}")
+        big, small = (a, b) if a[1] >= b[1] else (b, a)
+        wa, wb = unit.widths
+        ea = literal(big[2], wa) if big[2] is not None else extend(big[0], big[1], True, wa)
+        eb = literal(small[2], wb) if small[2] is not None else extend(small[0], small[1], True, wb)
+        self.unit_ops.setdefault(unit.name, []).append((self.schedule.stage[node], ea, eb))
+        p = f"u_{unit.name}_p"
+        return self.net.wire(f"{base}_x", width, p if width == wa + wb else f"{p}[{width - 1}:0]")
+
+    def emit_units(self) -> None:  # called by finish()
+        """Declare every shared unit: phase-selected operands and one product."""
+        pw = self.phase_width
+        for unit in self.schedule.units:
+            wa, wb = unit.widths
+            uses = self.unit_ops.get(unit.name, [])
+            for side, width, j in (("a", wa, 1), ("b", wb, 2)):
+                rhs = uses[-1][j] if uses else literal(0, width)
+                for stage, *ops in reversed(uses[:-1]):
+                    rhs = f"(phase == {ulit(stage, pw)}) ? {ops[j - 1]} : {rhs}"
+                self.net.wire(f"u_{unit.name}_{side}", width, rhs)
+            p = self.net.wire(f"u_{unit.name}_p", wa + wb, f"$signed(u_{unit.name}_a) * $signed(u_{unit.name}_b)")
+            self.net.wire(f"u_{unit.name}_p_unused", wa + wb, p, signed=False)
+
+    def overflow_hit(self, multicycle: bool) -> str:
+        """Expression: some node overflowed in the cycle it is computed in, during a step."""
+        by_stage: dict = {}
+        last = self.schedule.ii - 1
+        for wire, node in self.net.overflow:
+            stage = last if self.kinds.get(node) is Kind.FSM else self.schedule.stage.get(node, 0)
+            by_stage.setdefault(stage, []).append(wire)
+        if not by_stage:
+            return "1'b0"
+        terms = []
+        pw = self.phase_width
+        for stage in sorted(by_stage):
+            ors = " | ".join(by_stage[stage])
+            if not multicycle:
+                gate = "step"
+            else:
+                gate = "(ready & step)" if stage == 0 else f"(phase == {ulit(stage, pw)})"
+            terms.append(f"({gate} & ({ors}))")
+        return " | ".join(terms)

