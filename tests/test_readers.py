@@ -376,3 +376,15 @@ def test_mat_without_numeric_signals_and_cell_arrays(tmp_path):
     sio.savemat(path, {"log": cells, "tout": t})
     m = read_measurements(path, options=opts(columns={"theta": "log{1}", "x": "log{2}", "u": "log{3}"}))
     assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t)
+
+
+def test_mat_with_malformed_simulink_struct(tmp_path):
+    t, theta, x, u = truth()
+    path = tmp_path / "odd.mat"
+    sio.savemat(path, {"sim": {"time": {"a": 1.0}, "signals": {"values": "text", "label": "theta"}},
+                       "x": x, "u": u, "tout": t})
+    with pytest.raises(PendcError) as info:
+        read_measurements(path)
+    msg = str(info.value)
+    assert "\n" not in msg and "missing column(s) theta" in msg and "x, u, tout" in msg
+    assert "not readable here: sim: MATLAB objects or malformed structs" in msg

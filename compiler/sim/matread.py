@@ -66,10 +66,8 @@ def read_mat_table(path: str) -> Table:
         what = (what + "arrays, or save from To Workspace as 'Structure with time')") if walker.objects else ""
         found = ", ".join(list(content_names(content))) or "nothing"
         raise PendcError(f"{path}: no numeric signal in the file (variables found: {found}){what}")
-    if walker.objects:
-        walker.meta["_unreadable"] = ", ".join(walker.objects)
     return Table(columns=walker.columns, meta=walker.meta, source=str(path), first_line=0,
-                 times=walker.times, aliases=walker.aliases)
+                 times=walker.times, aliases=walker.aliases, unreadable=tuple(walker.objects))
 
 
 def content_names(content: dict):
@@ -108,7 +106,13 @@ class _Walker:
 
     def _matrix(self, name: str, value: np.ndarray, time=None) -> list:
         """Add a vector or a matrix (samples along the longer dimension); returns column names."""
-        value = np.asarray(value, dtype=np.float64)
+        try:
+            value = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):  # a struct or text where numbers were expected
+            self.objects.append(name)
+            return []
+        if value.size < 2:
+            return []
         if value.ndim > 2:
             value = value.reshape(-1, value.shape[-1]).T if value.shape[-1] > max(value.shape[:-1]) else \
                 value.reshape(value.shape[0], -1)
@@ -163,8 +167,11 @@ class _Walker:
 
 def _time_vector(value):
     """A struct's time field as a float vector, or None when it is empty (format "Structure")."""
-    arr = np.asarray(value, dtype=np.float64).reshape(-1) if np.size(value) else None
-    return arr if arr is not None and arr.size > 1 else None
+    try:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        return None
+    return arr if arr.size > 1 else None
 
 
 def _text(value) -> str:

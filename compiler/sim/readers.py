@@ -294,6 +294,8 @@ def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
              "theta": "the cart alone: --experiment pendulum_removed"}
     found = [n for n in AXES if n not in refused]
     why = f", or for {'; for '.join(hints[n] for n in refused)}" if found else ""
+    if table.unreadable:
+        why += f" (not readable here: {', '.join(table.unreadable)}: MATLAB objects or malformed structs)"
     raise PendcError(f"{table.source}: missing column(s) {', '.join(refused)} (columns: {', '.join(names)}); map "
                      f"with --columns NAME=FILE_NAME{why}")
 

@@ -27,6 +27,7 @@ class Table:
     first_line: int = 0
     times: dict = field(default_factory=dict)
     aliases: dict = field(default_factory=dict)  # other name -> column name (.mat labels)
+    unreadable: tuple = ()  # variables the reader could not make sense of (MATLAB objects...)
 
     def where(self, row: int) -> str:
         """How a message names row ``row`` (0-based): the file line, or the 1-based row."""
