@@ -60,3 +60,91 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, messag
     assert message in err
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv"]
+
+
+def _slice(tmp_path, start, seconds, name="slice.csv", meta=None):
+    from pendc.sim.measurements import format_csv, read_measurements
+
+    full = read_measurements(DATA / "hidden_spring.csv")
+    a, n = int(start * 1000), int(seconds * 1000) + 1
+    cols = {k: full.columns[k][a:a + n] for k in ("t", "u", "x", "theta")}
+    cols["t"] = cols["t"] - cols["t"][0]
+    path = tmp_path / name
+    path.write_text(format_csv(cols, meta=meta))
+    return path
+
+
+def test_half_a_second_of_data_is_refused_unless_forced(tmp_path, capsys):
+    data, out = _slice(tmp_path, 4.0, 0.5), tmp_path / "new.toml"
+    rc, _, err = run(capsys, "fit", data, "--add", "cart_spring", "-o", out)
+    assert rc == 2 and err.count("\n") == 1 and "do not identify k_c, x_0" in err and "no model written" in err, err
+    assert not out.exists() and "Warning" not in err
+    rc, text, err = run(capsys, "fit", data, "--add", "cart_spring", "-o", out, "--force")
+    assert rc == 0 and out.exists() and "NOT IDENTIFIED" in text
+    assert err.count("pendc: note: ") == err.count("\n") == 2        # one note per parameter, nothing else
+    assert "\n[fit.intervals]" not in out.read_text()                 # no interval is claimed for them
+
+
+def test_fitted_model_keeps_comments_and_records_its_origin(tmp_path, capsys):
+    import hashlib
+    import tomllib
+
+    out = tmp_path / "new.toml"
+    rc, _, err = run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out)
+    assert rc == 0 and err == ""
+    text = out.read_text()
+    source = (Path(__file__).resolve().parents[1] / "models" / "sct_thesis_final.toml").read_text()
+    assert all(line in text for line in source.splitlines() if line.startswith("#"))
+    doc = tomllib.loads(text)
+    digest = hashlib.sha256((DATA / "hidden_spring.csv").read_bytes()).hexdigest()[:16]
+    assert digest in doc["meta"]["data"] and doc["meta"]["source_model"].endswith("sct_thesis_final.toml")
+    assert "--add cart_spring" in doc["meta"]["command"]
+    lo, hi = doc["fit"]["intervals"]["k_c"]
+    model = load_model(out)
+    assert lo < model.effects["cart_spring"]["k_c"] < hi
+    # reproducible: the same command writes the same bytes
+    out2 = tmp_path / "again.toml"
+    run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out2)
+    assert out2.read_text().replace("again.toml", "new.toml") == text
+
+
+def test_held_cart_file_fits_on_theta_only_with_a_note(tmp_path, capsys):
+    from independent_plant import free_swing
+    from pendc.sim.measurements import format_csv
+
+    path = tmp_path / "swing.csv"
+    path.write_text(format_csv(free_swing(4.0, b_theta=0.003)))      # x = 0 throughout, no experiment line
+    out = tmp_path / "new.toml"
+    rc, text, err = run(capsys, "fit", path, "--model", MODEL_NO_DAMPING(tmp_path), "--add", "viscous_pendulum",
+                        "-o", out, "--json")
+    assert rc == 0, err
+    assert err.startswith("pendc: note: ") and "x does not move" in err and err.count("\n") == 1
+    result = json.loads(text)
+    assert set(result["fit_after"]["pooled"]) == {"theta"}
+    assert result["params"]["b_theta"]["value"] == pytest.approx(0.003, rel=0.1)
+    rc, text2, err = run(capsys, "fit", path, "--model", MODEL_NO_DAMPING(tmp_path), "--add", "viscous_pendulum",
+                         "-o", out, "--json", "--outputs", "theta")
+    assert rc == 0 and err == "" and json.loads(text2)["params"] == result["params"]
+
+
+def MODEL_NO_DAMPING(tmp_path):
+    path = tmp_path / "no_damping.toml"
+    if not path.exists():
+        from pendc.model.modelfile import save_model
+        save_model(load_model().without_effect("viscous_pendulum"), path)
+    return path
+
+
+def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, capsys):
+    from independent_plant import free_swing
+    from pendc.sim.measurements import format_csv
+
+    path = tmp_path / "swing.csv"
+    path.write_text(format_csv(free_swing(4.0, tau_c=0.004), meta={"experiment": "cart_held"}))
+    model = tmp_path / "complete.toml"
+    from pendc.model.modelfile import save_model
+    save_model(load_model().with_effect("coulomb_pendulum", {"tau_c": 0.004}), model)
+    rc, text, err = run(capsys, "diagnose", path, "--model", model)
+    assert rc == 0 and err == "", err
+    assert "Nothing systematic left" in text and "0.5 s horizon fit" in text
+    assert "No catalogue effect explains" not in text
