@@ -219,3 +219,21 @@ def test_clamped_cart_swing_mat_through_fit(tmp_path, capsys):
     assert "no x, u in the file (cart_held experiment)" in err and "decimated from 10 kHz" in err
     assert all(line.startswith("pendc: note: ") for line in err.strip().splitlines()), err
     assert out_model.exists() and "I" in out
+
+
+def test_one_experiment_per_file_and_options_from_a_namespace(tmp_path, capsys):
+    """load_datasets takes any object with the options' attributes (absent ones: defaults)."""
+    import argparse
+
+    from pendc.cli_data import load_datasets
+
+    held = tmp_path / "held.csv"
+    held.write_text(csv({"t": BASE["t"], "theta": BASE["theta"]}))
+    cart = tmp_path / "cart.csv"
+    cart.write_text(csv({k: BASE[k] for k in ("t", "u", "x")}))
+    args = argparse.Namespace(data=[str(held), str(cart)], experiment="cart_held,pendulum_removed")
+    a, b = load_datasets(args)
+    assert (a.experiment, a.missing) == ("cart_held", ("x", "u"))
+    assert (b.experiment, b.missing) == ("pendulum_removed", ("theta",))
+    err = capsys.readouterr().err
+    assert err.count("pendc: note:") == 2 and "Warning" not in err
