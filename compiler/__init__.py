@@ -8,8 +8,10 @@ The main objects, importable from here::
     Simulator, simulate                   compiled float simulation
     stimuli                               standard input signals
     PendcError                            the exception for bad input
+    compare, diagnose, fit                identification from Python (see pendc.api)
 """
 
+from .api import compare, diagnose, fit
 from .errors import PendcError
 from .model.effects import CATALOGUE
 from .model.modelfile import load_model, parse_model, save_model
@@ -19,6 +21,6 @@ from .sim.simulator import SimResult, Simulator, simulate
 
 __all__ = [
     "PendcError", "CATALOGUE", "load_model", "parse_model", "save_model", "Equations", "PlantModel",
-    "stimuli", "SimResult", "Simulator", "simulate",
+    "stimuli", "SimResult", "Simulator", "simulate", "compare", "diagnose", "fit",
 ]
 __version__ = "0.1.0"

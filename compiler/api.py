@@ -137,3 +137,147 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
     with np.errstate(all="ignore"):   # undefined figures are NaN by design, never a warning
         return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels,
                                             outputs=None if outputs is None else tuple(_as_list(outputs))))
+
+
+def _names(value) -> list:
+    """``"a,b"`` or ``["a", "b"]`` (or None) as a list of stripped names."""
+    if value is None:
+        return []
+    items = value.split(",") if isinstance(value, str) else list(value)
+    return [str(v).strip() for v in items if str(v).strip()]
+
+
+def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, segment: float = 0.5,
+             **reading):
+    """Which catalogue effect is missing from ``model``, judged on ``data`` (``pendc diagnose``).
+
+    ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
+    path or Measurement, or a list of them (each simulated under its own experiment).
+    ``outputs``: ``("theta",)`` to judge on theta only; ``workers`` > 1 tests candidates in
+    parallel processes. Returns a :class:`~pendc.ident.diagnose.Diagnosis`: ``candidates``
+    best first (``effect``, ``params``, ``score``, ``evidence``), ``unexplained``,
+    ``at_noise_level``, ``correlations`` and ``notes``.
+    """
+    import numpy as np
+
+    from .ident.diagnose import diagnose as run
+
+    m = _model(model)
+    datasets = _datasets(data, reading)
+    with np.errstate(all="ignore"):
+        return run(m, datasets, dt=dt, segment=segment, workers=workers,
+                   outputs=None if outputs is None else tuple(_as_list(outputs)))
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """What :func:`fit` returns: ``result`` is the :class:`~pendc.ident.fit.FitResult`
+    (``values``, ``ci95``, ``unidentifiable``, the fitted ``model``); ``before``/``after``
+    the labelled 0.5 s horizon figures and ``free_run_before``/``free_run_after`` the free-run
+    figures (pooled and per file) on the validation data; ``path`` the model file written
+    (None when not asked)."""
+
+    result: object
+    free: tuple
+    before: dict
+    after: dict
+    free_run_before: dict
+    free_run_after: dict
+    path: str | None = None
+
+    @property
+    def model(self):
+        """The fitted PlantModel."""
+        return self.result.model
+
+    def __str__(self) -> str:
+        lines = []
+        for when, figures in (("before", self.before), ("after", self.after),
+                              ("before", self.free_run_before), ("after", self.free_run_after)):
+            fits = ", ".join(f"{k} {v:.2f} %" for k, v in figures["pooled"].items())
+            lines.append(f"{when + ':':7s} {figures['label']}: {fits}")
+        for p in self.free:
+            lo, hi = self.result.ci95[p]
+            flag = "   NOT IDENTIFIED" if p in (self.result.unidentifiable or {}) else ""
+            lines.append(f"  {p:10s} = {self.result.values[p]:.6g}   95 % CI [{lo:.6g}, {hi:.6g}]{flag}")
+        if self.path:
+            lines.append(f"wrote {self.path}")
+        return "\n".join(lines) + "\n"
+
+
+def fit(model, data, *, add=None, free=None, validate=None, output=None, force: bool = False, outputs=None,
+        max_evaluations: int = 200, **reading) -> FitReport:
+    """Add effects, fit parameters and (if ``output`` is given) write the new model (``pendc fit``).
+
+    ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
+    path or Measurement, or a list of them; ``add``: effects to add (their parameters are
+    fitted), ``free``: more parameters (any plant constant or effect parameter), as lists or
+    comma-separated strings; ``validate``: data to report the figures on (default: ``data``).
+    Raises PendcError when the fit does not converge, and, when ``output`` is given, when
+    the data do not identify a fitted parameter (unless ``force``): no file is written then.
+    Without ``output`` nothing is written and ``report.result.unidentifiable`` says which
+    parameters the data do not determine.
+    """
+    import numpy as np
+
+    from .errors import PendcError
+    from .ident.diagnose import free_parameters
+    from .ident.figures import free_run_figures
+    from .ident.fit import fit_parameters
+    from .ident.shooting import horizon_figures
+
+    m = _model(model)
+    datasets = _datasets(data, reading)
+    checks = _datasets(validate, reading) if validate is not None else datasets
+    wanted = None if outputs is None else tuple(_as_list(outputs))
+    with np.errstate(all="ignore"):
+        before = horizon_figures(m, checks, outputs=wanted)
+        free_run_before = free_run_figures(m, checks, outputs=wanted)
+        added = _names(add)
+        for effect in added:
+            m = m.with_effect(effect)
+        names = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + _names(free))) or list(m.free)
+        if not names:
+            raise PendcError("nothing to fit: name effects with add= or parameters with free=")
+        result = fit_parameters(m, datasets, names, max_evaluations=max_evaluations, outputs=wanted)
+        if not result.converged:
+            raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations)"
+                             + ("; no model written" if output else ""))
+        if output is not None and result.unidentifiable and not force:
+            raise PendcError(f"the data do not identify {', '.join(result.unidentifiable)} "
+                             f"({result.refused()}); no model written (force=True writes it anyway)")
+        after = horizon_figures(result.model, checks, outputs=wanted)
+        free_run_after = free_run_figures(result.model, checks, outputs=wanted)
+    if output is not None:
+        _write_fitted(model, result, names, data, before, after, output)
+    return FitReport(result=result, free=tuple(names), before=before, after=after, free_run_before=free_run_before,
+                     free_run_after=free_run_after, path=None if output is None else str(output))
+
+
+def _write_fitted(source, result, names: list, data, before: dict, after: dict, output) -> None:
+    """The fitted model over its source model's text (comments kept), with provenance and intervals."""
+    from pathlib import Path
+
+    from .atomic import write_atomic
+    from .model.modelfile import data_fingerprint, default_model_path, dumps_fitted, dumps_model
+
+    # a model given as an object may differ from the file it was read from (an effect removed
+    # in memory): only a model given by its file is written over that file's text
+    if isinstance(source, (str, os.PathLike)) or source is None:
+        path = Path(source) if source is not None else default_model_path()
+    else:
+        path = None
+    fingerprints = [data_fingerprint(d) if isinstance(d, (str, os.PathLike)) else getattr(d, "source", "<data>")
+                    for d in _as_list(data)]
+    origin = str(path) if path else (getattr(source, "source", "") or "(in memory)") + " (given as a PlantModel)"
+    meta = {"generator": "pendc.fit (Python API)", "source_model": origin,
+            "data": "; ".join(fingerprints), "fitted": ", ".join(names)}
+    for when, figures in (("before", before), ("after", after)):
+        for o, v in figures["pooled"].items():
+            meta[f"horizon_fit_{o}_{when}"] = round(v, 3)
+    intervals = {p: result.ci95[p] for p in names if p not in (result.unidentifiable or {})}
+    if path is not None and path.is_file():
+        text = dumps_fitted(result.model, path.read_text(encoding="utf-8"), meta, intervals)
+    else:
+        text = dumps_model(result.model, meta)
+    write_atomic(output, text)
