@@ -16,8 +16,9 @@ from pendc.sim.measurements import write_csv
 
 def main() -> int:
     folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parent
-    for name, (columns, description) in demo_datasets(load_model()).items():
-        write_csv(folder / f"{name}.csv", columns, meta={"description": description, "generator": "data/generate.py"})
+    for name, (columns, description, *extra) in demo_datasets(load_model()).items():
+        meta = {"description": description, "generator": "data/generate.py", **(extra[0] if extra else {})}
+        write_csv(folder / f"{name}.csv", columns, meta=meta)
         print(f"wrote {folder / name}.csv")
     return 0
 

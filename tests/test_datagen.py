@@ -36,6 +36,19 @@ def test_closed_loop_swing_up_swings_high_and_stays_on_the_track():
 
 
 def test_shipped_files_are_what_the_generator_makes():
-    name, (columns, description) = next(iter(demo_datasets(load_model()).items()))
-    shipped = (DATA / f"{name}.csv").read_text()
-    assert shipped == format_csv(columns, meta={"description": description, "generator": "data/generate.py"})
+    made = demo_datasets(load_model())
+    for name in ("hidden_spring", "unknown_pendulum_swing"):
+        columns, description, *extra = made[name]
+        meta = {"description": description, "generator": "data/generate.py", **(extra[0] if extra else {})}
+        assert (DATA / f"{name}.csv").read_text() == format_csv(columns, meta=meta), name
+
+
+def test_free_swing_holds_the_cart_and_the_unknown_pendulum_differs():
+    from pendc.ident.datagen import free_swing, unknown_pendulum
+
+    base = load_model()
+    other = unknown_pendulum(base)
+    swing = free_swing(other, duration=2.0)
+    assert np.all(swing["x"] == 0.0) and np.all(swing["u"] == base.effects["drive"]["V_off"])
+    assert swing["theta"][0] == 0.8 and np.min(swing["theta"]) < -0.7
+    assert other.plant["m"] == base.plant["m"] * 1.05 and other.effects["viscous_pendulum"]["b_theta"] == 0.0025

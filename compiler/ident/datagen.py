@@ -51,14 +51,32 @@ def degrade_input(u: np.ndarray, dac_bits: int = 12, noise_v: float = 0.005, see
 
 
 def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noise_v: float = 0.005,
-                 seed: int = 11, dt: float = 1e-6) -> dict:
-    """Columns ``t, u, x, theta`` of one simulated experiment on ``true_model``."""
+                 seed: int = 11, dt: float = 1e-6, experiment: str = "free", x0=None) -> dict:
+    """Columns ``t, u, x, theta`` of one simulated ``experiment`` on ``true_model`` from the
+    true state ``x0`` (default: at rest in the centre); positions as the sensors read them."""
     if t is None:
         t, u = identification_experiment()
     applied = degrade_input(np.asarray(u, float), dac_bits, noise_v, seed)
-    res = Simulator(true_model, dt=dt)(t, applied)
-    return {"t": np.asarray(t, float), "u": np.asarray(u, float), "x": quantize_x(res["x"]),
-            "theta": quantize_theta(res["theta"])}
+    res = Simulator(true_model.for_experiment(experiment), dt=dt)(t, applied, x0=x0)
+    return {"t": np.asarray(t, float), "u": np.asarray(u, float), "x": quantize_x(res.measured("x")),
+            "theta": quantize_theta(res.measured("theta"))}
+
+
+def free_swing(true_model: PlantModel, duration: float = 30.0, theta0: float = 0.8, seed: int = 17) -> dict:
+    """The thesis' pivot experiment: the cart clamped, the pendulum released from ``theta0``
+    at rest; the drive is idle (the log holds u = V_off)."""
+    t = np.arange(int(round(duration * FS)) + 1) / FS
+    u = np.full_like(t, true_model.parameter_values().get("V_off", V_CENTER))
+    return make_dataset(true_model, t, u, seed=seed, experiment="cart_held", x0=(0.0, 0.0, theta0, 0.0))
+
+
+def unknown_pendulum(base: PlantModel) -> PlantModel:
+    """Another lab's pendulum on the SCT cart: 5 % heavier, 5 % shorter to its centre of mass,
+    5 % more inertia, and a stiffer pivot than the model says."""
+    p = base.plant
+    model = base.with_params({"m": p["m"] * 1.05, "L": p["L"] * 0.95, "I": p["I"] * 1.05})
+    return model.with_params({"b_theta": 0.0025}) if "viscous_pendulum" in model.effects else \
+        model.with_effect("viscous_pendulum", {"b_theta": 0.0025})
 
 
 # Hidden effects added to the true model, with parameters large enough to matter on the rig.
@@ -106,7 +124,8 @@ def make_ripple_dataset(model: PlantModel, amplitude: float = 40.0, wavelength: 
 
 
 def demo_datasets(base: PlantModel) -> dict:
-    """The shipped data files (name -> (columns, description)) for the walkthrough in docs/."""
+    """The shipped data files (name -> (columns, description[, extra metadata])) for the
+    walkthroughs in docs/."""
     spring = base.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05})
     two = spring.with_effect("coulomb_pendulum", {"tau_c": 0.004})
     t2, u2 = identification_experiment(seed=21)
@@ -116,6 +135,9 @@ def demo_datasets(base: PlantModel) -> dict:
         "hidden_two_effects": (make_dataset(two), "cable on the cart and dry friction in the pivot (coulomb_pendulum tau_c=0.004 N*m)"),
         "hidden_unexplained": (make_ripple_dataset(base), "a rail ripple force 40 sin(2 pi x / 0.06) N: not in the catalogue"),
         "hidden_spring_swing_up": (closed_loop_swing_up(spring), "the spring plant under a closed-loop energy swing-up controller"),
+        "unknown_pendulum_swing": (free_swing(unknown_pendulum(base)),
+                                   "another pendulum (m +5 %, L -5 %, I +5 %, b_theta 0.0025) swinging freely "
+                                   "from 0.8 rad with the cart clamped", {"experiment": "cart_held"}),
     }
 
 
