@@ -349,9 +349,12 @@ def test_held_cart_compares_theta_only(model):
     t = np.arange(0, 4, 1e-3)
     u = np.full_like(t, model.effects["drive"]["V_off"])
     r = Simulator(held, 1e-4, "rk4")(t, u, x0=(0.0, 0.0, 0.6, 0.0), quantize=True)
-    text = format_csv({"t": t, "u": u, "x": np.zeros_like(t), "theta": r["theta"]}, meta={"experiment": "cart_held"})
-    c = compare(model, parse_measurements(text, source="held.csv"))
+    text = format_csv({"t": t, "theta": r["theta"]}, meta={"experiment": "cart_held"})   # no x, no u logged
+    data = parse_measurements(text, source="held.csv")
+    assert set(data.missing) == {"x", "u"}
+    c = compare(model, data)
     assert c.experiment == "cart_held" and c.outputs == ("theta",)
+    assert {g["partition"] for g in c.regimes} == {"pendulum angle"}    # no regimes of axes the run lacked
     # free run: the initial velocity is a 10 ms slope of a swing released from rest, a little off
     assert set(c.fit) == {"theta"} and c.fit["theta"] > 95.0 and c.fit_horizon["theta"] > 99.0
     assert "experiment cart_held" in format_comparison(c)

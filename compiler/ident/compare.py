@@ -238,12 +238,16 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     else:
         dx, dx_source = np.zeros_like(t), "cart held (not measured)"
     theta_measured = y["theta"] if "theta" in y else np.zeros_like(t)
+    # partitions by an axis the run did not have (a held cart, an input the file lacked) say nothing
+    skip = (({"cart motion", "track position"} if "x" not in outputs else set())
+            | ({"drive", "input saturation"} if "u" in set(getattr(data, "missing", ())) else set())
+            | ({"pendulum angle"} if "theta" not in outputs else set()))
     v_off = float(model.effects.get("drive", {}).get("V_off", DEFAULT_V_OFF))
     return Comparison(
         fit={k: fit_percent(y[k], simulated[k]) for k in outputs},
         simulated=SimResult(t=run.t, u=run.u, states={**run.states, **simulated}),
         residual=residual, windows=[w for k in outputs for w in worst_windows(t, residual[k], k)],
-        regimes=regimes(residual, dx=dx, theta=theta_measured, x=x_measured, u=u, v_off=v_off),
+        regimes=regimes(residual, dx=dx, theta=theta_measured, x=x_measured, u=u, v_off=v_off, skip=skip),
         whiteness=whiteness(t, white_input, u), measured={**y, "dx": dx},
         model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source,
         outputs=outputs, experiment=experiment, free_residual=free_residual, fit_theta_wrapped=wrapped_fit,
@@ -334,17 +338,19 @@ def regime_partitions(dx, theta, x, u, v_off: float) -> list:
     ]
 
 
-def regimes(residual: dict, dx, theta, x, u, v_off: float) -> list:
+def regimes(residual: dict, dx, theta, x, u, v_off: float, skip=()) -> list:
     """Share of each output's squared residual per regime, next to the share of time.
 
     Entries: ``partition, name, definition, output, share, rms, fraction_of_time,
     samples``; within one partition and output the shares add up to 1 (all 0 when
     the residual is exactly zero) and so do the time fractions. ``rms`` is None for
     a regime the run never entered. Samples count equally (uniform sampling assumed,
-    as in fit%).
+    as in fit%). Partitions named in ``skip`` are left out.
     """
     out, n = [], len(u)
     for partition, members in regime_partitions(dx, theta, x, u, v_off):
+        if partition in skip:
+            continue
         for output, r in residual.items():
             sq = np.asarray(r, dtype=np.float64) ** 2
             total = float(sq.sum())

@@ -259,19 +259,21 @@ def _zoom(ax, t0: float, t1: float) -> None:
 
 
 def _figure_scatter(c: Comparison):
-    """Rows: each output's residual; columns: against dx, wrapped theta, u - V_off, x."""
+    """Rows: each output's residual; columns: against dx, wrapped theta, u - V_off, x (those
+    that vary in the run)."""
     n = len(c.simulated.t)
     pick = np.linspace(0, n - 1, min(n, MAX_SCATTER)).astype(int)   # even subsample keeps the time spread
     theta = c.measured.get("theta", np.zeros(n))
     x = c.measured.get("x", np.zeros(n))
     against = [("dx (m/s)", c.measured["dx"]), ("theta wrapped to ±π (rad)", wrap_angle(theta)),
                ("u - V_off (V)", c.simulated.u - c.v_off), ("x (m)", x)]
-    rows = len(c.outputs)
-    fig = _figure(14, 3 * rows)
+    against = [(name, v) for name, v in against if np.ptp(v) > 0]   # a held or absent signal shows nothing
+    rows, cols = len(c.outputs), max(1, len(against))
+    fig = _figure(14 if cols > 2 else 3.5 * cols + 1, 3 * rows)
     for i, k in enumerate(c.outputs):
         sc, label = _RSCALE[k]
         for j, (name, v) in enumerate(against):
-            ax = fig.add_subplot(rows, 4, 4 * i + j + 1)
+            ax = fig.add_subplot(rows, cols, cols * i + j + 1)
             ax.scatter(np.asarray(v)[pick], sc * c.residual[k][pick], s=2, alpha=0.3, color=RESID, lw=0)
             ax.axhline(0.0, color="k", lw=0.5)
             ax.grid(alpha=0.3)
