@@ -47,6 +47,7 @@ def _figure_lines(fig: dict, indent: str = "") -> list:
 
 def cmd_diagnose(args) -> int:
     from .ident.diagnose import diagnose
+    from .ident.evidence import parameter_hint
     from .ident.outputs import parse_outputs
     from .ident.shooting import horizon_figures
 
@@ -82,6 +83,10 @@ def cmd_diagnose(args) -> int:
                      f"above the noise level ({ratio} the noise-only residual).")
         lines.append("The unexplained force/torque correlates with:")
         lines += [f"  {r['target']:12s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
+        hint = parameter_hint(model, d.correlations)
+        if hint:
+            lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {' '.join(args.data)} "
+                         f"--model {args.model or 'models/sct_thesis_final.toml'} --free {hint[0]} -o NEW.toml")
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")

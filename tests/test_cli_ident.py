@@ -148,3 +148,9 @@ def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, 
     assert rc == 0 and err == "", err
     assert "Nothing systematic left" in text and "0.5 s horizon fit" in text
     assert "No catalogue effect explains" not in text
+
+
+def test_diagnose_of_another_pendulum_points_at_its_constants(capsys):
+    rc, text, err = run(capsys, "diagnose", DATA / "unknown_pendulum_swing.csv")
+    assert rc == 0 and err == "", err
+    assert "No catalogue effect explains" in text and "--free I,b_theta" in text

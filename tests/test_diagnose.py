@@ -79,3 +79,6 @@ def test_physics_outside_the_catalogue_is_reported_unexplained():
     assert d.unexplained
     assert d.candidates[0].score < EXPLAINED
     assert d.correlations and all({"signal", "target", "r"} <= set(r) for r in d.correlations)
+    # the ripple depends on x: an x-periodic signal must be among what the residual follows
+    assert any("x/0.06" in r["signal"] for r in d.correlations), d.correlations
+    assert not d.at_noise_level and min(d.noise_ratio.values()) > 2

@@ -173,3 +173,30 @@ def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> li
                 rows.append({"signal": name, "target": target, "r": _corr(r, b[keep]), "file": data.source})
     rows.sort(key=lambda r: -abs(r["r"]))
     return rows[:top]
+
+
+# What a strong correlation of the unexplained force/torque points at among the constants
+# the model already has (rather than a missing effect): which ones to free.
+PLANT_HINTS = {
+    ("pivot torque", "sin(theta)"): ("I", "the swing's period is off (free I, or L)"),
+    ("pivot torque", "theta"): ("I", "the swing's period is off (free I, or L)"),
+    ("pivot torque", "dtheta"): ("b_theta", "the pivot damping is off"),
+    ("cart force", "u - V_off"): ("alpha,V_off", "the drive gain or offset is off"),
+    ("cart force", "dx"): ("b_x", "the viscous friction of the cart is off"),
+}
+HINT_R = 0.4
+
+
+def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
+    """``(parameters, reasons)`` to free when the strong correlations point at constants the
+    model has, or None."""
+    names = set(model.parameter_names())
+    params, reasons = {}, {}
+    for row in correlations:
+        if abs(row["r"]) < HINT_R:
+            break
+        hint = PLANT_HINTS.get((row["target"], row["signal"]))
+        if hint and all(p in names for p in hint[0].split(",")):
+            params.update(dict.fromkeys(hint[0].split(",")))
+            reasons[hint[1]] = None
+    return (",".join(params), "; ".join(reasons)) if params else None
