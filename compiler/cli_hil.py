@@ -52,7 +52,7 @@ def cmd_hil(args) -> int:
 
         run = serve_loop(plant, address, args.seconds, period=args.period, plant_name=args.plant,
                          timeout=args.timeout, progress=progress,
-                         announce=None if args.json else (lambda text: print(text, file=sys.stderr, flush=True)))
+                         announce=lambda text: print(text, file=sys.stderr, flush=True))
     else:
         controller = make_controller(args.controller, model, args.period)
         run = run_closed_loop(plant, controller, args.seconds, period=args.period, plant_name=args.plant,
