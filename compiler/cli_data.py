@@ -39,6 +39,8 @@ measurement files:
 reading other formats, examples:
   CSV with other names, semicolons, degrees and millimetres:
     %(prog)s run.csv --columns t=Time,theta=Theta1,x=CartPos,u=Vin --theta-unit deg --x-unit mm
+  a spreadsheet export with ';' and decimal commas (both detected), angle from upright:
+    %(prog)s run.csv --columns t=Zeit,theta=Winkel,x=Position,u=Spannung --theta-zero upright
   time in milliseconds, input in millivolts, tab-separated:
     %(prog)s run.tsv --separator tab --t-unit ms --u-unit mV
   Simulink 'Structure with time', one To Workspace block logging [theta x u] at 10 kHz,
@@ -119,6 +121,9 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--separator", default="auto", metavar="SEP",
                    help="field separator: auto (default: ',' ';' tab or whitespace, from the header), "
                         "comma, semicolon, tab, whitespace, or one character")
+    g.add_argument("--decimal", choices=("auto", "point", "comma"), default="auto",
+                   help="decimal mark: auto (default: comma when fields are not comma-separated and "
+                        "the first row has commas but no point, as spreadsheets write in many locales)")
     g.add_argument("--t-unit", choices=("s", "ms", "us"), help="unit of t in the file (default s)")
     g.add_argument("--x-unit", choices=("m", "cm", "mm"), help="unit of x in the file (default m)")
     g.add_argument("--u-unit", choices=("V", "mV"), help="unit of u in the file (default V)")
@@ -160,6 +165,7 @@ def read_options(args, experiment: str | None = None):
     return ReadOptions(
         columns=dict(getattr(args, "columns", None) or {}),
         separator=separator_from_name(getattr(args, "separator", None)),
+        decimal={"point": ".", "comma": ","}.get(getattr(args, "decimal", None) or "auto", ...),
         t_unit=getattr(args, "t_unit", None), x_unit=getattr(args, "x_unit", None),
         u_unit=getattr(args, "u_unit", None), theta_unit=getattr(args, "theta_unit", None),
         theta_zero=getattr(args, "theta_zero", None) or "hanging",

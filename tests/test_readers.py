@@ -202,8 +202,29 @@ def test_theta_zero_upright_and_sign():
 
 
 def test_decimal_comma_is_named():
-    with pytest.raises(PendcError, match=r"line 3: column 'x': not a number: '0,5' \(decimal comma"):
+    with pytest.raises(PendcError, match=r"line 3: column 'x': not a number: '0,5' \(decimal comma\? give "
+                                         r"--decimal comma\)"):
         parse_measurements("t;u;x;theta\n0;5;0;0\n0.001;5;0,5;0\n")
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_decimal_commas_detected_or_given(sep):
+    t, theta, x, u = truth(duration=0.5)
+    rows = [sep.join(repr(v).replace(".", ",") for v in r)
+            for r in zip(t.tolist(), u.tolist(), x.tolist(), theta.tolist())]
+    text = sep.join(["t", "u", "x", "theta"]) + "\n" + "\n".join(rows) + "\n"
+    m = parse_measurements(text)  # detected from the first row, "0,0;5,0;0,0;0,0"
+    assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t)
+    assert "decimal commas" in m.notes[0]
+    lines = text.split("\n")
+    lines[1] = sep.join(["0", "5", "0", "0"])  # a first row without any comma: not detected
+    whole = "\n".join(lines)
+    with pytest.raises(PendcError, match="decimal comma"):
+        parse_measurements(whole)
+    m = parse_measurements(whole, options=opts(decimal=","))
+    assert np.array_equal(m.x, x) and m.notes == ()
+    with pytest.raises(PendcError, match="decimal commas need another field separator"):
+        parse_measurements("t,u\n0,1\n", options=opts(decimal=","))
 
 
 def test_standard_input(monkeypatch):

@@ -45,12 +45,14 @@ def detect_separator(header: str):
     return None
 
 
-def read_csv_table(stream, source: str, separator=...) -> Table:
+def read_csv_table(stream, source: str, separator=..., decimal=...) -> Table:
     """Read a delimited text file from binary ``stream`` (see the module docstring).
 
     Leading ``#`` lines and blank lines come before one header row; ``# key: value``
     comment lines become metadata. ``separator``: a character, None for whitespace,
-    or ``...`` to detect it from the header.
+    or ``...`` to detect it from the header. ``decimal``: '.' or ',' (as written by
+    spreadsheets in many locales, with ';' or tab between fields), or ``...`` to take
+    ',' when the separator is not a comma and the first data row has commas but no point.
     """
     meta, line_no, comments = {}, 0, False
     header = None
@@ -72,8 +74,11 @@ def read_csv_table(stream, source: str, separator=...) -> Table:
     sep = detect_separator(header) if separator is ... else separator
     names = [n.strip() for n in (header.split(sep) if sep is not None else header.split())]
     _check_header(source, names, line_no)
-    columns = _read_rows(stream, source, names, sep, line_no + 1)
-    return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1)
+    if decimal == "," and sep == ",":
+        raise PendcError(f"{source}: decimal commas need another field separator than ',' (--separator)")
+    notes = []
+    columns = _read_rows(stream, source, names, sep, line_no + 1, decimal, notes)
+    return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1, notes=tuple(notes))
 
 
 def _decode(raw: bytes, source: str, line: int) -> str:
@@ -155,8 +160,8 @@ class _Columns:
         return out
 
 
-def _read_rows(stream, source: str, names: list, sep, first: int) -> dict:
-    """Parse every data row after the header; returns name -> float64 column."""
+def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., notes=None) -> dict:
+    """Parse every data row after the header; returns name -> float64 column (appends notes)."""
     ncols = len(names)
     columns = _Columns(ncols, _remaining_bytes(stream))
     line = first          # file line of the block's first line
@@ -180,7 +185,13 @@ def _read_rows(stream, source: str, names: list, sep, first: int) -> dict:
                 raise PendcError(f"{source}: line {line - pending_blank}: blank line, expected {ncols} fields "
                                  f"({', '.join(names)})")
             truncated = eof and not buf.endswith(b"\n")
-            values = _parse_block(body + b"\n", source, names, sep, line, truncated)
+            if decimal is ...:
+                decimal = _detect_decimal(body, sep)
+                if decimal == "," and notes is not None:
+                    row = body.lstrip(_BLANKS).split(b"\n", 1)[0].decode("utf-8", "replace").strip()
+                    notes.append(f"{source}: numbers with decimal commas (first row: {row!r})")
+            block = body.replace(b",", b".") if decimal == "," else body
+            values = _parse_block(block + b"\n", source, names, sep, line, truncated)
             columns.add(values, len(buf))
             del values
             line += body.count(b"\n") + 1
@@ -195,6 +206,12 @@ def _read_rows(stream, source: str, names: list, sep, first: int) -> dict:
     if columns.rows == 0:
         raise PendcError(f"{source}: no data rows after the header (line {first - 1})")
     return dict(zip(names, columns.finish()))
+
+
+def _detect_decimal(body: bytes, sep) -> str:
+    """',' when fields are not comma-separated and the first row has commas but no point."""
+    first = body.lstrip(_BLANKS).split(b"\n", 1)[0]
+    return "," if sep != "," and b"," in first and b"." not in first else "."
 
 
 def _fields_per_line(a: np.ndarray, ends: np.ndarray, sep) -> np.ndarray:
@@ -246,7 +263,7 @@ def _diagnose_block(block: bytes, source: str, names: list, sep, line: int, trun
             raise PendcError(f"{where}: {len(fields)} fields, expected {len(names)} fields ({', '.join(names)}){end}")
         for name, value in zip(names, fields):
             if not _is_number(value) or "_" in value:
-                hint = " (decimal comma? numbers use '.')" if sep != "," and "," in value else ""
+                hint = " (decimal comma? give --decimal comma)" if sep != "," and "," in value else ""
                 raise PendcError(f"{where}: column '{name}': not a number: {value.strip()!r}{hint}{end}")
         rows.append([float(v) for v in fields])
     return np.array(rows, dtype=np.float64).reshape(len(lines), len(names))

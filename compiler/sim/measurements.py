@@ -113,7 +113,7 @@ def parse_measurements(text: str, source: str = "<string>", required=REQUIRED,
     an entry to ``warnings``.
     """
     options = options or ReadOptions()
-    table = read_csv_table(io.BytesIO(text.encode("utf-8")), source, options.separator)
+    table = read_csv_table(io.BytesIO(text.encode("utf-8")), source, options.separator, options.decimal)
     return build_measurement(table, options, required)
 
 

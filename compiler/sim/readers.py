@@ -47,6 +47,7 @@ class ReadOptions:
 
     columns: dict = field(default_factory=dict)
     separator: object = ...
+    decimal: object = ...
     t_unit: str | None = None
     x_unit: str | None = None
     u_unit: str | None = None
@@ -81,7 +82,7 @@ def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
     from .matread import is_mat_file, read_mat_table
 
     if str(path) == "-":
-        return read_csv_table(sys.stdin.buffer, "<stdin>", options.separator)
+        return read_csv_table(sys.stdin.buffer, "<stdin>", options.separator, options.decimal)
     try:
         f = open(path, "rb")
     except FileNotFoundError:
@@ -96,7 +97,7 @@ def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
             if is_mat_file(head, str(path)):
                 f.close()
                 return read_mat_table(str(path))
-            return read_csv_table(f, str(path), options.separator)
+            return read_csv_table(f, str(path), options.separator, options.decimal)
         except IsADirectoryError:
             raise PendcError(f"{path}: is a folder, not a measurement file") from None
         except OSError as exc:
@@ -237,7 +238,9 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
     refused = [n for n in absent if n not in allowed]
     if refused:
         _missing_error(table, refused, options)
-    notes = resolve_time(table, columns, origin, options) if "t" not in origin or table.times else []
+    notes = list(table.notes)
+    if "t" not in origin or table.times:
+        notes += resolve_time(table, columns, origin, options)
     for name, values in list(columns.items()):
         if name in origin:
             plaus.check_finite(table, name, np.asarray(values))
