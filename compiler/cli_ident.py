@@ -35,13 +35,12 @@ def _notes(lines) -> None:
 
 def _figure_lines(fig: dict, indent: str = "") -> list:
     """The pooled figure, then one line per file when there are several."""
-    from .ident.figures import describe
+    from .ident.figures import describe, values_text
 
     lines = [indent + describe(fig) + (f" (pooled over {len(fig['files'])} files)" if len(fig["files"]) > 1 else "")]
     if len(fig["files"]) > 1:
         for f in fig["files"]:
-            parts = ", ".join(f"{o} {v:.1f} %" for o, v in f["fit"].items())
-            lines.append(f"{indent}  {f['file']} ({f['experiment']}): {parts}")
+            lines.append(f"{indent}  {f['file']} ({f['experiment']}): {values_text(f)}")
     return lines
 
 
@@ -175,6 +174,9 @@ def cmd_fit(args) -> int:
     lines = ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
     lines += ["before: " + line for line in _figure_lines(free_before)]
     lines += ["after:  " + line for line in _figure_lines(free_after)]
+    if any(v < 0 for f in (free_before, free_after) for o, v in f["pooled"].items() if o == "theta"):
+        from .ident.figures import UNWRAPPED_NOTE
+        lines.append(f"(free-run: {UNWRAPPED_NOTE})")
     for p in free:
         lo, hi = result.ci95[p]
         flag = "   NOT IDENTIFIED" if p in result.unidentifiable else ""
