@@ -41,6 +41,8 @@ reading other formats, examples:
     %(prog)s run.csv --columns t=Time,theta=Theta1,x=CartPos,u=Vin --theta-unit deg --x-unit mm
   a spreadsheet export with ';' and decimal commas (both detected), angle from upright:
     %(prog)s run.csv --columns t=Zeit,theta=Winkel,x=Position,u=Spannung --theta-zero upright
+  a text file without a header row (MATLAB writematrix), columns by number:
+    %(prog)s run.txt --columns t=1,theta=2,x=3,u=4
   time in milliseconds, input in millivolts, tab-separated:
     %(prog)s run.tsv --separator tab --t-unit ms --u-unit mV
   Simulink 'Structure with time', one To Workspace block logging [theta x u] at 10 kHz,
@@ -117,7 +119,8 @@ def add_data_options(p, many: bool = True) -> None:
     g = p.add_argument_group("reading the data (other formats; see the examples below)")
     g.add_argument("--columns", type=_mapping, default={}, metavar="MAP",
                    help="map pendc's columns to the file's names: t=Time,theta=Theta1,x=Pos,u=Vin "
-                        "(.mat: a variable, VAR:K for its K-th column, a Simulink signal label)")
+                        "(.mat: a variable, VAR:K for its K-th column, a Simulink signal label; "
+                        "a text file without a header row: column numbers 1, 2, ...)")
     g.add_argument("--separator", default="auto", metavar="SEP",
                    help="field separator: auto (default: ',' ';' tab or whitespace, from the header), "
                         "comma, semicolon, tab, whitespace, or one character")

@@ -409,3 +409,13 @@ def test_mat_with_malformed_simulink_struct(tmp_path):
     msg = str(info.value)
     assert "\n" not in msg and "missing column(s) theta" in msg and "x, u, tout" in msg
     assert "not readable here: sim: MATLAB objects or malformed structs" in msg
+
+
+def test_file_without_header_mapped_by_column_number():
+    t, theta, x, u = truth(duration=0.5)
+    text = "# exported by writematrix\n" + "\n".join(
+        f"{a!r} {b!r} {c!r} {d!r}" for a, b, c, d in zip(theta.tolist(), t.tolist(), x.tolist(), u.tolist())) + "\n"
+    with pytest.raises(PendcError, match=r"line 2: no header row .* --columns t=1,u=2,x=3,theta=4"):
+        parse_measurements(text)
+    m = parse_measurements(text, options=opts(columns={"theta": "1", "t": "2", "x": "3", "u": "4"}))
+    assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t) and len(m.t) == len(t)

@@ -73,12 +73,30 @@ def read_csv_table(stream, source: str, separator=..., decimal=...) -> Table:
             header = text
     sep = detect_separator(header) if separator is ... else separator
     names = [n.strip() for n in (header.split(sep) if sep is not None else header.split())]
-    _check_header(source, names, line_no)
     if decimal == "," and sep == ",":
         raise PendcError(f"{source}: decimal commas need another field separator than ',' (--separator)")
+    size = _remaining_bytes(stream)
+    headerless = all(_is_number(n) for n in names)
+    if headerless:  # the line is data: columns are numbered 1, 2, ... (--columns maps them)
+        names = [str(k + 1) for k in range(len(names))]
+        stream, size = _Prefixed(raw, stream), (size + len(raw) if size is not None else None)
+        line_no -= 1
+    _check_header(source, names, line_no)
     notes = []
-    columns = _read_rows(stream, source, names, sep, line_no + 1, decimal, notes)
-    return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1, notes=tuple(notes))
+    columns = _read_rows(stream, source, names, sep, line_no + 1, decimal, notes, size)
+    return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1, notes=tuple(notes),
+                 headerless=headerless)
+
+
+class _Prefixed:
+    """A binary stream with some bytes put back in front of it."""
+
+    def __init__(self, prefix: bytes, stream):
+        self.prefix, self.stream = prefix, stream
+
+    def read(self, size: int) -> bytes:
+        head, self.prefix = self.prefix, b""
+        return head + self.stream.read(max(size - len(head), 1)) if head else self.stream.read(size)
 
 
 def _decode(raw: bytes, source: str, line: int) -> str:
@@ -89,8 +107,6 @@ def _decode(raw: bytes, source: str, line: int) -> str:
 
 
 def _check_header(source: str, names: list, line: int) -> None:
-    if all(_is_number(n) for n in names):
-        raise PendcError(f"{source}: line {line}: no header row (this line looks like data)")
     if any(not n for n in names):
         raise PendcError(f"{source}: line {line}: header has an empty column name")
     dup = sorted({n for n in names if names.count(n) > 1})
@@ -160,10 +176,11 @@ class _Columns:
         return out
 
 
-def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., notes=None) -> dict:
-    """Parse every data row after the header; returns name -> float64 column (appends notes)."""
+def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., notes=None, size=None) -> dict:
+    """Parse every data row after the header (``size`` bytes of them, None if unknown);
+    returns name -> float64 column (appends notes)."""
     ncols = len(names)
-    columns = _Columns(ncols, _remaining_bytes(stream))
+    columns = _Columns(ncols, size)
     line = first          # file line of the block's first line
     pending_blank = 0     # blank lines seen at the end of the previous block
     carry = b""

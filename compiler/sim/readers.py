@@ -231,6 +231,9 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
         allowed = missing_allowed(experiment, options)
     except PendcError as exc:
         raise PendcError(f"{table.source}: {exc}") from None
+    if table.headerless and not options.columns:
+        raise PendcError(f"{table.source}: line {table.first_line}: no header row (this line looks like data): add "
+                         f"one (t,u,x,theta), or map the columns by number, e.g. --columns t=1,u=2,x=3,theta=4")
     wanted = tuple(dict.fromkeys(("t", "u", *required, "x", "theta", "dx", "dtheta")))
     columns, origin = map_columns(table, options, wanted)
     need = [n for n in dict.fromkeys(("u", *required)) if n != "t"]
