@@ -41,8 +41,9 @@ reading other formats, examples:
     %(prog)s run.csv --columns t=Time,theta=Theta1,x=CartPos,u=Vin --theta-unit deg --x-unit mm
   a spreadsheet export with ';' and decimal commas (both detected), angle from upright:
     %(prog)s run.csv --columns t=Zeit,theta=Winkel,x=Position,u=Spannung --theta-zero upright
-  a text file without a header row (MATLAB writematrix), columns by number:
-    %(prog)s run.txt --columns t=1,theta=2,x=3,u=4
+  a text file without a header row (MATLAB writematrix), columns by number, angle and
+  position in encoder counts (2*pi/20000 rad and 2.5 um per count):
+    %(prog)s run.txt --columns t=1,theta=2,x=3,u=4 --theta-unit 3.14159265e-4 --x-unit 2.5e-6
   time in milliseconds, input in millivolts, tab-separated:
     %(prog)s run.tsv --separator tab --t-unit ms --u-unit mV
   Simulink 'Structure with time', one To Workspace block logging [theta x u] at 10 kHz,
@@ -110,6 +111,20 @@ def _finite(text: str) -> float:
     return value
 
 
+def _unit(axis: str):
+    """An argparse type: a unit name of ``axis`` or a positive number."""
+    def parse(text: str) -> str:
+        from .errors import PendcError
+        from .sim.readers import unit_factor
+
+        try:
+            unit_factor(axis, text)
+        except PendcError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {str(exc).split(': ', 1)[1]}") from None
+        return text
+    return parse
+
+
 def add_data_options(p, many: bool = True) -> None:
     """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
     from .model.experiments import EXPERIMENTS
@@ -127,10 +142,16 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--decimal", choices=("auto", "point", "comma"), default="auto",
                    help="decimal mark: auto (default: comma when fields are not comma-separated and "
                         "the first row has commas but no point, as spreadsheets write in many locales)")
-    g.add_argument("--t-unit", choices=("s", "ms", "us"), help="unit of t in the file (default s)")
-    g.add_argument("--x-unit", choices=("m", "cm", "mm"), help="unit of x in the file (default m)")
-    g.add_argument("--u-unit", choices=("V", "mV"), help="unit of u in the file (default V)")
-    g.add_argument("--theta-unit", choices=("rad", "deg"), help="unit of theta in the file (default rad)")
+    g.add_argument("--t-unit", type=_unit("t"), metavar="{s,ms,us,NUMBER}",
+                   help="unit of t in the file (default s; a number: seconds per file unit)")
+    g.add_argument("--x-unit", type=_unit("x"), metavar="{m,cm,mm,NUMBER}",
+                   help="unit of x in the file (default m; a number: metres per file unit, e.g. 2.5e-6 "
+                        "for encoder counts)")
+    g.add_argument("--u-unit", type=_unit("u"), metavar="{V,mV,NUMBER}",
+                   help="unit of u in the file (default V; a number: volts per file unit)")
+    g.add_argument("--theta-unit", type=_unit("theta"), metavar="{rad,deg,NUMBER}",
+                   help="unit of theta in the file (default rad; a number: radians per file unit, e.g. "
+                        "3.14159e-4 = 2*pi/20000 for encoder counts)")
     g.add_argument("--theta-zero", choices=("hanging", "upright"), default="hanging",
                    help="where the file's theta is 0 (default hanging); upright: theta = theta_file + pi")
     g.add_argument("--theta-sign", type=int, choices=(1, -1), default=1,

@@ -419,3 +419,15 @@ def test_file_without_header_mapped_by_column_number():
         parse_measurements(text)
     m = parse_measurements(text, options=opts(columns={"theta": "1", "t": "2", "x": "3", "u": "4"}))
     assert np.array_equal(m.theta, theta) and np.array_equal(m.t, t) and len(m.t) == len(t)
+
+
+def test_units_as_numbers_for_encoder_counts():
+    t, theta, x, u = truth()
+    counts = {"t": t, "u": u, "x": np.round(x / Q_X), "theta": np.round(theta / Q_THETA)}
+    m = parse_measurements(format_csv(counts), options=opts(theta_unit=repr(Q_THETA), x_unit="2.5e-6"))
+    assert np.allclose(m.theta, theta, atol=Q_THETA) and np.allclose(m.x, x, atol=Q_X)
+    assert m.resolution["theta"] == pytest.approx(Q_THETA) and m.resolution["x"] == pytest.approx(Q_X)
+    with pytest.raises(PendcError, match=r"--x-unit 'inch': use one of m, cm, mm, or the size of one file unit in m"):
+        opts(x_unit="inch")
+    with pytest.raises(PendcError, match="--theta-unit '-1'"):
+        opts(theta_unit="-1")

@@ -64,9 +64,8 @@ class ReadOptions:
 
     def __post_init__(self):
         for axis, unit in (("t", self.t_unit), ("x", self.x_unit), ("u", self.u_unit), ("theta", self.theta_unit)):
-            if unit is not None and unit not in UNITS[axis]:
-                raise PendcError(f"--{axis}-unit {unit!r}: use one of "
-                                 f"{', '.join(UNITS[axis])}")
+            if unit is not None:
+                unit_factor(axis, unit)
         if self.theta_zero not in THETA_ZERO:
             raise PendcError(f"--theta-zero {self.theta_zero!r}: use hanging or upright")
         if self.theta_sign not in (1.0, -1.0):
@@ -175,9 +174,24 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
     return notes
 
 
+def unit_factor(axis: str, unit: str) -> float:
+    """SI value of one file unit: a name of ``UNITS[axis]``, or a positive number (e.g. the
+    radians of one encoder count, 2*pi/20000 = 3.14159e-4, for angles logged in counts)."""
+    if unit in UNITS[axis]:
+        return UNITS[axis][unit]
+    try:
+        factor = float(unit)
+    except (TypeError, ValueError):
+        factor = -1.0
+    if not (factor > 0 and math.isfinite(factor)):
+        raise PendcError(f"--{axis}-unit {unit!r}: use one of {', '.join(UNITS[axis])}, or the size of one file "
+                         f"unit in {next(iter(UNITS[axis]))} (a positive number)")
+    return factor
+
+
 def convert_units(columns: dict, options: ReadOptions) -> None:
     """Scale to s, m, V, rad (in place); theta from upright is shifted to pendc's hanging zero."""
-    scale = {axis: UNITS[axis][unit] for axis, unit in (("t", options.t_unit), ("x", options.x_unit),
+    scale = {axis: unit_factor(axis, unit) for axis, unit in (("t", options.t_unit), ("x", options.x_unit),
              ("u", options.u_unit), ("theta", options.theta_unit)) if unit is not None}
     scale["theta"] = scale.get("theta", 1.0) * options.theta_sign
     rates = {"dx": scale.get("x", 1.0) / scale.get("t", 1.0), "dtheta": scale["theta"] / scale.get("t", 1.0)}
