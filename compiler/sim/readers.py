@@ -37,8 +37,10 @@ class ReadOptions:
     """How to read another lab's file (every field has a ``--option`` of the same name).
 
     ``columns`` maps a pendc name (t, u, x, theta, dx, dtheta) to the file's name;
-    units are None for pendc's own (s, V, m, rad) and then also the unit checks'
-    hints name the option to use. ``theta_zero='upright'`` with ``theta_sign`` s
+    ``separator`` and ``decimal`` are characters (None: whitespace) or ``...`` to
+    detect them. Units are a name of ``UNITS`` or a number (the SI value of one file
+    unit), None for pendc's own (s, V, m, rad): then the unit checks' hints name the
+    option to use. ``theta_zero='upright'`` with ``theta_sign`` s
     gives theta = s * theta_file + pi. ``allow_missing`` axes (besides those the
     experiment makes irrelevant) are filled with zeros, ``u`` with ``u_value``.
     ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
