@@ -7,6 +7,7 @@ or for which file); notes about what was left out go to stderr as ``pendc: note:
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 from .cli_data import add_data_options, load_datasets, load_model_and_data, note
@@ -26,6 +27,22 @@ def _progress(enabled: bool):
             sys.stderr.write("\n")
         sys.stderr.flush()
     return show
+
+
+def _json_ready(value):
+    """``value`` with non-finite floats as null, so the output is strict JSON."""
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _dump(out: dict) -> None:
+    json.dump(_json_ready(out), sys.stdout, indent=2, allow_nan=False)
+    sys.stdout.write("\n")
 
 
 def _notes(lines) -> None:
@@ -61,8 +78,7 @@ def cmd_diagnose(args) -> int:
         row["fit_after"] = (horizon_figures(model.with_effect(c.effect, c.params), datasets, outputs=outputs)
                             if c.score > 0.05 else before)
     if args.json:
-        json.dump(out, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        _dump(out)
         return 0
     shown = list(before["pooled"])
     lines = _figure_lines(before, "now: ") + [""]
@@ -168,8 +184,7 @@ def cmd_fit(args) -> int:
                           "identifiable": p not in result.unidentifiable} for p in free},
            "model": args.output}
     if args.json:
-        json.dump(out, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        _dump(out)
         return 0
     lines = ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
     lines += ["before: " + line for line in _figure_lines(free_before)]

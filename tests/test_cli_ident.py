@@ -148,6 +148,11 @@ def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, 
     assert rc == 0 and err == "", err
     assert "Nothing systematic left" in text and "0.5 s horizon fit" in text
     assert "No catalogue effect explains" not in text
+    rc, text, err = run(capsys, "diagnose", path, "--model", model, "--json")
+    out = json.loads(text)
+    assert rc == 0 and err == "" and out["at_noise_level"] and not out["unexplained"]
+    assert out["fit_now"]["label"] == "0.5 s horizon fit" and out["fit_now"]["files"][0]["file"] == str(path)
+    assert all(c["fit_after"]["label"] == "0.5 s horizon fit" for c in out["candidates"])
 
 
 def test_diagnose_of_another_pendulum_points_at_its_constants(capsys):

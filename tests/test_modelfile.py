@@ -71,3 +71,28 @@ def test_save_into_missing_folder_writes_nothing(tmp_path):
     with pytest.raises(PendcError, match="does not exist"):
         save_model(load_model(), tmp_path / "no" / "m.toml")
     assert not (tmp_path / "no").exists()
+
+
+def test_fitted_file_keeps_comments_and_intervals_and_reads_back(tmp_path):
+    from pendc.model.modelfile import dumps_fitted, parse_model
+
+    source = "# our rig, measured 2024\n[plant]\ng = 9.81  # local g\nM = 100.0\nm = 0.5\nL = 0.1\nI = 0.005\n" \
+             "\n[effects.drive]\nalpha = 250.0\nV_off = 5.0\n[fit]\nfree = ['alpha']\n"
+    model = parse_model(source).with_params({"alpha": 260.5}).with_effect("viscous_pendulum", {"b_theta": 0.002})
+    text = dumps_fitted(model, source, {"data": "a.csv (sha256 0123)"}, {"alpha": [259.0, 262.0],
+                                                                          "b_theta": [float("-inf"), float("inf")]})
+    assert "# our rig, measured 2024" in text and "g = 9.81  # local g" in text and "alpha = 260.5" in text
+    back = parse_model(text)
+    assert back == model
+    import tomllib
+    doc = tomllib.loads(text)
+    assert doc["fit"]["intervals"] == {"alpha": [259.0, 262.0]} and doc["meta"]["data"].startswith("a.csv")
+    # a layout the line editor cannot follow (inline table) still gives the exact model
+    inline = "[plant]\ng = 9.81\nM = 100.0\nm = 0.5\nL = 0.1\nI = 0.005\n[effects]\ndrive = {alpha = 250.0, V_off = 5.0}\n"
+    model2 = parse_model(inline).with_params({"alpha": 255.0})
+    assert parse_model(dumps_fitted(model2, inline, {}, {"alpha": [254.0, 256.0]})) == model2
+
+
+def test_bad_intervals_are_one_line_errors():
+    with pytest.raises(PendcError, match=r"fit.intervals.k_c must be \[low, high\]"):
+        parse_model(PLANT + "[fit.intervals]\nk_c = 3\n")

@@ -169,8 +169,12 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
         return "\n".join(head) + "\n\n" + body.strip("\n") + "\n" + ("\n".join(tail) + "\n" if tail else "")
 
     text = assemble("\n".join(out))
-    back = parse_model(text, source="<fitted model>")
-    if back.plant != model.plant or back.effects != model.effects:
+    try:
+        back = parse_model(text, source="<fitted model>")
+        same = back.plant == model.plant and back.effects == model.effects
+    except PendcError:
+        same = False
+    if not same:
         # the source's layout defeated the line editor (e.g. inline tables, a fitted optional
         # parameter the source left out): write the values plainly, keeping the provenance
         plain = replace(model, free=())
