@@ -90,13 +90,16 @@ def _run_section(s: SideBySide, i: int, run) -> list:
            f"use). Headline: <b>{e(h.label)}</b>, because {e(h.reason)}.</p>"]
     horizon_first = h.metric == hl.HORIZON
     free = ["<h3>Free run: measured and simulated outputs</h3>", _img(_figure_free(s, run), "free-run outputs"),
-            f'<p class="note">Theta residual wrapped to (-π, π]. Shaded: the worst {WINDOW:g} s windows of the '
-            "first model's analysed residual.</p>"]
+            '<p class="note">Theta residual wrapped to (-π, π].'
+            + (f" Shaded: the worst {WINDOW:g} s windows of the first model's free run." if not horizon_first else "")
+            + "</p>"]
     seg = [f"<h3>{e(horizon.capitalize())}: segments restarting from the measured state</h3>",
            _img(_figure_horizon(s, run), f"{horizon} segments over the data"),
            _img(_figure_horizon(s, run, zoom=True), f"{horizon} segments, zoomed on the worst stretch"),
            f'<p class="note">Each line starts at the measured state and runs {c0.horizon:g} s on the measured '
-           "input; the lower panels are measured minus simulated. The second figure zooms on the "
+           "input; the lower panels are measured minus simulated. "
+           + (f"Shaded: the worst {WINDOW:g} s windows of the first model. " if horizon_first else "")
+           + "The second figure zooms on the "
            f"{ZOOM:g} s where the first model's horizon error is largest.</p>"]
     out += seg + free if horizon_first else free + seg
     for lab, c in zip(s.labels, run):
@@ -167,6 +170,13 @@ def _fits(values: list, labels: tuple) -> str:
         (f"{values[0]:.2f} %" if np.isfinite(values[0]) else "undefined")
 
 
+def _shade(ax, c: Comparison, output: str) -> None:
+    """Shade the worst windows of ``c``'s analysed residual of ``output``."""
+    for w in c.windows:
+        if w["output"] == output:
+            ax.axvspan(w["t0"], w["t1"], color="#f4a261", alpha=0.25, lw=0)
+
+
 def _figure_free(s: SideBySide, run):
     """Per output: measured and every model's free run; then the residuals (theta wrapped)."""
     c0 = run[0]
@@ -176,9 +186,8 @@ def _figure_free(s: SideBySide, run):
     for i, k in enumerate(c0.outputs):
         ax = fig.add_subplot(2 * n, 1, i + 1)
         sc, label = _SCALE[k]
-        for w in c0.windows:
-            if w["output"] == k:
-                ax.axvspan(w["t0"], w["t1"], color="#f4a261", alpha=0.25, lw=0)
+        if c0.residual_of == "free run":
+            _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.0, label="measured")
         for j, (lab, c) in enumerate(zip(s.labels, run)):
             ax.plot(t, sc * c.simulated.states[k], color=_colour(j), lw=1.0, ls="--", label=f"free run {lab}")
@@ -224,6 +233,8 @@ def _figure_horizon(s: SideBySide, run, zoom: bool = False):
     for i, k in enumerate(c0.outputs):
         ax = fig.add_subplot(2 * n, 1, 2 * i + 1)
         sc, label = _SCALE[k]
+        if c0.residual_of != "free run" and not zoom:
+            _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.6, alpha=0.6, label="measured")
         for j, (lab, c) in enumerate(zip(s.labels, run)):
             tt, yy = c.horizon_run.plot_lines(k)
