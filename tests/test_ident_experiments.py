@@ -115,3 +115,16 @@ def test_complete_model_leaves_nothing_systematic():
     d = diagnose(complete, [data], workers=2)
     assert d.at_noise_level and not d.unexplained, d.noise_ratio
     assert diagnose(BASE, [data], workers=2).noise_ratio["theta"] > 2.0
+
+
+def test_plant_constants_have_physical_bounds_and_can_be_freed():
+    from pendc.ident.fit import PLANT_BOUNDS, parameter_bounds
+
+    for name, value in BASE.plant.items():
+        lo, hi = parameter_bounds(BASE, name)
+        assert (lo, hi) == PLANT_BOUNDS[name] and lo < value < hi
+    data = measured(free_swing(3.0, L=SCT["L"] * 1.03), "cart_held", "longer")
+    fitted = fit_parameters(BASE, [data], ["L"])
+    assert fitted.values["L"] == pytest.approx(SCT["L"] * 1.03, rel=0.01)
+    lo, hi = fitted.ci95["L"]
+    assert lo < fitted.values["L"] < hi

@@ -54,3 +54,57 @@ def test_unknown_parameter_is_a_clear_error(clean):
     model, data = clean
     with pytest.raises(PendcError, match="unknown parameter"):
         ShootingProblem(model, [data], ["k_c"])
+
+
+def _run(x, theta, name="run", u=None, **attrs):
+    t = np.arange(x.size) * 1e-3
+    u = np.full(x.size, 5.264616) if u is None else u
+    data = parse_measurements(format_csv({"t": t, "u": u, "x": x, "theta": theta}), source=name)
+    for k, v in attrs.items():
+        object.__setattr__(data, k, v)
+    return data
+
+
+def test_outputs_are_scaled_by_spread_or_resolution_and_held_ones_dropped():
+    from pendc.ident.outputs import DEFAULT_RESOLUTION, plan_outputs, resolution_of
+    from pendc.sim.encoders import THETA_COUNT, X_COUNT
+
+    n = 3000
+    swing = np.round(0.5 * np.cos(2 * np.pi * np.arange(n) / 900.0) / THETA_COUNT) * THETA_COUNT
+    creep = np.where(np.arange(n) > 1500, X_COUNT, 0.0)          # one count of cart creep: held
+    plan = plan_outputs([_run(creep, swing)])
+    assert plan.outputs == (("theta",),) and set(plan.scales) == {"theta"}
+    assert any("x does not move" in note for note in plan.notes)
+    assert resolution_of(_run(creep, swing), "theta") == pytest.approx(THETA_COUNT)
+    # a few counts of x motion are compared, but never scaled below the resolution
+    wiggle = X_COUNT * (np.arange(n) % 4)
+    plan = plan_outputs([_run(wiggle, swing)])
+    assert plan.outputs == (("x", "theta"),) and plan.scales["x"] >= X_COUNT
+    # a missing column and an experiment without x leave x out; the user may ask for theta only
+    assert plan_outputs([_run(wiggle, swing, missing=("x",))]).outputs == (("theta",),)
+    assert plan_outputs([_run(wiggle, swing, experiment="cart_held")]).outputs == (("theta",),)
+    assert plan_outputs([_run(wiggle, swing)], ("theta",)).outputs == (("theta",),)
+    # a resolution given with the data wins over the estimate; unquantised data get the encoder's
+    given = _run(wiggle, swing, resolution={"theta": 1e-3})
+    assert resolution_of(given, "theta") == 1e-3
+    smooth = _run(wiggle, 0.5 * np.cos(2 * np.pi * np.arange(n) / 900.0))
+    assert resolution_of(smooth, "theta") == DEFAULT_RESOLUTION["theta"]
+
+
+def test_nothing_to_compare_and_bad_output_names_are_clear_errors():
+    from pendc.ident.outputs import parse_outputs
+
+    flat = _run(np.zeros(500), np.zeros(500), name="flat.csv")
+    with pytest.raises(PendcError, match="flat.csv: no output left to compare"):
+        ShootingProblem(load_model(), [flat], [])
+    with pytest.raises(PendcError, match="--outputs takes x, theta"):
+        parse_outputs("phi")
+    assert parse_outputs("theta") == ("theta",) and parse_outputs(None) is None
+
+
+def test_sensor_offset_is_part_of_the_residual(clean):
+    model, data = clean
+    shifted = _run(np.asarray(data.column("x")) + 0.01, np.asarray(data.column("theta")) - 0.02, u=data.u)
+    with_offsets = model.with_effect("x_offset", {"x_off": 0.01}).with_effect("theta_offset", {"theta_off": -0.02})
+    p = ShootingProblem(with_offsets, [shifted], ["x_off", "theta_off"], dt=1e-4)
+    assert p.cost(np.array([0.01, -0.02])) < 1e-4 < 1.0 < p.cost(np.array([0.0, 0.0]))
