@@ -76,6 +76,23 @@ def encoder_counts(value: float, origin: float, resolution: float) -> int:
     return int(math.floor(value / resolution) - math.floor(origin / resolution))
 
 
+# Gray index of the channel levels (A, B) along increasing position: A leads B by a quarter period
+_GRAY = np.array([0, 3, 1, 2])   # index by 2*A + B: 00 -> 0, 01 -> 3, 10 -> 1, 11 -> 2
+
+
+def x4_count_delta(a: np.ndarray, b: np.ndarray) -> int:
+    """Net ×4 counts over a sequence of channel levels (every edge of A and B counts, sign by
+    which channel leads), as a quadrature decoder sampling every model step counts them.
+    Both channels changing between two samples is a lost count: an error, never a guess."""
+    phase = _GRAY[2 * np.asarray(a, dtype=np.int64) + np.asarray(b, dtype=np.int64)]
+    moves = np.diff(phase) % 4
+    if np.any(moves == 2):
+        bad = int(np.flatnonzero(moves == 2)[0])
+        raise PendcError(f"encoder channels A and B changed in the same step (sample {bad + 1}): "
+                         f"the decoder cannot tell the direction")
+    return int(np.count_nonzero(moves == 1) - np.count_nonzero(moves == 3))
+
+
 def _step_source(n_states: int, n_params: int) -> str:
     """A stepping loop appended to the float kernel's module (it uses its ``rhs``/``bound``/``start``)."""
     ns = n_states

