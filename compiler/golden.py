@@ -5,10 +5,16 @@ default, or the reference interpreter (``engine="interpreter"``, slow, for cross
 checks) — on sampled inputs, and returns states at the sample times like the float
 simulator does, so the two can be compared column by column. The Verilog must match
 its integers bit for bit.
+
+A run never wraps silently: a node that leaves its Q-format's range raises
+:class:`OverflowStop` naming the node and the time, unless the caller asks to mark the
+affected rows instead (``on_overflow="mark"``). :class:`GoldenStepper` continues a run
+from its saved state (registers and FSM states), for plants that step in lockstep.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +26,24 @@ from .ir.interpret import FixedInterpreter
 from .sim.simulator import SimResult
 
 STATES = ("x", "dx", "theta", "dtheta")
+OVERFLOW_CHOICES = ("error", "mark")
+
+
+class OverflowStop(PendcError):
+    """A node left its format's range: the hardware's sticky flag, as an error naming node and time."""
+
+    def __init__(self, node: str, step: int, dt: float, count: int = 1):
+        self.node, self.step, self.time = node, int(step), step * dt
+        others = f" ({count - 1} more node(s) overflowed too)" if count > 1 else ""
+        super().__init__(f"node '{node}' left its Q-format range at t = {self.time:.6g} s (step {step}){others}; "
+                         f"the fixed-point results from there on would be wrapped values")
+
+
+def first_overflow(overflows: dict) -> tuple[str, int] | None:
+    """(node, step) of the earliest overflow (ties by name), or None."""
+    if not overflows:
+        return None
+    return min(overflows.items(), key=lambda kv: (kv[1], kv[0]))
 
 
 @dataclass(frozen=True)
@@ -30,6 +54,17 @@ class GoldenRun:
     result: SimResult
     raw: dict
     overflows: dict
+    rows: np.ndarray | None = None     # model step of each sample row
+
+    def marked_rows(self) -> np.ndarray:
+        """1 for every sample row whose state was computed at or after the first overflow (the
+        sticky flag was up), else 0."""
+        first = first_overflow(self.overflows)
+        n = len(self.result.t)
+        if first is None or self.rows is None:
+            return np.zeros(n, dtype=np.int64)
+        # the row at step k shows the state after k steps; step k's overflow affects rows > k
+        return (self.rows > first[1]).astype(np.int64)
 
 
 def steps_per_sample(t: np.ndarray, dt: float) -> np.ndarray:
@@ -63,11 +98,20 @@ class GoldenModel:
             return self._run({"u": ints}, every=every, record=record)
         return self._run({"u": [int(v) for v in ints]}, every=every)
 
-    def __call__(self, t, u) -> GoldenRun:
-        """States at the sample times ``t`` for ZOH input samples ``u`` (from reset, t[0] = 0 state)."""
+    def __call__(self, t, u, on_overflow: str = "error", initial: tuple | None = None) -> GoldenRun:
+        """States at the sample times ``t`` for ZOH input samples ``u`` (from reset, t[0] = 0 state).
+
+        A node leaving its range raises :class:`OverflowStop`; with ``on_overflow="mark"`` the run
+        completes and :meth:`GoldenRun.marked_rows` tells which sample rows come after the flag.
+        ``initial`` (x, dx, theta, dtheta) starts the state registers there instead of at reset
+        (the encoder FSMs start as at power-on)."""
+        if on_overflow not in OVERFLOW_CHOICES:
+            raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
         t = np.asarray(t, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
         steps = steps_per_sample(t, self.dt)
+        if initial is not None:
+            return self._from_state(t, u, steps, initial, on_overflow)
         per_step = np.repeat(self.quantize_input(u[:-1]), steps)
         total = int(steps.sum())
         trace = self.run_steps(np.append(per_step, per_step[-1:] if total else self.quantize_input(u[:1])))
@@ -75,5 +119,135 @@ class GoldenModel:
         states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows] * self.graph.output(s).qformat.lsb
                   for s in STATES}
         result = SimResult(t=t, u=u, states=states)
+        first = first_overflow(trace.overflows)
+        if first is not None and on_overflow == "error":
+            raise OverflowStop(first[0], first[1], self.dt, len(trace.overflows))
         return GoldenRun(result=result, raw={k: np.asarray(v) for k, v in trace.outputs.items()},
-                         overflows=dict(trace.overflows))
+                         overflows=dict(trace.overflows), rows=rows)
+
+    def _from_state(self, t, u, steps, initial, on_overflow) -> GoldenRun:
+        """Sample by sample through the resumable kernel, from the registers at ``initial``."""
+        if self.engine != "compiled":
+            raise PendcError("a run from an initial state needs the compiled engine")
+        stepper = GoldenStepper(self.graph)
+        stepper.reset(dict(zip(STATES, initial)))
+        cols = [stepper.ports.index(s) for s in STATES]
+        ints = self.quantize_input(u)
+        rows = np.empty((len(t), len(STATES)), np.int64)
+        rows[0] = stepper.advance(int(ints[0]), 1)[0, cols]
+        stepper.reset(dict(zip(STATES, initial)))
+        for i, n in enumerate(steps):
+            rows[i + 1] = stepper.advance(int(ints[i]), int(n))[-1, cols]
+        first = first_overflow(stepper.overflows)
+        if first is not None and on_overflow == "error":
+            raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows))
+        states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(STATES)}
+        return GoldenRun(result=SimResult(t=t, u=u, states=states), raw={s: rows[:, j] for j, s in enumerate(STATES)},
+                         overflows=dict(stepper.overflows), rows=np.concatenate([[0], np.cumsum(steps)]))
+
+
+_SIGNATURE = "def kernel(ins, steps, every, tab, sel, out, track, mx, mn, ov):"
+
+
+def resumable_source(graph: Graph) -> tuple[str, list]:
+    """The compiled kernel's source with its state made an argument: registers and FSM states
+    start from ``st`` and are written back to it, overflow steps count from ``k0``.
+
+    Returns (source, node indices of the states in ``st`` order). The transformation is checked
+    line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
+    from .ir.compiled_source import kernel_source
+    from .ir.nodes import Kind
+
+    source, _ = kernel_source(graph, "fixed")
+    state_idx = [i for i, n in enumerate(graph.nodes) if n.kind in (Kind.REGISTER, Kind.FSM)]
+    lines = source.split("\n")
+    try:
+        head = lines.index(_SIGNATURE)
+        loop = lines.index("    for k in range(steps):")
+        ret = len(lines) - 1 - lines[::-1].index("    return row")
+    except ValueError:
+        raise PendcError("internal error: the compiled kernel's source has an unexpected shape") from None
+    lines[head] = _SIGNATURE.replace("ov):", "ov, st, k0):")
+    seen = []
+    for j in range(head + 1, loop):
+        m = re.fullmatch(r"    s(\d+) = (.+)", lines[j])
+        if m:
+            seen.append(int(m.group(1)))
+            lines[j] = f"    s{m.group(1)} = st[{state_idx.index(int(m.group(1)))}]"
+    if seen != state_idx:
+        raise PendcError("internal error: the compiled kernel does not initialise the states it should")
+    for j in range(loop, ret):
+        lines[j] = re.sub(r"(ov\[\d+\] = )k$", r"\1k0 + k", lines[j])
+    save = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
+    lines[ret:ret] = save
+    return "\n".join(lines).replace("pendc.ir.compiled_source", "pendc.golden.resumable_source"), state_idx
+
+
+class GoldenStepper:
+    """The compiled golden kernel, continued from its saved state call after call.
+
+    ``advance(u_int, n)`` runs n steps with the input port held at the integer ``u_int`` and
+    returns the output ports' integers at the start of every step and after the last one
+    ((n + 1) x ports); ``overflows`` accumulates {node: first step since reset}."""
+
+    def __init__(self, graph: Graph):
+        from .codegen import load_source
+        from .ir.nodes import Kind
+
+        self.graph = graph
+        inputs = [n for n in graph.nodes if n.kind is Kind.INPUT]
+        if len(inputs) != 1:
+            raise PendcError(f"a stepping golden model needs exactly one input port, the graph has {len(inputs)}")
+        self.compiled = CompiledGraph(graph, "fixed")   # tables, validation
+        source, self.state_idx = resumable_source(graph)
+        self._kernel = load_source(source, "pendc_golden_step").kernel
+        self.ports = [p for p, _ in graph.outputs]
+        index = {n.name: i for i, n in enumerate(graph.nodes)}
+        self._sel = np.array([index[node] for _, node in graph.outputs], dtype=np.int64)
+        self._reset_state = self._initial_state()
+        self._mx = np.zeros(len(graph.nodes), np.int64)
+        self._mn = np.zeros(len(graph.nodes), np.int64)
+        self.reset()
+
+    def _initial_state(self) -> np.ndarray:
+        from .ir.nodes import Kind
+
+        st = np.empty(len(self.state_idx), np.int64)
+        for p, i in enumerate(self.state_idx):
+            n = self.graph.nodes[i]
+            st[p] = (n.param("states").index(n.param("reset")) if n.kind is Kind.FSM
+                     else n.qformat.from_float(float(n.param("reset", 0.0))))
+        return st
+
+    def reset(self, registers: dict | None = None) -> None:
+        """Back to reset; ``registers`` (name -> real value) start some registers elsewhere."""
+        self.state = self._reset_state.copy()
+        names = [self.graph.nodes[i].name for i in self.state_idx]
+        for name, value in (registers or {}).items():
+            if name not in names:
+                raise PendcError(f"no register named '{name}' in the core")
+            node = self.graph[name]
+            q = node.qformat.from_float(float(value))
+            if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
+                raise PendcError(f"initial {name} = {value} does not fit its format {node.qformat}")
+            self.state[names.index(name)] = q
+        self.k = 0
+        self.overflows: dict = {}
+
+    def advance(self, u_int: int, n: int) -> np.ndarray:
+        """Run ``n`` steps at input integer ``u_int``; output integers per step (n + 1 rows)."""
+        ins = np.full((1, n + 1), int(u_int), dtype=np.int64)
+        out = np.empty((n + 1, len(self._sel)), np.int64)
+        ov = np.full(len(self.graph.nodes), -1, np.int64)
+        # n + 1 rows are recorded: the last step's outputs are the state after n steps; that
+        # step's update is discarded by restoring the state saved after step n
+        self._kernel(ins, n, 1, self.compiled.tables, self._sel, out, False, self._mx, self._mn, ov,
+                     self.state, self.k)
+        after_n = self.state.copy()
+        self._kernel(ins[:, n:], 1, 1, self.compiled.tables, self._sel, out[n:], False, self._mx, self._mn,
+                     np.full(len(self.graph.nodes), -1, np.int64), self.state, self.k + n)
+        self.state = after_n
+        for i in np.flatnonzero(ov >= 0):
+            self.overflows.setdefault(self.graph.nodes[int(i)].name, int(ov[i]))
+        self.k += n
+        return out
