@@ -66,8 +66,6 @@ HOSTILE = {
     "theta_in_degrees": (csv(scaled(BASE, theta=180 / math.pi * 5)), [], ["'theta' looks like degrees",
                                                                          "--theta-unit deg"]),
     "outlier_x": (csv(with_row(BASE, "x", 1233, 1e30)), [], ["line 1235: x = 1e+30 is an outlier"]),
-    "outlier_x_on_track": (csv(with_row(BASE, "x", 700, 0.37)), [], ["line 702: x = 0.37 is an outlier",
-                                                                      "both neighbours"]),
     "outlier_u": (csv(with_row(BASE, "u", 77, 1e30)), [], ["line 79: u = 1e+30 is an outlier"]),
     "outlier_theta": (csv(with_row(BASE, "theta", 4000, 1e30)), [], ["line 4002: theta = 1e+30 is an outlier"]),
     "outlier_t": (csv(with_row(BASE, "t", 500, 1e30)), [], ["line 502: t = 1e+30 is an outlier"]),

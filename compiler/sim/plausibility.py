@@ -10,9 +10,8 @@ The limits are physical, from the rig (spec §1, thesis II.56):
   can show);
 - the pendulum turns at most about 8π ≈ 25 rad/s, so a sample that jumps away from
   both neighbours by more than ``THETA_SPIKE`` (1 rad, 40 ms at top speed) while they
-  agree with each other is an outlier, and so is a cart position ``X_SPIKE`` (0.1 m)
-  away from both neighbours (the cart moves at most 0.55 m/s); angles in degrees are
-  caught by :func:`check_radians`;
+  agree with each other is an outlier; angles in degrees are caught by
+  :func:`check_radians`;
 - a swing lasts about a second, so sampling slower than ``MIN_RATE`` (10 Hz) cannot
   record one: a median time step of 0.1 or more is taken as milliseconds (or
   microseconds) rather than seconds.
@@ -30,7 +29,6 @@ from .table import Table
 X_LIMIT = 1.0          # m
 U_LIMIT = 100.0        # V
 THETA_SPIKE = 1.0      # rad
-X_SPIKE = 0.1          # m: 0.2 s at the cart's top speed of 0.55 m/s, and back
 MAX_RAD_RATE = 60.0    # rad/s; the pendulum never exceeds ~8π ≈ 25 rad/s (II.56)
 MIN_RATE = 10.0        # Hz
 DX_LIMIT = 10.0        # m/s: the cart is clamped at 0.55 m/s

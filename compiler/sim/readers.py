@@ -337,7 +337,6 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
         plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
                             ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
     if "x" in columns:
-        plaus.check_spikes(table, "x", columns["x"], plaus.X_SPIKE, "m")
         # In centimetres no position reaches 75 (the track's length): beyond that, millimetres.
         x = columns["x"]
         mm = float(x.max()) > plaus.X_LIMIT or float(x.min()) < -plaus.X_LIMIT  # then, only, look closer
