@@ -99,6 +99,12 @@ def test_structure_without_time_needs_sample_time(tmp_path):
     m = read_measurements(path, options=opts(columns=cols, sample_time=1e-3))
     assert np.allclose(m.t, t) and np.array_equal(m.theta, theta)
     assert any("no time vector" in n for n in m.notes)
+    sio.savemat(path, {"data": simulink_struct(t, np.column_stack([u, x, theta]), time=False), "Ts": 1e-3})
+    m = read_measurements(path, options=opts(columns=cols))  # the sample time saved beside the data
+    assert np.allclose(m.t, t)
+    sio.savemat(path, {"data": simulink_struct(t, np.column_stack([u, x, theta]), time=False), "Ts": "fast"})
+    with pytest.raises(PendcError, match="no time"):
+        read_measurements(path, options=opts(columns=cols))
 
 
 def test_array_format_matrix_and_named_vectors(tmp_path):

@@ -144,8 +144,8 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
             if found:
                 columns["t"] = table.columns[table.lookup(found[0])]
                 origin["t"] = found[0]
-            elif options.sample_time or "Ts" in table.meta:
-                step = options.sample_time or float(table.meta["Ts"])
+            elif options.sample_time or _positive(table.meta.get("Ts")):
+                step = options.sample_time or _positive(table.meta.get("Ts"))
                 columns["t"] = step * np.arange(length)
                 origin["t"] = f"sample time {step:g} s"
                 notes.append(f"{table.source}: no time vector: t = k * {step:g} s")
@@ -189,6 +189,15 @@ def unit_factor(axis: str, unit: str) -> float:
         raise PendcError(f"--{axis}-unit {unit!r}: use one of {', '.join(UNITS[axis])}, or the size of one file "
                          f"unit in {next(iter(UNITS[axis]))} (a positive number)")
     return factor
+
+
+def _positive(text) -> float | None:
+    """A metadata value as a positive number, or None."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        return None
+    return value if value > 0 and math.isfinite(value) else None
 
 
 def convert_units(columns: dict, options: ReadOptions) -> None:
