@@ -142,6 +142,9 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--decimal", choices=("auto", "point", "comma"), default="auto",
                    help="decimal mark: auto (default: comma when fields are not comma-separated and "
                         "the first row has commas but no point, as spreadsheets write in many locales)")
+    g.add_argument("--encoding", default="utf-8", metavar="NAME",
+                   help="text encoding of the header and comments (default utf-8; e.g. cp1252 for a "
+                        "spreadsheet export with 'Winkel [°]')")
     g.add_argument("--t-unit", type=_unit("t"), metavar="{s,ms,us,NUMBER}",
                    help="unit of t in the file (default s; a number: seconds per file unit)")
     g.add_argument("--x-unit", type=_unit("x"), metavar="{m,cm,mm,NUMBER}",
@@ -190,6 +193,7 @@ def read_options(args, experiment: str | None = None):
         columns=dict(getattr(args, "columns", None) or {}),
         separator=separator_from_name(getattr(args, "separator", None)),
         decimal={"point": ".", "comma": ","}.get(getattr(args, "decimal", None) or "auto", ...),
+        encoding=getattr(args, "encoding", None) or "utf-8",
         t_unit=getattr(args, "t_unit", None), x_unit=getattr(args, "x_unit", None),
         u_unit=getattr(args, "u_unit", None), theta_unit=getattr(args, "theta_unit", None),
         theta_zero=getattr(args, "theta_zero", None) or "hanging",

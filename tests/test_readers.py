@@ -437,3 +437,17 @@ def test_units_as_numbers_for_encoder_counts():
         opts(x_unit="inch")
     with pytest.raises(PendcError, match="--theta-unit '-1'"):
         opts(theta_unit="-1")
+
+
+def test_header_in_windows_1252(tmp_path):
+    t, theta, x, u = truth(duration=0.2)
+    rows = "\n".join(";".join(repr(v) for v in r) for r in zip(t.tolist(), u.tolist(), x.tolist(), theta.tolist()))
+    path = tmp_path / "export.csv"
+    path.write_bytes("Zeit [s];Spannung [V];Position [m];Winkel [°]\n".encode("cp1252") + rows.encode() + b"\n")
+    with pytest.raises(PendcError, match=r"line 1: not UTF-8 text \(byte 0xb0\).*--encoding cp1252"):
+        read_measurements(path)
+    cols = {"t": "Zeit [s]", "u": "Spannung [V]", "x": "Position [m]", "theta": "Winkel [°]"}
+    m = read_measurements(path, options=opts(encoding="cp1252", columns=cols))
+    assert np.array_equal(m.theta, theta)
+    with pytest.raises(PendcError, match="--encoding 'klingon'"):
+        read_measurements(path, options=opts(encoding="klingon"))

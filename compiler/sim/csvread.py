@@ -45,7 +45,7 @@ def detect_separator(header: str):
     return None
 
 
-def read_csv_table(stream, source: str, separator=..., decimal=...) -> Table:
+def read_csv_table(stream, source: str, separator=..., decimal=..., encoding: str = "utf-8") -> Table:
     """Read a delimited text file from binary ``stream`` (see the module docstring).
 
     Leading ``#`` lines and blank lines come before one header row; ``# key: value``
@@ -53,6 +53,7 @@ def read_csv_table(stream, source: str, separator=..., decimal=...) -> Table:
     or ``...`` to detect it from the header. ``decimal``: '.' or ',' (as written by
     spreadsheets in many locales, with ';' or tab between fields), or ``...`` to take
     ',' when the separator is not a comma and the first data row has commas but no point.
+    ``encoding`` decodes the comments and the header (the data rows are numbers).
     """
     meta, line_no, comments = {}, 0, False
     header = None
@@ -63,7 +64,7 @@ def read_csv_table(stream, source: str, separator=..., decimal=...) -> Table:
             raise PendcError(f"{source}: no header row (only comments)" if comments else f"{source}: file is empty")
         if line_no == 1 and raw.startswith(b"\xef\xbb\xbf"):
             raw = raw[3:]
-        text = _decode(raw, source, line_no).rstrip("\r\n")
+        text = _decode(raw, source, line_no, encoding).rstrip("\r\n")
         if text.startswith("#"):
             comments = True
             m = META_LINE.match(text)
@@ -99,11 +100,15 @@ class _Prefixed:
         return head + self.stream.read(max(size - len(head), 1)) if head else self.stream.read(size)
 
 
-def _decode(raw: bytes, source: str, line: int) -> str:
+def _decode(raw: bytes, source: str, line: int, encoding: str = "utf-8") -> str:
     try:
-        return raw.decode("utf-8")
+        return raw.decode(encoding)
     except UnicodeDecodeError as exc:
-        raise PendcError(f"{source}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
+        hint = " (if it was saved as Latin-1 or Windows-1252, give --encoding cp1252)" if encoding == "utf-8" else ""
+        name = "UTF-8" if encoding == "utf-8" else encoding
+        raise PendcError(f"{source}: line {line}: not {name} text (byte 0x{raw[exc.start]:02x}){hint}") from None
+    except LookupError:
+        raise PendcError(f"--encoding {encoding!r}: unknown text encoding") from None
 
 
 def _check_header(source: str, names: list, line: int) -> None:

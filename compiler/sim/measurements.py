@@ -113,7 +113,7 @@ def parse_measurements(text: str, source: str = "<string>", required=REQUIRED,
     an entry to ``warnings``.
     """
     options = options or ReadOptions()
-    table = read_csv_table(io.BytesIO(text.encode("utf-8")), source, options.separator, options.decimal)
+    table = read_csv_table(io.BytesIO(text.encode("utf-8")), source, options.separator, options.decimal)  # str: utf-8
     return build_measurement(table, options, required)
 
 

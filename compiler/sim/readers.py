@@ -50,6 +50,7 @@ class ReadOptions:
     columns: dict = field(default_factory=dict)
     separator: object = ...
     decimal: object = ...
+    encoding: str = "utf-8"
     t_unit: str | None = None
     x_unit: str | None = None
     u_unit: str | None = None
@@ -83,7 +84,8 @@ def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
     from .matread import is_mat_file, read_mat_table
 
     if str(path) == "-":
-        return read_csv_table(sys.stdin.buffer, "<stdin>", options.separator, options.decimal)
+        return read_csv_table(sys.stdin.buffer, "<stdin>", options.separator, options.decimal,
+                              options.encoding)
     try:
         f = open(path, "rb")
     except FileNotFoundError:
@@ -98,7 +100,7 @@ def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
             if is_mat_file(head, str(path)):
                 f.close()
                 return read_mat_table(str(path))
-            return read_csv_table(f, str(path), options.separator, options.decimal)
+            return read_csv_table(f, str(path), options.separator, options.decimal, options.encoding)
         except IsADirectoryError:
             raise PendcError(f"{path}: is a folder, not a measurement file") from None
         except OSError as exc:
