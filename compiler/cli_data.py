@@ -178,6 +178,28 @@ def add_data_options(p, many: bool = True) -> None:
     p.epilog = (p.epilog + "\n\n" if p.epilog else "") + FORMATS_HELP
 
 
+def reading_arguments(args) -> list:
+    """The reading options ``args`` holds that differ from the defaults, as command-line words,
+    so a suggested next command (``pendc fit ...``) reads the data the same way."""
+    import shlex
+
+    words = []
+    columns = getattr(args, "columns", None) or {}
+    if columns:
+        words += ["--columns", ",".join(f"{k}={v}" for k, v in columns.items())]
+    resolution = getattr(args, "resolution", None) or {}
+    if resolution:
+        words += ["--resolution", ",".join(f"{k}={v!r}" for k, v in resolution.items())]
+    defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", "t_unit": None, "x_unit": None,
+                "u_unit": None, "theta_unit": None, "theta_zero": "hanging", "theta_sign": 1, "experiment": None,
+                "missing": "", "u_value": 0.0, "sample_time": None, "rate": None}
+    for name, default in defaults.items():
+        value = getattr(args, name, default)
+        if value is not None and value != default:
+            words += [f"--{name.replace('_', '-')}", str(value)]
+    return [shlex.quote(w) for w in words]
+
+
 def note(text: str) -> None:
     """One ``pendc: note:`` line on stderr."""
     print(f"pendc: note: {text}", file=sys.stderr)

@@ -237,3 +237,36 @@ def test_one_experiment_per_file_and_options_from_a_namespace(tmp_path, capsys):
     assert (b.experiment, b.missing) == ("pendulum_removed", ("theta",))
     err = capsys.readouterr().err
     assert err.count("pendc: note:") == 2 and "Warning" not in err
+
+
+def test_reading_arguments_round_trip(tmp_path):
+    """The words reading_arguments gives back parse to the same reading options."""
+    from pendc.cli import build_parser
+    from pendc.cli_data import read_options, reading_arguments
+
+    given = ["compare", "run.csv", "--columns", "t=Zeit [s],theta=Winkel", "--theta-unit", "deg", "--theta-zero",
+             "upright", "--theta-sign", "-1", "--experiment", "cart_held", "--u-value", "5.2", "--rate", "500",
+             "--resolution", "theta=0.001", "--decimal", "comma", "--separator", "tab", "--encoding", "cp1252"]
+    args = build_parser().parse_args(given)
+    import shlex
+
+    again = build_parser().parse_args(["compare", "run.csv", *shlex.split(" ".join(reading_arguments(args)))])
+    assert read_options(again) == read_options(args)
+    assert reading_arguments(build_parser().parse_args(["compare", "run.csv"])) == []
+
+
+def test_mat_through_diagnose(tmp_path, capsys):
+    """diagnose reads the issue's .mat (10 kHz, degrees from upright, cart held) with options only."""
+    t = np.arange(0, 1.5, 1e-4)
+    q = 2 * math.pi / 20000
+    theta = np.round(0.6 * np.cos(2 * math.pi * 1.07 * t) * np.exp(-0.05 * t) / q) * q
+    path = tmp_path / "held.mat"
+    sio.savemat(path, {"experiment": "cart_held", "theta": {"time": t[:, None], "signals": {
+        "values": np.degrees(theta - math.pi)[:, None], "dimensions": 1.0, "label": "Theta",
+        "blockName": "rig/Theta"}}})
+    rc, out, err = run(["diagnose", str(path), "--theta-unit", "deg", "--theta-zero", "upright", "--workers", "1",
+                        "--json"], capsys)
+    assert rc == 0, err
+    assert all(line.startswith("pendc: note: ") for line in err.strip().splitlines()), err
+    report = json.loads(out)
+    assert report["candidates"]
