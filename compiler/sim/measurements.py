@@ -31,7 +31,14 @@ FIT_WINDOW = 0.010  # s, for initial_state's velocity estimate
 
 @dataclass(frozen=True, eq=False)
 class Measurement:
-    """One measured run; arrays are float64 and read-only (``columns`` holds them all)."""
+    """One measured run; arrays are float64 and read-only (``columns`` holds them all).
+
+    ``experiment`` says what was held or removed (the simulation honours it);
+    ``resolution`` maps a column to its measurement step (the encoder count or the
+    quantisation, given or estimated; absent when unknown); ``missing`` lists the axes
+    the file did not have, which hold a constant; ``notes`` say what the reader did
+    (resampling, filling, unwrapping), one line each.
+    """
 
     t: np.ndarray
     u: np.ndarray
