@@ -51,6 +51,7 @@ bench: setup
 	$(PY) bench/bench_golden.py -o bench/out/golden.json
 	$(PY) bench/bench_diagnose.py -o bench/out/diagnose.json
 	$(PY) bench/bench_verilator.py -o bench/out/verilator.json
+	$(PY) bench/bench_hil.py -o bench/out/hil.json
 
 clean:
 	rm -rf sim_build bench/out demo_out .pytest_cache
