@@ -54,7 +54,7 @@ def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None 
     if not uniform:
         k = int(np.argmax(steps))
         limit = max(MAX_GAP_S, MAX_GAP_STEPS * h)
-        if steps[k] > limit:
+        if steps[k] > limit * (1 + 1e-9):  # a gap of exactly the limit, give or take rounding, is allowed
             raise PendcError(f"{source}: {where(k + 1)}: a gap of {steps[k]:.6g} s in t (from {float(t[k])!r} to "
                              f"{float(t[k + 1])!r}, {steps[k] / h:.3g} median steps): too long to interpolate "
                              f"across (limit {limit:.3g} s = max({MAX_GAP_S:g} s, {MAX_GAP_STEPS} median steps)); "
