@@ -269,3 +269,13 @@ def test_header_in_windows_1252(tmp_path):
     assert np.array_equal(m.theta, theta)
     with pytest.raises(PendcError, match="--encoding 'klingon'"):
         read_measurements(path, options=opts(encoding="klingon"))
+
+
+def test_wrapped_angle_balancing_at_upright_is_not_an_outlier():
+    t = np.arange(2000) * 1e-3
+    rng = np.random.default_rng(4)
+    theta = np.pi + np.cumsum(rng.normal(0, 0.002, len(t)))  # wandering around upright
+    wrapped = (theta + math.pi) % (2 * math.pi) - math.pi     # crosses +-pi back and forth
+    assert np.sum(np.abs(np.diff(wrapped)) > math.pi) > 2
+    m = parse_measurements(format_csv({"t": t, "u": t * 0 + 5, "x": t * 0, "theta": wrapped}))
+    assert np.allclose(m.theta - m.theta[0], theta - theta[0], atol=1e-9)

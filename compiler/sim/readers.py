@@ -337,13 +337,13 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
     """The plausibility checks, in the order that gives the most telling message (appends notes)."""
     t = columns["t"]
     plaus.check_time(table, t)
-    if "theta" in columns:
-        plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
+    if "theta" in columns:  # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
         unwrapped, wraps = plaus.unwrap_if_wrapped(columns["theta"])
         if wraps:
             columns["theta"] = unwrapped
             notes.append(f"{table.source}: theta was wrapped to one turn ({wraps} jumps of a whole turn between "
                          f"samples, which the pendulum cannot make): unwrapped")
+        plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
     if "u" in columns:
         plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
                             ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
