@@ -76,10 +76,6 @@ def test_model_mismatch_table3_design_on_table14_plant():
 
 @pytest.mark.skipif(shutil.which("verilator") is None, reason="verilator is not on PATH")
 def test_golden_and_verilator_runs_are_identical(model, golden_builtin):
-    try:
-        plant = make_plant("verilator", model)
-    except ImportError as exc:      # the RTL plant module is part of the HIL plant work
-        pytest.skip(f"no RTL plant: {exc}")
-    res = swing_up_and_balance(plant, model, 12.0, plant_name="verilator")
+    res = swing_up_and_balance(make_plant("verilator", model), model, 12.0, plant_name="verilator")
     assert res.passed, res.failures
     assert run_csv_text(res.run) == run_csv_text(golden_builtin.run)
