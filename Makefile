@@ -46,11 +46,10 @@ SIM ?= both
 sim: setup
 	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work sim_build/$(basename $(notdir $(MODEL))))
 
+# every benchmark (bench/bench_*.py) into bench/out/, merged with machine info into bench/out/bench.json;
+# prints the README's table. Synthesis needs pip install -e '.[synth]' (cached by design hash).
 bench: setup
-	$(PY) bench/bench_simulate.py -o bench/out/simulate.json
-	$(PY) bench/bench_golden.py -o bench/out/golden.json
-	$(PY) bench/bench_diagnose.py -o bench/out/diagnose.json
-	$(PY) bench/bench_verilator.py -o bench/out/verilator.json
+	$(PY) bench/bench_all.py -o bench/out/bench.json
 	$(PY) bench/bench_hil.py -o bench/out/hil.json
 
 clean:

@@ -30,9 +30,12 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tb"))
 
 
-def _hdl(work: Path, log) -> tuple[Path, dict, str]:
+def _hdl(work: Path, log, request: dict | None = None) -> tuple[Path, dict, str]:
     import pendtb
     model, build = pendtb.model_and_build()
+    if request:
+        out = work / f"hdl_{request.get('preset', 'x')}"
+        return out, pendtb.emit_hdl(model, build, out, "raptor", request), f"fresh build in {out} ({request})"
     if pendtb.repo_hdl_current(model, build):
         hdl = REPO / "hdl_out"
         return hdl, json.loads((hdl / "report.json").read_text()), "hdl_out/ (current)"
@@ -110,6 +113,12 @@ def main(argv=None) -> int:
           f"{standalone['real_time_factor']:.3f}; max |x - float| {standalone['max_abs_x_error_m'] * 1e3:.3g} mm, "
           f"max |theta - float| {standalone['max_abs_theta_error_rad'] * 1e3:.3g} mrad; bit-exact vs golden "
           f"every 1000th step: {standalone['bit_exact_vs_golden_every_1000']}")
+    # the same arithmetic without pipelining (ii = 1 + table stages): what a simulation-speed build runs at
+    comb_hdl, comb_report, _ = _hdl(work, print, {"preset": "comb"})
+    comb = vbinary.chirp_run(comb_hdl, comb_report, work / "binary_comb", seconds=args.seconds)
+    comb["ii"] = comb_report["ii"]
+    print(f"(a') standalone, --preset comb (ii {comb_report['ii']}): {comb['steps_per_s']:.3g} steps/s, real-time "
+          f"factor {comb['real_time_factor']:.3f}; bit-exact vs golden: {comb['bit_exact_vs_golden_every_1000']}")
     cocotb_res = _cocotb(hdl, report, work, args.seconds, args.per_step_steps)
     for key in ("timer", "per_step"):
         r = cocotb_res[key]
@@ -120,6 +129,7 @@ def main(argv=None) -> int:
         "verilator": ".".join(map(str, pendtb.verilator_version() or ())),
         "machine": {"platform": platform.platform(), "python": platform.python_version(), "cpus": os.cpu_count()},
         "standalone_binary": standalone,
+        "standalone_binary_comb": comb,
         "cocotb": cocotb_res,
         "accuracy_ok": standalone["max_abs_x_error_m"] <= 0.5e-3 and standalone["max_abs_theta_error_rad"] <= 5e-3,
     }

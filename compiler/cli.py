@@ -232,12 +232,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7", "xcu"),
                    help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
-    p.add_argument("--preset", choices=("fast", "small", "comb"),
-                   help="schedule: fast = shortest step (100 MHz goal, default), small = 4 shared DSP blocks, "
-                        "comb = no pipelining (one combinational step between table reads)")
+    p.add_argument("--preset", choices=("default", "fast", "small", "comb"),
+                   help="schedule: default = 100 MHz goal within 24 DSP blocks, fast = shortest step (100 MHz goal, "
+                        "a multiplier per product), small = 4 shared DSP blocks, comb = no pipelining")
     p.add_argument("--ii", type=int, help="clock cycles per model step: the scheduler packs the step into "
                    "exactly N cycles with the shortest clock it can")
-    p.add_argument("--dsp", type=int, help="DSP-block budget per cycle: products share multipliers across cycles")
+    p.add_argument("--dsp", type=int, help="DSP-block budget: if a multiplier per product exceeds it, products "
+                   "share K // (blocks of the widest product) multipliers across cycles")
     p.set_defaults(func=cmd_build)
 
     from .cli_ident import add_parsers as add_identification_parsers

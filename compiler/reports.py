@@ -112,7 +112,25 @@ def drift_report(build: BuildResult, stimuli: dict) -> dict:
 
 
 def resources_report(build: BuildResult) -> dict:
-    return build.resources.to_json()
+    """The resource estimate, with per product the operand widths it got and why."""
+    out = build.resources.to_json()
+    levels = (build.error.levels if build.error else None) or {}
+    opt = build.options
+    why_off = ("multiplier fitting off (fit_multipliers = false): the thesis' 32-bit rule"
+               if not opt.fit_multipliers else "no error budget to decide (error_budget = false): the thesis' 32-bit rule")
+    for row in out.get("products", []):
+        node = row["node"]
+        if node in opt.qformats:
+            row["level"], row["why"] = None, "format given in [hardware.qformats]"
+        elif node not in levels:
+            row["level"], row["why"] = None, why_off
+        elif levels[node] == 0:
+            row["level"], row["why"] = 0, f"fits one {out['dsp_shape']} DSP block and the error budget holds"
+        else:
+            row["level"] = levels[node]
+            row["why"] = (f"widened {levels[node]} level(s) by the error budget: fitted to one block, x or theta "
+                          f"missed its budget and this product's output error was among the largest")
+    return out
 
 
 def format_resources_report(r: dict) -> str:
@@ -120,10 +138,17 @@ def format_resources_report(r: dict) -> str:
     lines.append("multipliers (operand widths):")
     for k, v in r["multipliers"].items():
         lines.append(f"  {k:>8s} x {v}")
-    rows = [("18x18 DSP blocks (est.)", r["dsp18"]), ("tables", r["luts"]), ("table bits", r["lut_bits"]),
-            ("36-kbit block RAMs", r["brams"]), ("register bits", r["register_bits"]),
+    rows = [(f"DSP blocks {r.get('dsp_shape', '18x18')} (est.)", r.get("dsp", r["dsp18"])),
+            ("18x18 DSP blocks (est.)", r["dsp18"]), ("tables", r["luts"]), ("table bits", r["lut_bits"]),
+            ("36-kbit block RAMs", r["brams"]), ("16-kbit block RAMs (ECP5)", r.get("bram16", "")),
+            ("LUT4s (fabric arithmetic)", r.get("lut4_est", "")), ("carry cells", r.get("carry_est", "")),
+            ("register bits", r["register_bits"]),
             ("adders/subtractors", f"{r['adders']} ({r['adder_bits']} bits)"), ("muxes", r["muxes"]),
             ("comparators", r["comparators"]), ("logic depth (nodes)", r["logic_depth"])]
     lines += [f"{k:26s} {v}" for k, v in rows]
     lines.append("critical path: " + " -> ".join(r["critical_path"]))
+    if r.get("products"):
+        lines += ["", f"products ({r['dsp']} DSP blocks of {r['dsp_shape']}, the target's multiplier):"]
+        for p in r["products"]:
+            lines.append(f"  {p['node']:28s} {p['kind']:5s} {p['widths']:>7s} {p['dsp']} block(s)  {p.get('why', '')}")
     return "\n".join(lines) + "\n"

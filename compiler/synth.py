@@ -224,7 +224,8 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
 
 def _estimate(report: dict) -> dict:
     res = report.get("resources") or {}
-    keep = ("dsp18", "dsp", "dsp_shape", "luts_est", "lut4_est", "brams", "register_bits", "logic_depth")
+    keep = ("dsp18", "dsp", "dsp_scheduled", "dsp_shape", "lut4_est", "carry_est", "brams", "bram16", "register_bits",
+            "logic_depth")
     return {k: res[k] for k in keep if k in res}
 
 
@@ -259,9 +260,10 @@ def format_synth_report(r: SynthReport) -> str:
              f"{'':28s} {'synthesis':>12s} {'estimate':>10s} {'thesis':>10s}",
              f"{'LUTs':28s} {r.lut:>12d} {_s(est.get('lut4_est')):>10s} {th['lut']:>10d}",
              f"{'flip-flops':28s} {r.ff:>12d} {_s(est.get('register_bits')):>10s} {'':>10s}",
-             f"{'carry cells':28s} {r.carry:>12d} {'':>10s} {'':>10s}",
-             f"{'DSP blocks':28s} {r.dsp:>12d} {_s(est.get('dsp', est.get('dsp18'))):>10s} {th['dsp']:>10d}",
-             f"{'block RAMs':28s} {r.bram:>12g} {_s(est.get('brams')):>10s} {th['bram']:>10d}",
+             f"{'carry cells':28s} {r.carry:>12d} {_s(est.get('carry_est')):>10s} {'':>10s}",
+             f"{'DSP blocks':28s} {r.dsp:>12d} {_s(est.get('dsp_scheduled', est.get('dsp', est.get('dsp18')))):>10s} "
+             f"{th['dsp']:>10d}",
+             f"{'block RAMs':28s} {r.bram:>12g} {_s(est.get('bram16', est.get('brams'))):>10s} {th['bram']:>10d}",
              f"{'logic depth (cells)':28s} {r.logic_depth:>12d} {_s(est.get('logic_depth')):>10s} "
              f"{th['logic_depth']:>10d}",
              f"{'Fmax (routed)':28s} {fmax:>12s} {'':>10s} {th['fmax_mhz']:>7.1f} MHz",

@@ -161,3 +161,30 @@ def test_budget_loop_stops_when_met(toy):
     assert calls == [({}, {})]
     for errs in rep.errors.values():
         assert all(np.isfinite(v) for v in errs.values())
+
+
+def test_budget_loop_widens_products_after_accumulators():
+    """Fitted to 18x18 blocks, an unmeetable budget first widens the accumulators, then raises
+    product levels (the least accurate products first), never beyond the top level."""
+    seconds = 0.01
+    g = toy_graph()
+    ranges = analyze_ranges(g, check_stimuli(seconds), DT)
+    tab = tabulate_luts(g, ranges)
+    products = ("dx_inc", "x_inc", "dtheta_inc", "theta_inc", "y")
+    seen = []
+
+    def typed(widen, addr, levels):
+        seen.append(dict(levels))
+        t = fill_lut_tables(assign_qformats(tab, ranges, widen=widen, shape=(18, 18), levels=levels))
+        verify(t, typed=True)
+        return t
+
+    rounds = MAX_WIDEN // WIDEN_STEP
+    graph, rep = meet_error_budget(typed, {"x": 0.0, "theta": 0.0}, DT, seconds, max_rounds=rounds + 3,
+                                   products=products, max_level=2)
+    assert not rep.met
+    assert all(all(v == 0 for v in s.values()) for s in seen[:rounds + 1])
+    assert any("wider multiplier operands" in a for a in rep.actions[rounds:])
+    assert set(rep.levels) == set(products) and max(rep.levels.values()) >= 1
+    assert all(0 <= v <= 2 for v in rep.levels.values())
+    assert sum(rep.levels.values()) == sum(seen[-1].values())

@@ -174,3 +174,33 @@ def test_hand_graph_mul_cast_and_flags():
     assert t["k"].qformat == Q("FIX32_31")
     assert t["r"].qformat == t["q"].qformat == thesis_format(100.0)   # the register's range counts
     assert t["c"].inputs == ("a", "b")                   # only multiplier operands are narrowed
+
+
+# -- fitting products to the target's multipliers ----------------------------------------------------
+
+def test_level_zero_fits_one_dsp_block(build, tabulated):
+    from pendc.passes.resources import dsp_for, product_widths
+    for shape in ((18, 18), (25, 18)):
+        g = assign(build, tabulated, shape=shape)
+        products = [n for n in g.nodes if product_widths(g, n) is not None]
+        assert len(products) >= 10
+        for n in products:
+            assert dsp_for(*product_widths(g, n), shape) == 1, (shape, n.name, product_widths(g, n))
+        for n in g.of_kind(Kind.GAIN):          # the coefficient takes the wide port
+            assert QFormat.parse(n.param("cfmt")).width == max(shape)
+            assert g[n.inputs[0]].qformat.width <= min(shape)
+        for n in g.of_kind(Kind.LUT):
+            if n.param("interpolate"):
+                assert n.qformat.width <= max(shape) and n.param("shift") <= min(shape) - 1
+
+
+def test_levels_widen_one_side_then_both(build, tabulated):
+    g0 = assign(build, tabulated, shape=(18, 18))
+    gain = next(n.name for n in g0.of_kind(Kind.GAIN))
+    mul = next(n.name for n in g0.of_kind(Kind.MUL))
+    g1 = assign(build, tabulated, shape=(18, 18), levels={gain: 1, mul: 1})
+    assert QFormat.parse(g1[gain].param("cfmt")).width == CONST_BITS          # coefficient first
+    assert g1[g1[gain].inputs[0]].qformat.width == 18
+    assert g1[g1[mul].inputs[0]].qformat.width > 18 and g1[g1[mul].inputs[1]].qformat.width <= 18
+    g2 = assign(build, tabulated, shape=(18, 18), levels={gain: 2})
+    assert g2[gain] == assign(build, tabulated)[gain]                         # the 32-bit rule again

@@ -10,7 +10,7 @@ from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
 from pendc.passes.pipeline import BuildOptions, compile_model
-from pendc.passes.resources import BRAM_BITS, dsp18_for, estimate_resources, longest_path
+from pendc.passes.resources import BRAM_BITS, dsp18_for, dsp_for, estimate_resources, longest_path
 from pendc.passes.tabulate import fill_lut_tables
 
 Q = QFormat.parse
@@ -63,8 +63,23 @@ def res():
 
 
 def test_multipliers(res):
-    assert res.multipliers == {"32x16": 1, "32x18": 1}       # MUL a*b, GAIN a by an 18-bit constant
-    assert res.dsp18 == dsp18_for(32, 16) + dsp18_for(32, 18) == 4
+    # MUL a*b, GAIN a by an 18-bit constant, and the interpolation of the small table: its
+    # slope (sin over 1/8-wide segments, 2**16 LSB per unit: |dy| < 8192, 14 signed bits) times
+    # its 5-bit fraction (b has 8 fraction bits, 32-LSB segments) plus a zero sign bit
+    assert res.multipliers == {"32x16": 1, "32x18": 1, "14x6": 1}
+    assert res.dsp18 == dsp18_for(32, 16) + dsp18_for(32, 18) + 1 == 5
+    assert res.dsp == 5 and res.dsp_shape == "18x18"
+    assert {p["node"]: p["dsp"] for p in res.products} == {"g": 2, "m": 2, "small": 1}
+
+
+def test_dsp_blocks_by_multiplier_shape():
+    assert dsp_for(25, 18, (25, 18)) == 1 and dsp_for(18, 25, (25, 18)) == 1
+    assert dsp_for(25, 18, (18, 18)) == 2
+    assert dsp_for(27, 18, (27, 18)) == 1 and dsp_for(27, 18, (25, 18)) == 2
+    assert dsp_for(32, 32, (25, 18)) == 4         # 31 bits: 2 x 24-bit, 2 x 17-bit partial products
+    assert dsp_for(16, 16, (16, 16)) == 1 and dsp_for(17, 16, (16, 16)) == 2
+    g = hand_graph()
+    assert estimate_resources(g, (25, 18)).dsp == dsp_for(32, 16, (25, 18)) + dsp_for(32, 18, (25, 18)) + 1 == 5
 
 
 def test_tables(res):
@@ -110,15 +125,18 @@ def test_registers_break_paths():
 
 def test_to_json_is_serialisable(res):
     data = json.loads(json.dumps(res.to_json()))
-    assert data["dsp18"] == 4 and data["critical_path"] == list(res.critical_path)
+    assert data["dsp18"] == 5 and data["critical_path"] == list(res.critical_path)
+    assert data["products"][0]["widths"] == res.products[0]["widths"]
 
 
 def test_default_build_estimate():
     build = compile_model(pendc.load_model(), BuildOptions(training_scale=0.02))
     r = build.resources
     g = build.graph
-    n_mult = len(g.of_kind(Kind.MUL, Kind.GAIN))
-    assert sum(r.multipliers.values()) == n_mult
+    n_mult = len(g.of_kind(Kind.MUL, Kind.GAIN)) + sum(1 for n in g.of_kind(Kind.LUT) if n.param("interpolate"))
+    assert sum(r.multipliers.values()) == n_mult == len(r.products)
+    # fitted to ECP5's 18x18 blocks: no product needs more than its level allows (32 bits at most)
+    assert r.dsp_shape == "18x18" and r.dsp == sum(p["dsp"] for p in r.products)
     assert all(int(k.split("x")[0]) <= 32 and int(k.split("x")[1]) <= 32 for k in r.multipliers)
     assert r.luts == len(g.of_kind(Kind.LUT)) >= 5
     assert r.register_bits >= sum(g[s].qformat.width for s in ("x", "dx", "theta", "dtheta"))

@@ -116,6 +116,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     levels: dict = {p: 0 for p in products}
     actions = []
     for _ in range(max_rounds):
+        used = dict(levels)
         graph = typed(dict(widen), dict(addr), dict(levels)) if products else typed(dict(widen), dict(addr))
         errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine)
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
@@ -149,21 +150,42 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
                          addr_bits={n.name: n.param("addr_bits") for n in graph.of_kind(Kind.LUT)},
                          actions=tuple(actions), met=met, seconds=seconds,
-                         levels=dict(sorted(levels.items())) if products else None)
+                         levels=dict(sorted(used.items())) if products else None)
     return graph, report
 
 
 def _products_to_widen(graph: Graph, node_errors: dict, levels: dict, max_level: int) -> list:
-    """The quarter (at least one) of the products below ``max_level`` whose output error is
-    largest relative to their format's range: where rounding an operand hurt most."""
-    rel = {}
+    """The quarter (at least one) of the products below ``max_level`` whose own rounding
+    injects the largest relative error (:func:`injected_error`); ties by the measured
+    output error relative to the node's range."""
+    score = {}
     for name, level in levels.items():
         if level >= max_level or name not in graph:
             continue
         fmt = graph[name].qformat
-        rel[name] = node_errors.get(name, 0.0) / max(abs(fmt.max_value), fmt.lsb)
-    ranked = sorted(rel, key=lambda n: (-rel[n], n))
+        score[name] = (injected_error(graph, graph[name]),
+                       node_errors.get(name, 0.0) / max(abs(fmt.max_value), fmt.lsb))
+    ranked = sorted(score, key=lambda n: (-score[n][0], -score[n][1], n))
     return ranked[:max(1, len(ranked) // 4)]
+
+
+def injected_error(graph: Graph, node) -> float:
+    """Relative error a product's narrow formats add by themselves: a coefficient's (or a
+    table's) rounding is systematic and counts fully; rounding a narrowed operand is noise
+    that integrators average, so it counts half."""
+    from ..ir.qformat import QFormat
+    total = 0.0
+    if node.kind is Kind.GAIN:
+        c = node.param("value")
+        cf = QFormat.parse(node.param("cfmt"))
+        total += abs(cf.to_float(cf.from_float(c)) - c) / max(abs(c), 1e-300)
+    if node.kind is Kind.LUT:
+        total += node.qformat.lsb / 2 / max(node.param("fmax", 0.0), node.qformat.lsb)
+    for i in node.inputs:
+        src = graph[i]
+        if src.kind is Kind.CAST:          # a narrowed operand (or a narrowed table address)
+            total += 0.5 * src.qformat.lsb / 2 / max(abs(src.qformat.max_value), src.qformat.lsb)
+    return total
 
 
 def _relative_interp_error(graph: Graph, node) -> float:

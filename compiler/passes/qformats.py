@@ -15,7 +15,7 @@ Fitting the multipliers (``shape``, the target's signed DSP operand widths, e.g.
 ECP5): a product at *level* 0 gets operands (and a GAIN its coefficient) of exactly one
 DSP block, a table its output and interpolation fraction such that slope x fraction is
 one DSP block too; level 1 widens one side (the coefficient of a GAIN, the first operand
-of a MUL, a table back to the thesis' 32-bit rule) and level 2 both, to 32 bits.
+of a MUL, a table's entries back to the thesis' 32 bits) and level 2 both, to 32 bits.
 Every product starts at level 0; :mod:`error_budget` raises levels only where the
 budget is missed, so the error budget, not a fixed rule, decides the widths.
 """
@@ -51,9 +51,7 @@ def operand_bits(node, shape: tuple | None, level: int) -> tuple:
         return (big, small) if node.kind is not Kind.GAIN else (small, big)
     if node.kind is Kind.GAIN:        # coefficients are systematic errors: widen them first
         return (small, MULT_OPERAND_BITS)
-    if node.kind is Kind.LUT:
-        return (MULT_OPERAND_BITS, MULT_OPERAND_BITS)
-    return (MULT_OPERAND_BITS, small)
+    return (MULT_OPERAND_BITS, small)       # a table: the 32-bit entry, still a one-block fraction
 
 
 def thesis_format(max_abs: float, width: int = 32, margin_bits: int = 0) -> QFormat:

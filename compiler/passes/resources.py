@@ -18,6 +18,8 @@ from ..ir.nodes import Kind
 from ..ir.qformat import QFormat
 
 BRAM_BITS = 36 * 1024
+# ECP5 DP16KD aspect ratios (depth, width): a table word (entry and stored slope) in the cheapest
+DP16KD = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
 
 
 @dataclass(frozen=True)
@@ -37,6 +39,9 @@ class Resources:
     dsp: int = 0               # DSP blocks of the target's shape
     dsp_shape: str = "18x18"   # signed operand widths of one block
     products: tuple = ()       # per product: node, kind, operand widths, DSP blocks
+    lut4_est: int = 0          # fabric LUT4s of the arithmetic (fabric_estimate)
+    carry_est: int = 0         # 2-bit carry cells
+    bram16: int = 0            # 16-kbit block RAMs (ECP5 DP16KD), the table word in its cheapest shape
 
     def to_json(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
@@ -83,7 +88,7 @@ def estimate_resources(graph: Graph, shape: tuple = (18, 18)) -> Resources:
     """Count resources of a typed graph (every node has a Q-format); DSP blocks of ``shape``."""
     mults: Counter = Counter()
     products = []
-    dsp = dsp18 = lut_bits = brams = reg_bits = adders = adder_bits = muxes = cmps = luts = 0
+    dsp = dsp18 = lut_bits = brams = bram16 = reg_bits = adders = adder_bits = muxes = cmps = luts = 0
     for n in graph.nodes:
         w = n.qformat.width
         widths = product_widths(graph, n)
@@ -100,6 +105,11 @@ def estimate_resources(graph: Graph, shape: tuple = (18, 18)) -> Resources:
             bits = len(n.param("table")) * w
             lut_bits += bits
             brams += math.ceil(bits / BRAM_BITS)
+            word = w + (slope_bits(n.param("table")) if n.param("interpolate") else 0)
+            entries = len(n.param("table"))
+            if entries & (entries - 1) and entries - (1 << (entries.bit_length() - 1)) <= 32:
+                entries = 1 << (entries.bit_length() - 1)   # Yosys keeps the interpolation's extra entry in logic
+            bram16 += min(math.ceil(entries / d) * math.ceil(word / wd) for d, wd in DP16KD)
             luts += 1
         elif n.kind is Kind.REGISTER:
             reg_bits += w
@@ -113,10 +123,12 @@ def estimate_resources(graph: Graph, shape: tuple = (18, 18)) -> Resources:
         elif n.kind is Kind.COMPARE:
             cmps += 1
     depth, path = longest_path(graph)
+    fabric = fabric_estimate(graph)
     return Resources(multipliers=dict(sorted(mults.items())), dsp18=dsp18, lut_bits=lut_bits, brams=brams,
                      register_bits=reg_bits, adders=adders, adder_bits=adder_bits, muxes=muxes,
                      comparators=cmps, luts=luts, logic_depth=depth, critical_path=path,
-                     dsp=dsp, dsp_shape=f"{shape[0]}x{shape[1]}", products=tuple(products))
+                     dsp=dsp, dsp_shape=f"{shape[0]}x{shape[1]}", products=tuple(products),
+                     lut4_est=fabric["lut4"], carry_est=fabric["carry"], bram16=bram16)
 
 
 _FREE = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM, Kind.SLICE, Kind.CAST)
@@ -139,3 +151,54 @@ def longest_path(graph: Graph) -> tuple[int, tuple]:
         path.append(end)
         end = prev[end]
     return (depth[path[0]] if path else 0), tuple(reversed(path))
+
+
+def fabric_estimate(graph: Graph) -> dict:
+    """LUT4s and 2-bit carry cells (ECP5 CCU2C) of a typed graph's adders, roundings, muxes,
+    compares and overflow checks, the way ``pendc.backend`` spells them: a ripple adder of w
+    bits is ceil(w/2) carry cells, a 2:1 mux one LUT4 per bit, a range check about one LUT4
+    per 3 dropped bits; products spread over several DSP blocks add their partial products
+    in the fabric. Pipeline registers and shared-multiplier muxes of a schedule are not in
+    the graph: ``pendc report synth`` counts those."""
+    carry = lut4 = 0
+
+    def add(width: int) -> int:
+        return (width + 2) // 2
+
+    for n in graph.nodes:
+        ins = [graph[i].qformat for i in n.inputs]
+        out = n.qformat
+        k = n.kind
+        if k in (Kind.ADD, Kind.SUB, Kind.COMPARE):
+            frac = max(q.frac for q in ins)
+            width = max(q.width - q.frac for q in ins) + frac + 1
+            carry += add(width)
+            if k is not Kind.COMPARE:
+                carry += add(width + 1) if frac > out.frac else 0
+                lut4 += (width - out.width + 2) // 3 if width > out.width else 0
+        elif k is Kind.NEG:
+            carry += add(out.width + 1)
+        elif k is Kind.CAST:
+            if ins[0].frac > out.frac:
+                carry += add(ins[0].width + 1)
+            dropped = (ins[0].width - ins[0].frac) - (out.width - out.frac)
+            lut4 += (dropped + 2) // 3 if dropped > 0 else 0
+        elif k in (Kind.GAIN, Kind.MUL):
+            wa, wb = product_widths(graph, n)
+            tiles = dsp18_for(wa, wb)
+            carry += (tiles - 1) * add(wa + wb) // 2 + add(wa + wb)
+            lut4 += (wa + wb - out.width + 2) // 3 if wa + wb > out.width else 0
+        elif k is Kind.MUX:
+            lut4 += out.width * (len(n.inputs) - 2)
+        elif k is Kind.LUT:
+            fin = ins[0]
+            carry += add(fin.width + 1)
+            if not n.param("periodic"):
+                lut4 += 3 * n.param("addr_bits")
+            widths = product_widths(graph, n)
+            if widths is not None:
+                carry += add(sum(widths) + 1) + add(out.width + 1)
+        elif k is Kind.FSM:
+            carry += len(n.param("transitions")) * add(ins[0].width + 1)
+            lut4 += 4 * len(n.param("states"))
+    return {"lut4": lut4, "carry": carry}

@@ -11,10 +11,11 @@ a node starts as soon as its inputs are valid and runs in the same cycle when it
 estimated delay still fits the clock goal, else in the next one; a table's address is
 read at the end of its cycle (synchronous ROM) and its interpolation runs in the next
 (or, if the ROM's clock-to-out plus the interpolation would not fit, one cycle later
-from a fabric register). With a DSP budget ``dsp``, products (GAIN, MUL and table
-interpolations) also wait for a cycle with enough free DSP blocks; products in
-different cycles then share multiplier units, whose operands a phase-selected mux
-chooses. The states, FSMs and overflow flag update at the end of the last cycle.
+from a fabric register). With a DSP budget ``dsp`` that a multiplier per product would
+exceed, there are ``dsp // (blocks of the widest product)`` multiplier units, and
+products (GAIN, MUL and table interpolations) also wait for a cycle with a free unit;
+products in different cycles share a unit, whose operands a phase-selected mux
+chooses, so the core never needs more than ``dsp`` blocks. The states, FSMs and overflow flag update at the end of the last cycle.
 
 The delay model (ns, ECP5 speed 6 including typical routing) is deliberately simple;
 `pendc report synth` measures the real Fmax.
@@ -40,10 +41,11 @@ SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
 PRESETS = {
     # name: (clock goal ns, DSP budget, description)
     "fast": (10.0, None, "shortest step: 100 MHz clock goal, a multiplier per product"),
+    "default": (10.0, 24, "100 MHz clock goal within the thesis' 24 multipliers (shared only if needed)"),
     "small": (10.0, 4, "fewest DSP blocks: 4, shared across cycles, 100 MHz clock goal (>= 1 MHz step rate)"),
     "comb": (math.inf, None, "no pipelining: one combinational step between table reads (the thesis' structure)"),
 }
-DEFAULT_PRESET = "fast"
+DEFAULT_PRESET = "default"
 
 
 def t_add(width: int) -> float:
@@ -127,22 +129,29 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
     period = clock_ns
     stage, finish, lut_addr, rom_reg = {}, {}, {}, []
     usage: dict = {}
+    budget = dsp
 
     def cost(n) -> int:
         wa, wb = product_widths(graph, n)
         return dsp_for(wa, wb, shape)
 
+    costs = [cost(n) for n in graph.nodes if _is_product(graph, n)]
+    if dsp is not None and sum(costs) <= dsp:
+        dsp = None        # a multiplier per product already fits the budget: nothing to share
+    slots = None
+    if dsp is not None:   # units wide enough for any product: the budget holds whatever they serve
+        slots = dsp // max(costs)
+        if slots < 1:
+            raise PendcError(f"the widest product needs {max(costs)} DSP blocks, more than the budget --dsp {dsp}")
+
     def place(c: int, offset: float, d: float, n=None) -> tuple[int, float]:
         """First (cycle, start) at or after (c, offset) where ``d`` fits and, for a product, DSPs are free."""
         if offset > 0 and offset + d > period:
             c, offset = c + 1, 0.0
-        if n is not None and dsp is not None:
-            need = cost(n)
-            if need > dsp:
-                raise PendcError(f"product '{n.name}' needs {need} DSP blocks, more than the budget --dsp {dsp}")
-            while usage.get(c, 0) + need > dsp:
+        if n is not None and slots is not None:
+            while usage.get(c, 0) >= slots:
                 c, offset = c + 1, 0.0
-            usage[c] = usage.get(c, 0) + need
+            usage[c] = usage.get(c, 0) + 1
         return c, offset
 
     def ready(inputs) -> tuple[int, float]:
@@ -178,7 +187,7 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
     last = max([last] + list(stage.values()))
     ii = last + 1
     units = _share(graph, stage, shape, cost) if dsp is not None and ii > 1 else ()
-    return Schedule(ii=ii, clock_ns=clock_ns, dsp_budget=dsp, stage=stage, lut_addr=lut_addr,
+    return Schedule(ii=ii, clock_ns=clock_ns, dsp_budget=budget, stage=stage, lut_addr=lut_addr,
                     rom_reg=tuple(rom_reg), units=units, preset=preset, target=target)
 
 

@@ -1,0 +1,66 @@
+"""Benchmark: synthesis of the default model's core per schedule preset, against the thesis.
+
+For each preset (``fast``, ``small``; the default build is ``fast``) the default model's
+HDL is emitted into a temporary folder and ``pendc report synth`` (Yosys ``synth_ecp5`` +
+nextpnr-ecp5, LFE5U-85F speed 6, out of context) runs on it. Results are cached by
+design hash, so a second run costs nothing. Ratios: ours / thesis (spec §5: 24 MULT18,
+12.9 MHz, 77.5 ns per step, 431 logic levels on a Virtex-II Pro).
+
+    .venv/bin/python bench/bench_synth.py [-o bench/out/synth.json] [--presets fast,small]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tb"))
+
+
+def synth_presets(presets, target: str = "ecp5-85k", log=print) -> dict:
+    """{preset: report synth JSON + ratios against the thesis}."""
+    import pendtb
+    from pendc.synth import THESIS, synthesize
+    model, build = pendtb.model_and_build()
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="pendc-bench-synth-") as tmp:
+        for preset in presets:
+            t0 = time.time()
+            hdl = Path(tmp) / preset
+            pendtb.emit_hdl(model, build, hdl, "raptor", {"preset": preset, "target": target})
+            r = synthesize(hdl, target, log=lambda text: log(f"  {preset}: {text}")).to_json()
+            r["wall_s"] = round(time.time() - t0, 1)
+            r["preset"] = preset
+            r["ratio_vs_thesis"] = {
+                "dsp": round(r["dsp"] / THESIS["dsp"], 3),
+                "step_time": round(r["step_ns"] / THESIS["step_ns"], 3) if r["step_ns"] else None,
+                "fmax": round(r["fmax_mhz"] / THESIS["fmax_mhz"], 3) if r["fmax_mhz"] else None,
+                "logic_depth": round(r["logic_depth"] / THESIS["logic_depth"], 3),
+            }
+            log(f"  {preset}: {r['dsp']} DSP, {r['lut']} LUT4, {r['ff']} FF, {r['bram']} BRAM, "
+                f"Fmax {r['fmax_mhz']} MHz, ii {r['ii']}, step {r['step_ns']} ns ({r['wall_s']} s)")
+            out[preset] = r
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("-o", "--output", default="bench/out/synth.json")
+    ap.add_argument("--presets", default="fast,small")
+    ap.add_argument("--target", default="ecp5-85k")
+    args = ap.parse_args(argv)
+    result = {"target": args.target, "presets": synth_presets(args.presets.split(","), args.target)}
+    out = Path(args.output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"bench_synth: wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,65 @@
+"""`pendc build --preset/--ii/--dsp/--target` and `pendc report resources` per product, on the
+default model with shortened training (a [hardware] table), so the compile stays quick."""
+
+import json
+
+import pytest
+
+from pendc.cli import main
+from pendc.model.modelfile import default_model_path
+
+QUICK = "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n"
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "quick.toml"
+    path.write_text(default_model_path().read_text() + QUICK)
+    return path
+
+
+def build(model_file, out, *flags):
+    code = main(["build", "--model", str(model_file), "-o", str(out), *flags])
+    assert code == 0
+    return json.loads((out / "report.json").read_text())
+
+
+def test_presets_and_ii(model_file, tmp_path):
+    small = build(model_file, tmp_path / "small", "--preset", "small")
+    assert small["schedule"]["preset"] == "small" and small["schedule"]["request"]["preset"] == "small"
+    assert small["resources"]["dsp_scheduled"] <= 4 and small["schedule"]["units"]
+    assert small["ii"] > 2 and small["ii"] * 10 <= 1000          # >= 1 MHz step rate at the 100 MHz goal
+    comb = build(model_file, tmp_path / "comb", "--preset", "comb")
+    assert comb["ii"] == 2 and not comb["schedule"]["units"]
+    fast = build(model_file, tmp_path / "fast", "--preset", "fast")
+    assert fast["ii"] >= comb["ii"] and not fast["schedule"]["units"]
+    six = build(model_file, tmp_path / "ii", "--ii", str(fast["ii"] + 1), "--dsp", "2")
+    assert six["ii"] == fast["ii"] + 1 and six["resources"]["dsp_scheduled"] <= 2
+    # every schedule: the same arithmetic, so the same formats
+    assert small["qformats"] == comb["qformats"] == fast["qformats"] == six["qformats"]
+
+
+@pytest.mark.parametrize("flags, message", [
+    (["--preset", "fast", "--ii", "4"], "give one of them"),
+    (["--ii", "1"], "no schedule in 1 cycle"),
+    (["--dsp", "0"], "--dsp must be a positive integer"),
+])
+def test_bad_schedule_requests_are_one_line_errors(model_file, tmp_path, capsys, flags, message):
+    assert main(["build", "--model", str(model_file), "-o", str(tmp_path / "x"), *flags]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pendc: error:") and message in err and err.count("\n") == 1
+    assert not (tmp_path / "x").exists()
+
+
+def test_resources_report_says_why_each_product_got_its_width(model_file, capsys):
+    assert main(["report", "resources", "--model", str(model_file), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["dsp_shape"] == "18x18" and r["products"]
+    assert r["dsp"] == sum(p["dsp"] for p in r["products"])
+    for p in r["products"]:
+        assert p["why"] and (p["level"] is None or 0 <= p["level"] <= 2)
+        if p["level"] == 0:
+            assert p["dsp"] == 1 and "one 18x18 DSP block" in p["why"]
+    assert main(["report", "resources", "--model", str(model_file), "--target", "xc7", "--json"]) == 0
+    x = json.loads(capsys.readouterr().out)
+    assert x["dsp_shape"] == "25x18"
