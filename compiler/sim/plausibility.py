@@ -121,17 +121,15 @@ def _spike_error(table: Table, name: str, values: np.ndarray, k: int, limit: flo
 def unwrap_if_wrapped(theta: np.ndarray) -> tuple[np.ndarray, int]:
     """``(theta, count)``: an angle recorded modulo one turn, unwrapped, and its number of wraps.
 
-    A jump of more than pi between samples is a wrap when it is within 0.5 rad of a
-    whole turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample at 100 Hz);
+    A jump of more than pi between samples is a wrap when it is within 0.5 rad of one
+    turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample at 100 Hz);
     angles in degrees jump by 360 and are left for :func:`check_radians`.
     """
     d = np.diff(theta)
     jumps = (d > math.pi) | (d < -math.pi)
     if not jumps.any():
         return theta, 0
-    big = d[jumps]
-    turns = np.round(big / (2 * math.pi))
-    if np.any(np.abs(big - 2 * math.pi * turns) > 0.5) or np.any(turns == 0):
+    if np.any(np.abs(np.abs(d[jumps]) - 2 * math.pi) > 0.5):  # a wrap is one turn, never several
         return theta, 0
     return np.unwrap(theta), int(jumps.sum())
 
