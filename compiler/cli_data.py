@@ -162,7 +162,8 @@ def add_data_options(p, many: bool = True) -> None:
                         "with x positive to the left; spec section 1)")
     g.add_argument("--experiment", metavar="NAME[,NAME...]",
                    help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
-                        f"'# experiment:' line or free); one name, or one per file")
+                        f"'# experiment:' line or free); one name for all files, or one per data file "
+                        f"(--validate files then say theirs in a '# experiment:' line)")
     g.add_argument("--missing", default="", metavar="AXES",
                    help="axes the file may lack, filled with 0 (u with --u-value), e.g. --missing u "
                         "(cart_held allows x and u, pendulum_removed theta, without this option)")
@@ -225,8 +226,12 @@ def read_options(args, experiment: str | None = None):
         sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True)
 
 
-def experiments_for(args, paths: list) -> list:
-    """One experiment name (or None: the file decides) per path, from ``--experiment``."""
+def experiments_for(args, paths: list, positional: bool = True) -> list:
+    """One experiment name (or None: the file decides) per path, from ``--experiment``.
+
+    One name applies to every file; a list names the positional data files in order,
+    and other files (``--validate``) then declare theirs (``# experiment:``).
+    """
     from .errors import PendcError
 
     names = [n.strip() for n in (getattr(args, "experiment", None) or "").split(",") if n.strip()]
@@ -234,6 +239,8 @@ def experiments_for(args, paths: list) -> list:
         return [None] * len(paths)
     if len(names) == 1:
         return names * len(paths)
+    if not positional:
+        return [None] * len(paths)
     if len(names) != len(paths):
         raise PendcError(f"--experiment names {len(names)} experiments for {len(paths)} data files: give one, "
                          f"or one per file")
@@ -245,11 +252,12 @@ def load_datasets(args, paths=None) -> list:
     from .errors import PendcError
     from .sim.measurements import read_measurements
 
+    positional = paths is None
     paths = list(args.data if paths is None else paths)
     if [str(p) for p in paths].count("-") > 1:
         raise PendcError("standard input ('-') can be read only once")
     datasets = []
-    for path, experiment in zip(paths, experiments_for(args, paths)):
+    for path, experiment in zip(paths, experiments_for(args, paths, positional)):
         datasets.append(read_measurements(path, options=read_options(args, experiment)))
     for d in datasets:
         for w in d.warnings:

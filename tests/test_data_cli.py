@@ -237,6 +237,10 @@ def test_one_experiment_per_file_and_options_from_a_namespace(tmp_path, capsys):
     assert (b.experiment, b.missing) == ("pendulum_removed", ("theta",))
     err = capsys.readouterr().err
     assert err.count("pendc: note:") == 2 and "Warning" not in err
+    extra = tmp_path / "validate.csv"
+    extra.write_text(csv({"t": BASE["t"], "theta": BASE["theta"]}, {"experiment": "cart_held"}))
+    (v,) = load_datasets(args, [str(extra)])  # a --validate file: its own '# experiment:' line
+    assert v.experiment == "cart_held"
 
 
 def test_reading_arguments_round_trip(tmp_path):
