@@ -155,3 +155,18 @@ def test_supervisor_switches_with_hysteresis():
     assert sup.mode == "balance"
     sup.step(Measurement(2e-3, 0, up + 3000))      # 0.94 rad: fallen
     assert sup.mode == "swing"
+
+
+def test_linearisation_through_a_dead_zone_and_a_motor_lag():
+    from pendc.hil.linearize import U_SPAN
+
+    base = load_model(FINAL)
+    plain = linearise_upright(base)
+    dz = linearise_upright(base.with_effect("drive_deadzone", {"u_dz": 0.1}))
+    # zero slope at V_off: the gain is the mean slope over V_off +- U_SPAN, the hold input the zone's centre
+    assert dz.u0 == pytest.approx(plain.u0, abs=1e-9)
+    assert np.allclose(dz.B, plain.B * (1 - 0.1 / U_SPAN), rtol=1e-9)
+    assert np.allclose(dz.A, plain.A)
+    # a fast motor lag is residualised away: the same four-state model
+    lag = linearise_upright(base.with_effect("motor_lag", {"tau_m": 0.005}))
+    assert np.allclose(lag.A, plain.A, rtol=1e-6, atol=1e-9) and np.allclose(lag.B, plain.B, rtol=1e-6)

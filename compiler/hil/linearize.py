@@ -25,6 +25,7 @@ from ..errors import PendcError
 from ..model.plant import PlantModel
 
 EPS_V = 1e-6   # m/s: "moving slowly" for the one-sided Jacobians
+U_SPAN = 0.5   # V: the input gain is the mean slope over u0 +- U_SPAN (a dead zone has zero slope at u0)
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,12 @@ def linearise_upright(model: PlantModel) -> UprightLinearModel:
     if not np.all(np.isfinite(J)):
         raise PendcError("the model's linearisation at the upright is not finite (a non-smooth term at rest?)")
     n = len(states)
-    A, B = J[:, :n], J[:, n:]
+    A = J[:, :n]
+    B = np.zeros((n, 1))
+    for sg in (1.0, -1.0):
+        s0 = point(u0, sg)
+        up, down = (np.array(f_num(*s0, u0 + d), dtype=float) for d in (U_SPAN, -U_SPAN))
+        B[:, 0] += 0.5 * (up - down) / (2 * U_SPAN)
     if n > 4:   # residualise the unmeasured fast states
         A22_inv = np.linalg.inv(A[4:, 4:])
         B = B[:4] - A[:4, 4:] @ A22_inv @ B[4:]
@@ -100,20 +106,31 @@ def linearise_upright(model: PlantModel) -> UprightLinearModel:
 
 
 def _solve_hold_input(cart_acceleration, lo: float = -20.0, hi: float = 30.0) -> float:
-    """The input at which the cart, at rest under the upright pendulum, does not accelerate."""
+    """The input at which the cart, at rest under the upright pendulum, does not accelerate:
+    the middle of the inputs that give zero acceleration (one point for a linear drive, the
+    centre of a dead zone otherwise), found by bisecting for both of its edges."""
     f_lo, f_hi = cart_acceleration(lo), cart_acceleration(hi)
-    if f_lo * f_hi > 0:
+    if f_lo * f_hi > 0 or f_lo == f_hi:
         raise PendcError("no input holds the cart at rest under the upright pendulum in this model")
-    for _ in range(200):   # bisection: robust for any monotone drive law
-        mid = 0.5 * (lo + hi)
-        f_mid = cart_acceleration(mid)
-        if f_mid == 0 or hi - lo < 1e-12:
-            return mid
-        if (f_mid > 0) == (f_hi > 0):
-            hi, f_hi = mid, f_mid
-        else:
-            lo, f_lo = mid, f_mid
-    return 0.5 * (lo + hi)
+    rising = f_hi > f_lo
+
+    def edge(strict_side: bool) -> float:
+        # last input below (strict_side False) / first input above (True) the zero band
+        a, b = lo, hi
+        for _ in range(200):
+            mid = 0.5 * (a + b)
+            f = cart_acceleration(mid)
+            below = (f < 0) if rising else (f > 0)
+            above = (f > 0) if rising else (f < 0)
+            if (above if strict_side else not below):
+                b = mid
+            else:
+                a = mid
+            if b - a < 1e-12:
+                break
+        return 0.5 * (a + b)
+
+    return 0.5 * (edge(False) + edge(True))
 
 
 def design_lqr(lin: UprightLinearModel, period: float, q_diag, r: float) -> DiscreteLqr:
