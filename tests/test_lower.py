@@ -18,7 +18,7 @@ from pendc.ir.nodes import Kind, make
 from pendc.ir.verify import verify
 from pendc.model.effects import CATALOGUE
 from pendc.model.plant import PlantModel
-from pendc.passes.lower import lower_model
+from pendc.passes.lower import TURN_CAPACITY, lower_model
 from pendc.passes.lower_encoders import CART_BAND, PEND_BAND
 from pendc.passes.ranges import per_step
 from pendc.sim.stimuli import swing_up
@@ -116,7 +116,9 @@ def test_every_table_is_a_function_of_one_variable(graph):
 
 def test_theta_tables_are_periodic_over_turns(graph):
     turns = graph["theta_turns"]
-    assert turns.kind is Kind.GAIN and turns.inputs == ("theta",)
+    assert turns.kind is Kind.GAIN and turns.inputs == ("theta_phase",)
+    phase = graph["theta_phase"]
+    assert phase.kind is Kind.SUB and phase.inputs == ("theta", "theta_whole_turns")
     assert turns.param("value") == pytest.approx(1 / (2 * math.pi), rel=1e-15)
     periodic = [n for n in graph.of_kind(Kind.LUT) if n.param("periodic")]
     assert len(periodic) >= 4
@@ -174,7 +176,7 @@ def test_text_is_identical_across_lowerings(graph, model):
 
 
 def test_text_is_identical_across_hash_seeds(graph):
-    code = ("import sys, pendc\nfrom pendc.passes.lower import lower_model\n"
+    code = ("import sys, pendc\nfrom pendc.passes.lower import TURN_CAPACITY, lower_model\n"
             "sys.stdout.write(lower_model(pendc.load_model(), dt=1e-6).text())\n")
     texts = []
     for seed in ("0", "4242"):
@@ -197,6 +199,11 @@ def test_each_effect_lowers_and_verifies(name):
     verify(g)
     base = lower_model(effect_model(PARTNER[name]) if name in PARTNER else
                        PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE)}), dt=DT)
+    if CATALOGUE[name].acts_on in ("x", "theta"):
+        # a sensor offset changes what a recording reads, not the motion; the encoders count
+        # from power-on, so the hardware has no form of it
+        assert g.text() == base.text(), f"sensor effect {name} changed the dynamics"
+        return
     assert g.text() != base.text(), f"effect {name} left no trace in the graph"
     trace = run_float(g, np.concatenate([np.full(100, DRIVE["V_off"]), np.full(200, 8.0)]))
     assert not trace.overflows
@@ -273,3 +280,35 @@ def test_encoder_channels_start_at_the_documented_levels(graph):
     trace = run_float(graph, np.full(3, DRIVE["V_off"]))
     for enc in ("enc_x", "enc_theta"):
         assert trace.outputs[f"{enc}_a"][0] == 1 and trace.outputs[f"{enc}_b"][0] == 0
+
+
+# -- a pendulum that spins, a cart that hits the ends ------------------------------------------
+
+def test_theta_stays_continuous_while_the_tables_read_its_phase(model):
+    """Started spinning at 30 rad/s: theta runs over many turns in the graph (real arithmetic)
+    exactly as in the float simulator, the turn counter follows and the phase stays within
+    one turn of zero; theta's declared range holds TURN_CAPACITY turns."""
+    g = lower_model(model, dt=DT)
+    spinning = g.map_nodes(lambda n: n.with_params(reset=30.0) if n.name == "dtheta" else n)
+    u = np.full(600_000, DRIVE["V_off"])
+    from pendc.ir.compiled import CompiledGraph
+    trace = CompiledGraph(spinning, "float").run({"u": u}, record=("theta_phase", "theta_turn"), every=1000)
+    res = pendc.Simulator(model, dt=DT)(np.arange(len(u)) * DT, u, x0=(0.0, 0.0, 0.0, 30.0))
+    np.testing.assert_allclose(trace.outputs["theta"], res["theta"][::1000], rtol=1e-9, atol=1e-9)
+    assert trace.outputs["theta"][-1] > 2 * 2 * math.pi                       # over two turns
+    np.testing.assert_allclose(trace.outputs["theta_phase"] + 2 * math.pi * trace.outputs["theta_turn"],
+                               trace.outputs["theta"], rtol=0, atol=1e-9)
+    assert np.all(np.abs(trace.outputs["theta_phase"]) <= math.pi + 30 * DT)
+    assert g["theta"].param("max_abs") == pytest.approx(2 * math.pi * TURN_CAPACITY)
+
+
+def test_end_stops_lower_to_compare_and_mux_and_match_the_simulator():
+    m = pendc.load_model().with_effect("end_stops", {"x_end": 0.01, "k_end": 2e5, "b_end": 2e3})
+    g = lower_model(m, dt=DT)
+    verify(g)
+    u = np.full(120_000, 10.0)                # reaches the stop 1 cm away within about 80 ms
+    from pendc.ir.compiled import CompiledGraph
+    trace = CompiledGraph(g, "float").run({"u": u})
+    res = pendc.Simulator(m, dt=DT)(np.arange(len(u)) * DT, u)
+    np.testing.assert_allclose(trace.outputs["x"], res["x"], rtol=0, atol=1e-12)
+    assert res["x"].max() > 0.01 and res["dx"][-1] < 0.5 * res["dx"].max()   # the stop holds it back

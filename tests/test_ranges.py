@@ -9,7 +9,8 @@ from pendc.ir.nodes import Kind, make
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
-from pendc.passes.ranges import Ranges, analyze_ranges, per_step
+from pendc.passes.lower import TURN_CAPACITY
+from pendc.passes.ranges import SPIN_RATE, full_scale_switching, Ranges, analyze_ranges, per_step
 from pendc.sim.stimuli import steps as step_stimulus
 from pendc.sim.stimuli import swing_up
 
@@ -121,11 +122,12 @@ def stimuli():
 
 @pytest.fixture(scope="module")
 def ranges(untyped, stimuli):
-    return analyze_ranges(untyped, stimuli, DT)
+    return analyze_ranges(untyped, stimuli, DT, envelope=False)
 
 
 def test_state_ranges_are_the_simulated_maxima(model, stimuli, ranges):
-    """Each state's range is its largest |value| in the float simulator over the same inputs."""
+    """Each state's range is its largest |value| in the float simulator over the same inputs,
+    except theta, whose declared capacity (TURN_CAPACITY turns) is larger."""
     sim = pendc.Simulator(model, dt=DT)
     for s in ("x", "dx", "theta", "dtheta"):
         peak = 0.0
@@ -134,13 +136,16 @@ def test_state_ranges_are_the_simulated_maxima(model, stimuli, ranges):
             res = sim(np.arange(len(held)) * DT, held)
             peak = max(peak, float(np.max(np.abs(res[s]))))
         assert peak > 0
-        assert ranges[s] == pytest.approx(peak, rel=1e-9), s
+        if s == "theta":
+            assert ranges[s] == pytest.approx(2 * np.pi * TURN_CAPACITY) and peak < ranges[s]
+        else:
+            assert ranges[s] == pytest.approx(peak, rel=1e-9), s
 
 
 def test_every_node_has_a_range(untyped, ranges):
     assert set(ranges.max_abs) == {n.name for n in untyped.nodes}
     assert all(np.isfinite(v) and v >= 0 for v in ranges.max_abs.values())
-    assert ranges["u"] == pytest.approx(5.2646 + 2.5, rel=1e-12)    # the swing-up's peak voltage
+    assert ranges["u"] == 10.0      # the input port's declared full scale, above the swing-up's 7.76 V peak
     for n in untyped.of_kind(Kind.CONST):
         assert ranges[n.name] == abs(n.param("value"))
 
@@ -158,8 +163,30 @@ def test_lut_input_extents(untyped, ranges):
 def test_interpreter_engine_agrees_on_the_model(untyped):
     t, u = swing_up(duration=0.003)
     stim = {"swing_up": (t, u)}
-    a = analyze_ranges(untyped, stim, DT, engine="interpreter")
-    b = analyze_ranges(untyped, stim, DT, engine="compiled")
+    a = analyze_ranges(untyped, stim, DT, engine="interpreter", envelope=False)
+    b = analyze_ranges(untyped, stim, DT, engine="compiled", envelope=False)
     for name in a.max_abs:
         assert a[name] == pytest.approx(b[name], rel=1e-12, abs=1e-300), name
     assert a.lo == pytest.approx(b.lo, rel=1e-12) and a.hi == pytest.approx(b.hi, rel=1e-12)
+
+
+def test_envelope_covers_full_scale_input_track_ends_and_a_spinning_pendulum(untyped, stimuli, ranges):
+    """The envelope runs reach what a wild controller reaches: the velocity clamp, the drive's
+    full-scale force, and the pendulum at the encoders' rate limit."""
+    wide = analyze_ranges(untyped, stimuli, DT)
+    assert [s for s in wide.sources if s.startswith("envelope:")] == [
+        "envelope:full_scale_switching", "envelope:track_ends", "envelope:spin"]
+    assert wide["u"] == 10.0
+    assert wide["dx"] == pytest.approx(0.55, rel=1e-6)          # clamped, driven into the ends
+    assert wide["dtheta"] >= SPIN_RATE > 10 * ranges["dtheta"]
+    for name in ranges.max_abs:
+        assert wide[name] >= ranges[name], name
+
+
+def test_full_scale_switching_is_zero_or_ten_volts_at_one_to_fifty_ms():
+    t, u = full_scale_switching(2.0)
+    assert set(np.unique(u)) == {0.0, 10.0}
+    changes = np.flatnonzero(np.diff(u)) + 1
+    gaps = np.diff(t[changes])
+    assert gaps.min() >= 1e-3 - 1e-12 and gaps.max() <= 50e-3 + 1e-12
+    assert len(changes) > 2.0 / 50e-3

@@ -14,8 +14,10 @@ integration. Everything else follows from the structure of the equations:
   sign-bit slice + negate + mux (IV.2-IV.8), ``Piecewise``/``Min``/``Max`` become
   compare + mux chains.
 * The angle is kept continuous (unwrapped), as measurements and the float model
-  have it; tables of theta are periodic and addressed by theta in *turns*
-  (theta / 2pi), whose fraction bits are the position within one revolution, so
+  have it, with integer bits for ``TURN_CAPACITY`` turns either way (a declared range
+  that range analysis honours). A turn counter keeps ``theta_phase`` = theta less its
+  whole turns within about [-pi, pi], and tables of theta are periodic and addressed by theta in *turns*
+  (theta_phase / 2pi), whose fraction bits are the position within one revolution, so
   wrapping costs nothing and the state never jumps.
 """
 
@@ -39,7 +41,16 @@ MEANING = {
     "F_fric": "cart friction without the viscous part (N)", "F_cart": "generalized force on the cart (N)",
     "tau_pend": "torque at the pivot (N*m)", "ddx": "cart acceleration (m/s^2)",
     "ddtheta": "pendulum angular acceleration (rad/s^2)", "theta_turns": "pendulum angle in turns",
+    "theta_turn": "whole turns of the pendulum (counter)", "theta_whole_turns": "angle of the whole turns (rad)",
+    "theta_phase": "pendulum angle less its whole turns (rad)",
 }
+TURN_COUNTER = "theta_turn"
+# Whole turns either way that theta holds. The angle stays continuous (the encoders count
+# turns, measurements are unwrapped), so its register needs integer bits for every turn it
+# may make: 256 turns is over a minute at the encoders' 8*pi rad/s limit and costs 8 bits over
+# one turn. Tables only read the fraction of theta/2pi, which wraps for free. A pendulum
+# spun further stops the run with theta's overflow flag, never a silent wrap.
+TURN_CAPACITY = 256
 
 
 class _Lowerer:
@@ -174,12 +185,34 @@ class _Lowerer:
         sel = self.condition(cond)
         return self.emit(Kind.MUX, [sel, otherwise, self.value(expr, f"{hint}_then")], hint, meaning)
 
+    def theta_phase(self) -> str:
+        """theta minus its whole turns, in [-pi, pi] give or take one step: what periodic tables
+        read. A turn counter follows theta (one step late, which only widens the interval by one
+        increment); the phase is computed from the continuous register, so it never drifts from
+        it, and its few integer bits leave a narrow multiplier operand all the precision."""
+        def build():
+            theta = self.variables[self.theta]
+            whole = self.emit(Kind.GAIN, [TURN_COUNTER], "theta_whole_turns", MEANING["theta_whole_turns"],
+                              value=2 * math.pi, max_abs=2 * math.pi * (TURN_CAPACITY + 1))
+            phase = self.emit(Kind.SUB, [theta, whole], "theta_phase", MEANING["theta_phase"])
+            over = self.emit(Kind.COMPARE, [phase, self.const(math.pi)], "theta_phase_over", op="ge")
+            under = self.emit(Kind.COMPARE, [phase, self.const(-math.pi)], "theta_phase_under", op="lt")
+            down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], "theta_turn_down")
+            step = self.emit(Kind.MUX, [over, down, self.const(1.0)], "theta_turn_step", "whole turns gained")
+            self.nodes.append(make(f"{TURN_COUNTER}_next", Kind.ADD, [TURN_COUNTER, step],
+                                   max_abs=float(TURN_CAPACITY + 1)))
+            self.nodes.append(make(TURN_COUNTER, Kind.REGISTER, [f"{TURN_COUNTER}_next"], reset=0.0,
+                                   max_abs=float(TURN_CAPACITY + 1), meaning=MEANING[TURN_COUNTER]))
+            self.used_names |= {TURN_COUNTER, f"{TURN_COUNTER}_next"}
+            return phase
+        return self.value_key("theta_phase", build)
+
     def table(self, expr, var, hint: str) -> str:
         """A LUT node for ``expr`` (a smooth function of ``var``)."""
         v = sp.Symbol("v", real=True)
         if var == self.theta and _periodic(expr, var):
             source = self.value_key("theta_turns", lambda: self.emit(
-                Kind.GAIN, [self.variables[var]], "theta_turns", MEANING["theta_turns"], value=1.0 / (2 * math.pi)))
+                Kind.GAIN, [self.theta_phase()], "theta_turns", MEANING["theta_turns"], value=1.0 / (2 * math.pi)))
             text = sp.sstr(expr.subs(var, 2 * sp.pi * v))
             key = ("lut", source, text)
             return self.value_key(key, lambda: self.emit(
@@ -318,7 +351,9 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> G
             total = _clamp(low, total, vmax)
         nxt[state.name] = total
     initial = {s.name: 0.0 for s in eq.states}
-    regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=MEANING.get(s.name, s.name))
+    declared = {"theta": 2 * math.pi * TURN_CAPACITY}
+    regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=MEANING.get(s.name, s.name),
+                 **({"max_abs": declared[s.name]} if s.name in declared else {}))
             for s in eq.states]
     outputs = [(s, s) for s in ("x", "dx", "theta", "dtheta")]
     nodes = regs + low.nodes

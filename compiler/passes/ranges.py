@@ -3,7 +3,8 @@
 The thesis took every variable's maximum from simulating its software model (§4.2);
 this pass does the same on the IR itself, so every intermediate node gets a range,
 not just the states. Each stimulus is a sampled voltage (ZOH); the graph runs one
-step per ``dt``. Ranges can be overridden per node from the model file.
+step per ``dt``. A node may declare a capacity (param ``max_abs``, e.g. the turn counter)
+that its range then covers; ranges can be overridden per node from the model file.
 """
 
 from __future__ import annotations
@@ -40,32 +41,82 @@ def per_step(u: np.ndarray, t: np.ndarray, dt: float) -> np.ndarray:
     return np.repeat(u[:-1], steps)
 
 
+def full_scale_switching(duration: float = 5.0, seed: int = 9, fs: float = 1000.0) -> tuple:
+    """0 V and 10 V in turn, switching after random holds of 1-50 ms: what a wild controller does."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(duration * fs)) + 1) / fs
+    edges = np.cumsum(rng.integers(1, 51, size=len(t)))          # sample index of each switch
+    level = (rng.integers(0, 2) + np.arange(len(edges) + 1)) % 2 * 10.0
+    return t, level[np.searchsorted(edges, np.arange(len(t)), side="right")]
+
+
+def drive_to_both_ends(hold: float = 1.5, fs: float = 1000.0) -> tuple:
+    """Full scale one way for ``hold`` s, then the other way for twice as long: into both track ends."""
+    t = np.arange(int(round(3 * hold * fs)) + 1) / fs
+    return t, np.where(t < hold, 10.0, 0.0)
+
+
+# A spinning pendulum's rate to train on: above the encoders' design limit (spec section 4,
+# 8*pi rad/s) and above the 29 rad/s that a minute of full-scale switching reaches on the rig
+# model, where the cart's hits on the end stops spin the pendulum.
+SPIN_RATE = 10 * np.pi
+
+
+def envelope_runs(graph: Graph) -> list:
+    """Training runs at the corners a controller can reach, beyond the identification stimuli:
+    full-scale switching, driving into both track ends, and the pendulum spinning at the encoder
+    limit from the start (a graph whose dtheta register resets to SPIN_RATE). (graph, (t, u)) pairs."""
+    runs = [(graph, full_scale_switching()), (graph, drive_to_both_ends())]
+    reg = graph.by_name.get("dtheta")
+    if reg is not None and reg.kind is Kind.REGISTER:
+        spinning = graph.map_nodes(lambda n: n.with_params(reset=float(SPIN_RATE)) if n.name == "dtheta" else n)
+        runs.append((spinning, full_scale_switching(3.0, seed=10)))
+    return runs
+
+
 def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | None = None,
-                   engine: str = "compiled") -> Ranges:
+                   engine: str = "compiled", envelope: bool | None = None) -> Ranges:
     """Record each node's max |value| over ``stimuli`` (name -> (t, u)) in float semantics.
 
     ``engine`` is "compiled" (numba kernel, for real runs) or "interpreter" (slow,
     for tiny tests). ``overrides`` (node -> max |value|) replace what was measured.
+    ``envelope`` adds the runs of :func:`envelope_runs` (full-scale input, track ends, a
+    spinning pendulum), so a controller's worst case stays in range; their names are listed
+    in ``sources`` as ``envelope:...``. By default (None) they run for graphs lowered from a
+    plant model (graph info "model") on the compiled engine; the interpreter is for tiny checks.
     """
+    if envelope is None:
+        envelope = engine == "compiled" and "model" in dict(graph.info)
     lut_inputs = sorted({n.inputs[0] for n in graph.of_kind(Kind.LUT)})
     max_abs = {n.name: 0.0 for n in graph.nodes}
     lo = {name: np.inf for name in lut_inputs}
     hi = {name: -np.inf for name in lut_inputs}
-    for name, (t, u) in stimuli.items():
+    runs = [(name, graph, tu) for name, tu in stimuli.items()]
+    if envelope:
+        names = ("envelope:full_scale_switching", "envelope:track_ends", "envelope:spin")
+        runs += [(name, g, tu) for name, (g, tu) in zip(names, envelope_runs(graph))]
+    for name, g, (t, u) in runs:
         steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
-        trace = _runner(graph, engine).run({"u": steps}, track_max=True, record=tuple(lut_inputs), every=1)
+        trace = _runner(g, engine).run({"u": steps}, track_max=True, record=tuple(lut_inputs), every=1)
         for node, value in trace.max_abs.items():
             max_abs[node] = max(max_abs[node], float(value))
         for node in lut_inputs:
             values = trace.outputs[node]
             lo[node] = min(lo[node], float(np.min(values)))
             hi[node] = max(hi[node], float(np.max(values)))
+    for node in graph.nodes:
+        # a declared capacity (a turn counter, an input port's full scale) holds even when the
+        # training stimuli never reach it
+        declared = node.param("max_abs")
+        if declared is not None:
+            max_abs[node.name] = max(max_abs[node.name], float(declared))
     overrides = dict(overrides or {})
     unknown = set(overrides) - set(max_abs)
     if unknown:
         raise ValueError(f"range override for unknown node(s): {', '.join(sorted(unknown))}")
     max_abs.update({k: float(v) for k, v in overrides.items()})
-    return Ranges(max_abs=max_abs, lo=lo, hi=hi, sources=tuple(stimuli), overridden=tuple(sorted(overrides)))
+    return Ranges(max_abs=max_abs, lo=lo, hi=hi, sources=tuple(name for name, _, _ in runs),
+                  overridden=tuple(sorted(overrides)))
 
 
 def _runner(graph: Graph, engine: str):
