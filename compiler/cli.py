@@ -73,27 +73,34 @@ def cmd_simulate(args) -> int:
         from .golden import GoldenModel
         from .sim.encoders import quantize_theta, quantize_x
 
-        if args.x0 is not None or args.method != "euler":
-            raise PendcError("--fixed runs the hardware model: it starts from reset and uses its own "
-                             "1-step Euler integrator (no --x0, no --method)")
+        if args.method != "euler":
+            raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
         build = _build(model, args)
-        run = GoldenModel(build.graph, build.options.dt)(data.t, data.u)
+        run = GoldenModel(build.graph, build.options.dt)(data.t, data.u, on_overflow=args.on_overflow,
+                                                          initial=args.x0)
         result = run.result
         if args.quantize:
             result.states["x"] = quantize_x(result.states["x"])
             result.states["theta"] = quantize_theta(result.states["theta"])
-        if run.overflows:
-            node, step = min(run.overflows.items(), key=lambda kv: kv[1])
-            print(f"pendc: warning: node '{node}' left its Q-format range at t = {step * build.options.dt:.6g} s "
-                  f"({len(run.overflows)} node(s) overflowed)", file=sys.stderr)
+        columns = result.columns()
+        if args.on_overflow == "mark":
+            # every row computed after the sticky flag rose is marked, not just the first
+            columns["overflow"] = run.marked_rows()
+            if run.overflows:
+                node, step = min(run.overflows.items(), key=lambda kv: (kv[1], kv[0]))
+                print(f"pendc: warning: node '{node}' left its Q-format range at t = {step * build.options.dt:.6g} s; "
+                      f"{int(columns['overflow'].sum())} row(s) marked in column 'overflow'", file=sys.stderr)
         method, dt = "fixed-point (bit-accurate)", build.options.dt
     else:
+        if args.on_overflow != "error":
+            raise PendcError("--on-overflow applies to --fixed runs (the float model has no formats)")
         sim = Simulator(model, dt=args.dt, method=args.method)
         result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
+        columns = result.columns()
         method, dt = args.method, args.dt
     meta = {"generator": "pendc simulate", "model": model.source, "method": method,
             "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
-    text = format_csv(result.columns(), meta)
+    text = format_csv(columns, meta)
     if args.output in (None, "-"):
         sys.stdout.write(text)
     else:
@@ -217,9 +224,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default stdout")
     p.add_argument("--dt", type=_positive_float, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
-    p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0)")
+    p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0); "
+                                             "with --fixed the state registers start there")
     p.add_argument("--quantize", action="store_true", help="quantise x and theta to x4 encoder counts")
     p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
+    p.add_argument("--on-overflow", choices=("error", "mark"), default="error",
+                   help="--fixed: a value leaving its Q-format range stops the run with an error naming the node "
+                        "and the time (default), or 'mark' continues and flags every affected row in a column "
+                        "'overflow'")
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.set_defaults(func=cmd_simulate)
 
