@@ -45,8 +45,16 @@ def extend(sig: str, width: int, signed: bool, to: int) -> str:
         return sig
     if to < width:
         raise ValueError(f"cannot extend {sig} from {width} to {to} bits")
-    pad = f"{{{to - width}{{{sig}[{width - 1}]}}}}" if signed else f"{to - width}'d0"
+    pad = f"{{{to - width}{{{bits(sig, width, width - 1)}}}}}" if signed else f"{to - width}'d0"
     return f"{{{pad}, {sig}}}"
+
+
+def bits(sig: str, width: int, hi: int, lo: int | None = None) -> str:
+    """Bits ``hi..lo`` of ``sig`` (``width`` bits); a 1-bit wire is a scalar and takes no select."""
+    lo = hi if lo is None else lo
+    if width == 1:
+        return sig
+    return f"{sig}[{hi}]" if hi == lo else f"{sig}[{hi}:{lo}]"
 
 
 def aligned(sig: str, fmt: QFormat, frac: int, width: int) -> str:
@@ -66,25 +74,39 @@ def requantize(net: Netlist, base: str, exact: str, width: int, frac: int, out: 
     sh = frac - out.frac
     if sh > 0:
         if rounding is Rounding.NEAREST:
-            r = net.wire(f"{base}_r", width + 1, f"{extend(exact, width, True, width + 1)} + {ulit(1 << (sh - 1), width + 1)}")
-            src, src_w = r, width + 1
+            rw = max(width, sh) + 1          # holds the exact value plus half an LSB of the result
+            r = net.wire(f"{base}_r", rw, f"{extend(exact, width, True, rw)} + {ulit(1 << (sh - 1), rw)}")
+            src, src_w = r, rw
         else:
             src, src_w = exact, width
-        net.wire(f"{base}_unused", sh, f"{src}[{sh - 1}:0]", signed=False)
-        s = net.wire(f"{base}_s", src_w - sh, f"{src}[{src_w - 1}:{sh}]")
-        s_w = src_w - sh
+        if sh < src_w:
+            net.wire(f"{base}_unused", sh, bits(src, src_w, sh - 1, 0), signed=False)
+            s = net.wire(f"{base}_s", src_w - sh, bits(src, src_w, src_w - 1, sh))
+            s_w = src_w - sh
+        else:   # every bit but the sign is shifted out: the result is 0 or -1
+            if src_w > 1:
+                net.wire(f"{base}_unused", src_w - 1, bits(src, src_w, src_w - 2, 0), signed=False)
+            s, s_w = net.wire(f"{base}_s", 1, bits(src, src_w, src_w - 1)), 1
     elif sh < 0:
         s = net.wire(f"{base}_s", width - sh, f"{{{exact}, {-sh}'d0}}")
         s_w = width - sh
     else:
         s, s_w = exact, width
     w = out.width
-    if s_w <= w:
-        return net.wire(base, w, extend(s, s_w, True, w), out.signed)
-    top = f"{s}[{s_w - 1}:{w - 1}]"
-    ovf = net.wire(f"{base}_ovf", 1, f"~((&{top}) | ~(|{top}))", signed=False)
+    sign = bits(s, s_w, s_w - 1)
+    if out.signed:
+        if s_w <= w:
+            return net.wire(base, w, extend(s, s_w, True, w), out.signed)
+        top = bits(s, s_w, s_w - 1, w - 1)
+        out_of_range = f"~((&{top}) | ~(|{top}))"
+    elif s_w <= w:       # an unsigned result only overflows when negative
+        out_of_range = sign
+    else:
+        out_of_range = f"|{bits(s, s_w, s_w - 1, w)}"
+    ovf = net.wire(f"{base}_ovf", 1, out_of_range, signed=False)
     net.overflow.append((ovf, node))
+    low = bits(s, s_w, w - 1, 0) if s_w > w else extend(s, s_w, True, w)
     if overflow is Overflow.SATURATE:
         hi, lo = ulit(out.max_int & ((1 << w) - 1), w), ulit(out.min_int & ((1 << w) - 1), w)
-        return net.wire(base, w, f"{ovf} ? ({s}[{s_w - 1}] ? {lo} : {hi}) : {s}[{w - 1}:0]", out.signed)
-    return net.wire(base, w, f"{s}[{w - 1}:0]", out.signed)
+        return net.wire(base, w, f"{ovf} ? ({sign} ? {lo} : {hi}) : {low}", out.signed)
+    return net.wire(base, w, low, out.signed)
