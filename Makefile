@@ -52,6 +52,13 @@ bench: setup
 	$(PY) bench/bench_all.py -o bench/out/bench.json
 	$(PY) bench/bench_hil.py -o bench/out/hil.json
 
+# Long differential fuzzing run of the backend (tests/graphgen.py); count, seed, mismatches to bench/out/.
+.PHONY: fuzz
+FUZZ_GRAPHS ?= 5000
+fuzz: setup
+	mkdir -p bench/out
+	$(PY) bench/fuzz.py --graphs $(FUZZ_GRAPHS) -o bench/out/fuzz.json
+
 clean:
 	rm -rf sim_build bench/out demo_out .pytest_cache
 	find . -name __pycache__ -prune -exec rm -rf {} +

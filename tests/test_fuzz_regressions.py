@@ -1,0 +1,141 @@
+"""Shrunk counterexamples of the backend fuzzer (tests/test_fuzz_backend.py), one test each.
+
+Each graph is the smallest form of a mismatch the fuzzer found: fixed ones pass, open ones
+are strict xfails naming the defect (and graphgen.KNOWN_ISSUES entry the quick profile
+steers around), so they flip to failures once the backend is fixed.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from fuzzharness import check_batch, simulator_available
+from graphgen import FuzzCase
+from pendc.ir.graph import Graph
+from pendc.ir.nodes import Kind, make
+from pendc.ir.qformat import Overflow, QFormat, Rounding
+from pendc.ir.verify import verify
+
+pytestmark = pytest.mark.skipif(not simulator_available("icarus"), reason="iverilog not installed")
+
+FLAG = QFormat(False, 1, 0)
+
+
+def case(u_fmt: QFormat, nodes: list, shown: str, u: tuple, schedule=None) -> FuzzCase:
+    """A graph reading ``u`` whose four state ports show node ``shown`` through registers."""
+    fmt = {n.name: n.qformat for n in nodes}
+    nodes = [make("u", Kind.INPUT, qformat=u_fmt, port="u")] + nodes
+    outputs = []
+    for port in ("x", "dx", "theta", "dtheta"):
+        nodes.append(make(f"p_{port}", Kind.REGISTER, (shown,), qformat=fmt.get(shown, u_fmt), reset=0.0))
+        outputs.append((port, f"p_{port}"))
+    graph = Graph.build("fuzz", nodes, outputs)
+    verify(graph, typed=True)
+    return FuzzCase(graph=graph, u=u, schedule=schedule)
+
+
+def mismatches(c: FuzzCase, tmp_path) -> list:
+    return [str(m) for m in check_batch([c], tmp_path, "icarus", golden=None).mismatches]
+
+
+# ---------------------------------------------------------------- fixed (pendc/backend/arith.py)
+
+def test_negative_value_into_an_unsigned_format_overflows(tmp_path):
+    """-2 + -2 into UFIX3_0: wraps to 4 and raises the flag (the adder's result was never checked)."""
+    c = case(QFormat(True, 2, 0), [make("s", Kind.ADD, ("u", "u"), qformat=QFormat(False, 3, 0))], "s",
+             u=(-2, -2, 1, 0))
+    assert mismatches(c, tmp_path) == []
+
+
+@pytest.mark.parametrize("rounding", [Rounding.NEAREST, Rounding.TRUNCATE])
+def test_rounding_away_more_bits_than_the_value_has(tmp_path, rounding):
+    """FIX4_0 into FIX4_-6 drops six fraction bits of a four-bit value (was a reversed part select)."""
+    c = case(QFormat(True, 4, 0), [make("c", Kind.CAST, ("u",), qformat=QFormat(True, 4, -6), rounding=rounding)],
+             "c", u=(7, -8, -1, 0, 5))
+    assert mismatches(c, tmp_path) == []
+
+
+def test_one_bit_signed_operand_is_sign_extended(tmp_path):
+    """A FIX1_0 constant (-1) in a sum: its sign extension selected a bit of a scalar wire."""
+    nodes = [make("one", Kind.CONST, qformat=QFormat(True, 1, 0), value=-1.0),
+             make("s", Kind.ADD, ("u", "one"), qformat=QFormat(True, 9, 0))]
+    assert mismatches(case(QFormat(True, 8, 0), nodes, "s", u=(127, -128, 0, 3)), tmp_path) == []
+
+
+def test_unsigned_saturation_clamps_to_zero(tmp_path):
+    nodes = [make("d", Kind.SUB, ("u", "k"), qformat=QFormat(False, 6, 0), overflow=Overflow.SATURATE),
+             make("k", Kind.CONST, qformat=QFormat(True, 8, 0), value=10.0)]
+    assert mismatches(case(QFormat(True, 8, 0), nodes, "d", u=(3, 100, 10, -128, 127)), tmp_path) == []
+
+
+# ---------------------------------------------------------------- open (not in files the fuzzer owns)
+
+@pytest.mark.xfail(strict=True, reason="unsigned-operand: viewmodel.py sizes ADD/SUB as max(int bits) + frac + 1, "
+                   "no room for the sign of an unsigned operand: 255 + 255 (UFIX8_0) wraps to -2 in the 9-bit sum")
+def test_sum_of_unsigned_values(tmp_path):
+    c = case(QFormat(False, 8, 0), [make("s", Kind.ADD, ("u", "u"), qformat=QFormat(True, 10, 0))], "s",
+             u=(255, 200, 1, 0))
+    assert mismatches(c, tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="unsigned-operand: arith.requantize fits a signed exact value and "
+                   "viewmodel.py passes an unsigned CAST/MUX input unchanged: UFIX8_0 255 becomes -1")
+def test_cast_of_an_unsigned_value(tmp_path):
+    c = case(QFormat(False, 8, 0), [make("c", Kind.CAST, ("u",), qformat=QFormat(True, 10, 0))], "c",
+             u=(255, 128, 1, 0))
+    assert mismatches(c, tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="unsigned-operand: timing.Datapath.product sign-extends both "
+                   "operands (extend(..., True, ...)): UFIX8_0 200 * 2 gives -112")
+def test_product_of_an_unsigned_value(tmp_path):
+    nodes = [make("two", Kind.CONST, qformat=QFormat(True, 3, 0), value=2.0),
+             make("p", Kind.MUL, ("u", "two"), qformat=QFormat(True, 12, 0))]
+    assert mismatches(case(QFormat(False, 8, 0), nodes, "p", u=(200, 255, 1, 0)), tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="scalar-slice: viewmodel.py SLICE prints n_x[0] for a 1-bit input, a "
+                   "bit select of a scalar wire (Icarus: 'can not select part of scalar')")
+def test_slice_of_a_one_bit_value(tmp_path):
+    nodes = [make("f", Kind.COMPARE, ("u", "u"), qformat=FLAG, op="ge"),
+             make("b", Kind.SLICE, ("f",), qformat=FLAG, hi=0, lo=0)]
+    assert mismatches(case(QFormat(True, 8, 0), nodes, "b", u=(1, 2, 3)), tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="lut-narrow-input: viewmodel._emit_lut compares the index with "
+                   "literal(segments, iw + 1), which wraps when the table has more segments than the "
+                   "input reaches (16 segments, 3-bit index: 5'sd16 is -16), so every input clamps high")
+def test_table_with_more_segments_than_its_input_reaches(tmp_path):
+    from pendc.ir import lut as lut_sem
+    fin, fout = QFormat(True, 2, 0), QFormat(True, 12, 8)
+    table = lut_sem.fill_table("tanh(v/4)", -2.0, 4, 0, fin, fout, False, False)
+    lut = make("t", Kind.LUT, ("u",), qformat=fout, expr="tanh(v/4)", lo=-2.0, hi=13.0, periodic=False,
+               addr_bits=4, interpolate=False, shift=0, table=table)
+    assert mismatches(case(fin, [lut], "t", u=(0, 1, -2, -1, 0)), tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="fsm-threshold-range: viewmodel._emit_fsm prints the threshold as "
+                   "literal(t, input width + 1): threshold 2 on a UFIX1_0 input is 2'sd2 = -2, so 'ge' always fires")
+def test_fsm_threshold_beyond_its_input_range(tmp_path):
+    nodes = [make("f", Kind.COMPARE, ("u", "u"), qformat=FLAG, op="gt"),
+             make("m", Kind.FSM, ("f",), qformat=QFormat(False, 3, 0), states=("a", "b"), reset="a",
+                  transitions=(("*", "ge", 1.5, "b"),), outputs=(1, 6), lo=0.0, hi=1.0)]
+    assert mismatches(case(QFormat(True, 4, 0), nodes, "m", u=(1, 2, 3, 4)), tmp_path) == []
+
+
+def test_pipelined_schedule_of_a_register_loop(tmp_path):
+    """A register reading a node emitted after it, under a 10 ns clock goal (was a KeyError in timing.py)."""
+    nodes = [make("r", Kind.REGISTER, ("s",), qformat=QFormat(True, 12, 0), reset=0.0),
+             make("s", Kind.ADD, ("r", "u"), qformat=QFormat(True, 12, 0))]
+    c = case(QFormat(True, 8, 0), nodes, "r", u=(1, 2, 3, 4, 5), schedule=(10.0, None))
+    assert mismatches(c, tmp_path) == []
+
+
+@pytest.mark.xfail(strict=True, reason="IR: a MUX whose select exceeds its data inputs (allowed by the verifier; "
+                   "lower_encoders relies on it never happening) makes the interpreter and golden kernel raise "
+                   "IndexError while the Verilog picks the last input")
+def test_mux_select_beyond_its_inputs(tmp_path):
+    nodes = [make("sel", Kind.SLICE, ("u",), qformat=QFormat(False, 2, 0), hi=1, lo=0),
+             make("m", Kind.MUX, ("sel", "u", "u", "u"), qformat=QFormat(True, 8, 0))]
+    assert mismatches(case(QFormat(True, 8, 0), nodes, "m", u=(0, 1, 2, 3)), tmp_path) == []
+
