@@ -74,3 +74,69 @@ def test_extra_states_and_input_delay_carry_over_between_steps(model):
 def test_bad_requests_are_one_line_errors(model, kind, n, u, message):
     with pytest.raises(PendcError, match=message):
         make_plant(kind, model).step(u, n)
+
+
+# -- the golden plant ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def build(model):
+    from pendc.build_cache import compile_cached
+    return compile_cached(model)
+
+
+def _batch(build, us, n):
+    """The batch golden model's integers at every step for inputs held n steps each."""
+    from pendc.golden import GoldenModel
+    golden = GoldenModel(build.graph, 1e-6)
+    per_step = np.append(np.repeat(golden.quantize_input(us), n), 0)
+    return golden.run_steps(per_step).outputs
+
+
+def test_golden_plant_continues_the_batch_run_bit_for_bit(model, build):
+    from pendc.hil.plant import x4_count_delta
+    us = _switching_input(7, 150, levels=(0.0, 10.0, 3.3, 7.1))
+    plant = make_plant("golden", model, build=build)
+    ref = _batch(build, us, 1000)
+    for i, u in enumerate(us):
+        s = plant.step(u, 1000)
+        row = 1000 * (i + 1)
+        assert plant.raw()["x"] == ref["x"][row] and plant.raw()["theta"] == ref["theta"][row]
+        assert plant.raw()["dx"] == ref["dx"][row] and plant.raw()["dtheta"] == ref["dtheta"][row]
+    lsb = build.graph.output("x").qformat.lsb
+    assert s.x == ref["x"][-1] * lsb and s.t == pytest.approx(0.15)
+    assert s.enc_x == x4_count_delta(ref["enc_x_a"], ref["enc_x_b"]) != 0
+    assert s.enc_theta == x4_count_delta(ref["enc_theta_a"], ref["enc_theta_b"]) != 0
+    assert not plant.overflows
+
+
+def test_golden_plant_step_size_and_reset(model, build):
+    a = make_plant("golden", model, build=build)
+    b = make_plant("golden", model, build=build)
+    for u in _switching_input(8, 30):
+        one = a.step(u, 1000)
+        for _ in range(4):
+            many = b.step(u, 250)
+        assert one == many and a.raw() == b.raw()
+    assert b.reset() == PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+    assert b.step(10.0, 1000) == make_plant("golden", model, build=build).step(10.0, 1000)
+
+
+def test_golden_plant_counts_match_the_float_plant(model, build):
+    """Different arithmetic, same encoders: the counts agree within one count after 0.5 s."""
+    g, f = make_plant("golden", model, build=build), make_plant("float", model)
+    for u in _switching_input(9, 500):
+        sg, sf = g.step(u, 1000), f.step(u, 1000)
+        assert abs(sg.enc_x - sf.enc_x) <= 1 and abs(sg.enc_theta - sf.enc_theta) <= 1
+
+
+def test_golden_plant_stops_at_an_overflow_naming_node_and_time(model, build):
+    from pendc.golden import OverflowStop
+    plant = make_plant("golden", model, build=build, initial=(0.9, 0.0, 0.0, 0.0))
+    with pytest.raises(OverflowStop, match=r"node 'x\w*' left its Q-format range at t = 0\.\d+ s") as err:
+        for _ in range(1000):
+            plant.step(10.0, 1000)
+    assert 0.1 < err.value.time < 0.4     # 0.1 m at up to 0.55 m/s
+    marking = make_plant("golden", model, build=build, initial=(0.9, 0.0, 0.0, 0.0), on_overflow="mark")
+    for _ in range(400):
+        marking.step(10.0, 1000)
+    assert min(marking.overflows.values()) == err.value.step
