@@ -158,6 +158,9 @@ def cmd_fit(args) -> int:
     free_before = free_run_figures(model, validation, outputs=outputs)
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     for effect in added:
+        if effect in model.effects:   # asking to add what is there means: fit it
+            note(f"the model has {effect} already; its parameters are fitted from their current values")
+            continue
         model = model.with_effect(effect)
     free = [p.strip() for p in (args.free or "").split(",") if p.strip()]
     free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)

@@ -48,7 +48,6 @@ def test_compare_json(capsys, tmp_path):
     (["fit", "BAD", "--add", "cart_spring", "-o", "OUT"], "strictly increasing"),
     (["diagnose", "BAD"], "strictly increasing"),
     (["compare", "MISSING"], "not found"),
-    (["fit", "DATA", "--add", "drive", "-o", "OUT"], "already"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, message):
     bad = tmp_path / "bad.csv"
@@ -159,3 +158,15 @@ def test_diagnose_of_another_pendulum_points_at_its_constants(capsys):
     rc, text, err = run(capsys, "diagnose", DATA / "unknown_pendulum_swing.csv")
     assert rc == 0 and err == "", err
     assert "No catalogue effect explains" in text and "--free I,b_theta" in text
+
+
+def test_another_pendulum_is_fitted_with_the_issue_command(tmp_path, capsys):
+    # the default model has viscous_pendulum: --add then fits it (with a note) rather than refusing
+    out = tmp_path / "other.toml"
+    rc, text, err = run(capsys, "fit", DATA / "unknown_pendulum_swing.csv", "--add", "viscous_pendulum",
+                        "--free", "I", "-o", out, "--json")
+    assert rc == 0 and err.count("\n") == 1 and "viscous_pendulum already" in err, err
+    result = json.loads(text)
+    assert result["free_run_after"]["pooled"]["theta"] >= 90.0 > result["free_run_before"]["pooled"]["theta"]
+    assert result["params"]["b_theta"]["value"] == pytest.approx(0.0025, rel=0.10)
+    assert load_model(out).plant["I"] == pytest.approx(result["params"]["I"]["value"])
