@@ -27,6 +27,7 @@ from .sim.simulator import SimResult
 
 STATES = ("x", "dx", "theta", "dtheta")
 OVERFLOW_CHOICES = ("error", "mark")
+LONG_RUN_STEPS = 5_000_000   # beyond 5 s at 1 us, run sample by sample instead of one trace in memory
 
 
 class OverflowStop(PendcError):
@@ -48,8 +49,9 @@ def first_overflow(overflows: dict) -> tuple[str, int] | None:
 
 @dataclass(frozen=True)
 class GoldenRun:
-    """States at the sample times (``result``), raw integers of every output per recorded step
-    (``raw``), and the nodes that left their range with the first step they did (``overflows``)."""
+    """States at the sample times (``result``), raw integers of every output at every recorded
+    step (``raw``: every gcd of the sample intervals), and the nodes that left their range with
+    the first step they did (``overflows``)."""
 
     result: SimResult
     raw: dict
@@ -110,13 +112,16 @@ class GoldenModel:
         t = np.asarray(t, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
         steps = steps_per_sample(t, self.dt)
-        if initial is not None:
+        if initial is not None or int(steps.sum()) > LONG_RUN_STEPS:
             return self._from_state(t, u, steps, initial, on_overflow)
         per_step = np.repeat(self.quantize_input(u[:-1]), steps)
         total = int(steps.sum())
-        trace = self.run_steps(np.append(per_step, per_step[-1:] if total else self.quantize_input(u[:1])))
+        # record only every gcd(steps)-th step: a minute at 1 us would be 6e7 rows otherwise
+        every = int(np.gcd.reduce(steps)) if total else 1
+        trace = self.run_steps(np.append(per_step, per_step[-1:] if total else self.quantize_input(u[:1])),
+                               every=every)
         rows = np.concatenate([[0], np.cumsum(steps)])
-        states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows] * self.graph.output(s).qformat.lsb
+        states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows // every] * self.graph.output(s).qformat.lsb
                   for s in STATES}
         result = SimResult(t=t, u=u, states=states)
         first = first_overflow(trace.overflows)
@@ -126,16 +131,18 @@ class GoldenModel:
                          overflows=dict(trace.overflows), rows=rows)
 
     def _from_state(self, t, u, steps, initial, on_overflow) -> GoldenRun:
-        """Sample by sample through the resumable kernel, from the registers at ``initial``."""
+        """Sample by sample through the resumable kernel (memory independent of the run's length),
+        from reset or from the registers at ``initial``."""
         if self.engine != "compiled":
-            raise PendcError("a run from an initial state needs the compiled engine")
+            raise PendcError("a run from an initial state or a long run needs the compiled engine")
+        start = dict(zip(STATES, initial)) if initial is not None else None
         stepper = GoldenStepper(self.graph)
-        stepper.reset(dict(zip(STATES, initial)))
+        stepper.reset(start)
         cols = [stepper.ports.index(s) for s in STATES]
         ints = self.quantize_input(u)
         rows = np.empty((len(t), len(STATES)), np.int64)
         rows[0] = stepper.advance(int(ints[0]), 1)[0, cols]
-        stepper.reset(dict(zip(STATES, initial)))
+        stepper.reset(start)
         for i, n in enumerate(steps):
             rows[i + 1] = stepper.advance(int(ints[i]), int(n))[-1, cols]
         first = first_overflow(stepper.overflows)

@@ -73,3 +73,18 @@ def test_fast_path_is_the_interpreter_bit_for_bit(build, golden, stimulus):
     for port in fast.outputs:
         assert np.array_equal(np.asarray(fast.outputs[port], np.int64), np.asarray(slow.outputs[port], np.int64)), port
     assert fast.overflows == slow.overflows
+
+
+def test_long_runs_go_sample_by_sample_with_the_same_integers(golden, monkeypatch):
+    """Beyond LONG_RUN_STEPS the golden model continues its kernel sample by sample (memory
+    independent of the length); the results are those of one trace, also for uneven sampling."""
+    import pendc.golden as golden_module
+    t = np.array([0.0, 1e-3, 3e-3, 3.5e-3, 0.2, 0.2005])
+    u = np.array([10.0, 0.0, 5.0, 7.0, 2.0, 2.0])
+    one_trace = golden(t, u)
+    monkeypatch.setattr(golden_module, "LONG_RUN_STEPS", 10)
+    by_sample = golden(t, u)
+    for s in ("x", "dx", "theta", "dtheta"):
+        np.testing.assert_array_equal(by_sample.result[s], one_trace.result[s])
+    assert np.ptp(one_trace.result["x"]) > 0
+    assert not by_sample.marked_rows().any()
