@@ -211,7 +211,7 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
 
     ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
     path or Measurement, or a list of them; ``add``: effects to add (their parameters are
-    fitted), ``free``: more parameters (any plant constant or effect parameter), as lists or
+    fitted; an effect the model has already is fitted from its current values), ``free``: more parameters (any plant constant or effect parameter), as lists or
     comma-separated strings; ``validate``: data to report the figures on (default: ``data``).
     Raises PendcError when the fit does not converge, and, when ``output`` is given, when
     the data do not identify a fitted parameter (unless ``force``): no file is written then.
@@ -235,7 +235,8 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
         free_run_before = free_run_figures(m, checks, outputs=wanted)
         added = _names(add)
         for effect in added:
-            m = m.with_effect(effect)
+            if effect not in m.effects:   # as pendc fit: adding what is there means fitting it
+                m = m.with_effect(effect)
         names = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + _names(free))) or list(m.free)
         if not names:
             raise PendcError("nothing to fit: name effects with add= or parameters with free=")

@@ -111,3 +111,10 @@ def test_fit_refuses_to_invent(swing, lab, tmp_path):
     with pytest.raises(PendcError, match="do not identify"):
         pendc.fit(lab, swing, add="cart_spring", max_evaluations=20, output=tmp_path / "never.toml")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_fit_an_effect_the_model_has(swing, tmp_path):
+    """As `pendc fit --add`: naming an effect the model has fits its parameters from their values."""
+    report = pendc.fit(None, swing, add="viscous_pendulum", free="I")
+    assert report.free == ("b_theta", "I")
+    assert report.result.values["b_theta"] == pytest.approx(TRUE_B, rel=0.05)
