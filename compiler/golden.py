@@ -144,7 +144,7 @@ class GoldenModel:
         rows[0] = stepper.advance(int(ints[0]), 1)[0, cols]
         stepper.reset(start)
         for i, n in enumerate(steps):
-            rows[i + 1] = stepper.advance(int(ints[i]), int(n))[-1, cols]
+            rows[i + 1] = stepper.advance(int(ints[i]), int(n), every_step=False)[-1, cols]
         first = first_overflow(stepper.overflows)
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows))
@@ -241,17 +241,20 @@ class GoldenStepper:
         self.k = 0
         self.overflows: dict = {}
 
-    def advance(self, u_int: int, n: int) -> np.ndarray:
-        """Run ``n`` steps at input integer ``u_int``; output integers per step (n + 1 rows)."""
+    def advance(self, u_int: int, n: int, every_step: bool = True) -> np.ndarray:
+        """Run ``n`` steps at input integer ``u_int``; output integers at every step and after the
+        last (n + 1 rows), or with ``every_step=False`` only before and after (2 rows, faster:
+        recording every step copies every node's value)."""
         ins = np.full((1, n + 1), int(u_int), dtype=np.int64)
-        out = np.empty((n + 1, len(self._sel)), np.int64)
+        rows = n + 1 if every_step else 2
+        out = np.empty((rows, len(self._sel)), np.int64)
         ov = np.full(len(self.graph.nodes), -1, np.int64)
-        # n + 1 rows are recorded: the last step's outputs are the state after n steps; that
-        # step's update is discarded by restoring the state saved after step n
-        self._kernel(ins, n, 1, self.compiled.tables, self._sel, out, False, self._mx, self._mn, ov,
-                     self.state, self.k)
+        # the last row comes from one more step whose update is discarded (the state saved after
+        # step n is put back): its outputs are the state after n steps
+        self._kernel(ins, n, 1 if every_step else n, self.compiled.tables, self._sel, out, False, self._mx,
+                     self._mn, ov, self.state, self.k)
         after_n = self.state.copy()
-        self._kernel(ins[:, n:], 1, 1, self.compiled.tables, self._sel, out[n:], False, self._mx, self._mn,
+        self._kernel(ins[:, n:], 1, 1, self.compiled.tables, self._sel, out[rows - 1:], False, self._mx, self._mn,
                      np.full(len(self.graph.nodes), -1, np.int64), self.state, self.k + n)
         self.state = after_n
         for i in np.flatnonzero(ov >= 0):
