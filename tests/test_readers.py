@@ -279,3 +279,11 @@ def test_wrapped_angle_balancing_at_upright_is_not_an_outlier():
     assert np.sum(np.abs(np.diff(wrapped)) > math.pi) > 2
     m = parse_measurements(format_csv({"t": t, "u": t * 0 + 5, "x": t * 0, "theta": wrapped}))
     assert np.allclose(m.theta - m.theta[0], theta - theta[0], atol=1e-9)
+
+
+def test_sparse_input_file_is_not_taken_for_milliseconds():
+    """An input for pendc simulate may be a few steps seconds apart; a recorded motion may not."""
+    m = parse_measurements("t,u\n0,5\n1,6\n3,5\n4,5\n", required=("t", "u"))
+    assert m.t.tolist() == [0.0, 1.0, 3.0, 4.0]
+    with pytest.raises(PendcError, match="t looks like milliseconds"):
+        parse_measurements("t,u,x,theta\n0,5,0,0\n1,6,0,0\n3,5,0,0\n4,5,0,0\n")

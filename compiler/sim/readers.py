@@ -361,4 +361,5 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
                                 ("a unit mistake", "check its unit"))
     if "theta" in columns:
         plaus.check_radians(table, t, columns["theta"], options.theta_unit is not None)
-    plaus.check_time_unit(table, t, options.t_unit is not None)
+    if "x" in columns or "theta" in columns:  # a recorded motion; an input alone may be sparse steps
+        plaus.check_time_unit(table, t, options.t_unit is not None)
