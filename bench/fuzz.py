@@ -28,6 +28,23 @@ from graphgen import KNOWN_ISSUES, draw_cases  # noqa: E402
 from pendc.atomic import write_atomic  # noqa: E402
 
 
+def write_report(args, avoid, done, mismatches, timings, kinds, ii, golden, lint, t_start, complete) -> None:
+    """The JSON record, rewritten after every batch so an interrupted run still leaves its count."""
+    report = {
+        "graphs": done, "complete": complete, "seed": args.seed, "batch_seeds": "seed + batch index", "batch": args.batch,
+        "simulator": args.sim, "steps_per_graph": 40, "golden_checked": golden,
+        "avoided_known_issues": sorted(avoid), "mismatches": len(mismatches),
+        "mismatched_graphs": len({(m["batch"], m["case"]) for m in mismatches}),
+        "node_kinds": dict(sorted(kinds.items())), "ii": {str(k): v for k, v in sorted(ii.items())},
+        "lint_warnings": dict(lint), "timings_s": {k: round(v, 2) for k, v in timings.items()},
+        "wall_s": round(time.perf_counter() - t_start, 1), "python": platform.python_version(),
+        "details": mismatches[:50],
+    }
+    out = Path(args.output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(out, json.dumps(report, indent=2) + "\n")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--graphs", type=int, default=5000, help="graphs to check (default 5000)")
@@ -63,22 +80,11 @@ def main(argv=None) -> int:
                                    "step": m.step, "port": m.port, "expected": m.expected, "actual": m.actual,
                                    "detail": m.detail, "graph": cases[m.case].graph.text()})
             done += n
+            write_report(args, avoid, done, mismatches, timings, kinds, ii, golden, lint, t_start,
+                         complete=done == args.graphs)
             print(f"fuzz: batch {b}: {done}/{args.graphs} graphs, {len(mismatches)} mismatches "
                   f"({time.perf_counter() - t_start:.0f} s)", flush=True)
-    report = {
-        "graphs": done, "seed": args.seed, "batch_seeds": "seed + batch index", "batch": args.batch,
-        "simulator": args.sim, "steps_per_graph": 40, "golden_checked": golden,
-        "avoided_known_issues": sorted(avoid), "mismatches": len(mismatches),
-        "mismatched_graphs": len({(m["batch"], m["case"]) for m in mismatches}),
-        "node_kinds": dict(sorted(kinds.items())), "ii": {str(k): v for k, v in sorted(ii.items())},
-        "lint_warnings": dict(lint), "timings_s": {k: round(v, 2) for k, v in timings.items()},
-        "wall_s": round(time.perf_counter() - t_start, 1), "python": platform.python_version(),
-        "details": mismatches[:50],
-    }
-    out = Path(args.output)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(out, json.dumps(report, indent=2) + "\n")
-    print(f"fuzz: {done} graphs, seed {args.seed}, {len(mismatches)} mismatches -> {out}")
+    print(f"fuzz: {done} graphs, seed {args.seed}, {len(mismatches)} mismatches -> {args.output}")
     return 1 if mismatches else 0
 
 
