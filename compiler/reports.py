@@ -111,9 +111,21 @@ def drift_report(build: BuildResult, stimuli: dict) -> dict:
     return out
 
 
-def resources_report(build: BuildResult) -> dict:
-    """The resource estimate, with per product the operand widths it got and why."""
+def resources_report(build: BuildResult, request: dict | None = None) -> dict:
+    """The resource estimate, with per product the operand widths it got and why, and the DSP
+    blocks of the schedule ``request`` (default: the default preset) once products share units."""
+    from .backend.hdl import schedule_of
+    from .passes.qformats import MULT_SHAPES
+    from .passes.resources import dsp_for
     out = build.resources.to_json()
+    sched = schedule_of(build.graph, dict(request or {}, target=build.options.target))
+    shape = MULT_SHAPES[build.options.target]
+    out["schedule"] = {"preset": sched.preset or None, "ii": sched.ii, "units": len(sched.units)}
+    out["dsp_scheduled"] = (sum(dsp_for(*u.widths, shape) for u in sched.units) if sched.units else out["dsp"])
+    out["notes"] = ["DSP blocks: products of the schedule share multiplier units when a multiplier per product "
+                    "exceeds the budget (dsp_scheduled); 'dsp' is one multiplier per product",
+                    "LUT4/carry: the arithmetic of the graph only; a schedule adds pipeline registers (FFs) and "
+                    "operand muxes of shared multipliers (LUT4s), which `pendc report synth` counts"]
     levels = (build.error.levels if build.error else None) or {}
     opt = build.options
     why_off = ("multiplier fitting off (fit_multipliers = false): the thesis' 32-bit rule"
@@ -128,8 +140,8 @@ def resources_report(build: BuildResult) -> dict:
             row["level"], row["why"] = 0, f"fits one {out['dsp_shape']} DSP block and the error budget holds"
         else:
             row["level"] = levels[node]
-            row["why"] = (f"widened {levels[node]} level(s) by the error budget: fitted to one block, x or theta "
-                          f"missed its budget and this product's output error was among the largest")
+            row["why"] = (f"widened {levels[node]} level(s) by the error budget: with one block x or theta missed "
+                          f"its budget, and this product's own rounding was among the largest relative errors")
     return out
 
 
@@ -139,6 +151,8 @@ def format_resources_report(r: dict) -> str:
     for k, v in r["multipliers"].items():
         lines.append(f"  {k:>8s} x {v}")
     rows = [(f"DSP blocks {r.get('dsp_shape', '18x18')} (est.)", r.get("dsp", r["dsp18"])),
+            ("DSP blocks, scheduled", f"{r.get('dsp_scheduled', '')} (preset {r.get('schedule', {}).get('preset')}, "
+                                      f"ii {r.get('schedule', {}).get('ii')})"),
             ("18x18 DSP blocks (est.)", r["dsp18"]), ("tables", r["luts"]), ("table bits", r["lut_bits"]),
             ("36-kbit block RAMs", r["brams"]), ("16-kbit block RAMs (ECP5)", r.get("bram16", "")),
             ("LUT4s (fabric arithmetic)", r.get("lut4_est", "")), ("carry cells", r.get("carry_est", "")),
@@ -147,6 +161,8 @@ def format_resources_report(r: dict) -> str:
             ("comparators", r["comparators"]), ("logic depth (nodes)", r["logic_depth"])]
     lines += [f"{k:26s} {v}" for k, v in rows]
     lines.append("critical path: " + " -> ".join(r["critical_path"]))
+    for note in r.get("notes", []):
+        lines.append(f"note: {note}")
     if r.get("products"):
         lines += ["", f"products ({r['dsp']} DSP blocks of {r['dsp_shape']}, the target's multiplier):"]
         for p in r["products"]:

@@ -13,7 +13,7 @@ says which HDL folder the runner built). Register offsets come from report.json
 * ``lockstep``: bursts of N steps with a constant U (and a single STEP) are bit-exact
   against the golden model after every burst, as are the encoder lines and the x4
   counts; STEPS_LEFT counts down, a LOCKSTEP while BUSY is ignored;
-* ``free_run``: RUN at STEP_DIV = ii and 5: step counter as expected, state bit-exact
+* ``free_run``: RUN at STEP_DIV = ii and ii + 3: step counter as expected, state bit-exact
   for the number of steps counted;
 * ``soft_and_hard_reset``: SOFT_RESET mid-run clears state, counters and RUN and keeps
   U/STEP_DIV/N_STEPS; the reset pin mid-run restores every register;
@@ -189,7 +189,7 @@ async def free_run(dut):
     run = b.v["bus"]["u_neg"]
     total = 0
     await b.write("U", run["u"])
-    for div, cycles in ((b.ii, 2000 * b.ii), (5, 3000)):
+    for div, cycles in ((b.ii, 2000 * b.ii), (b.ii + 3, 200 * (b.ii + 3))):
         await b.write("STEP_DIV", div)
         before = await b.read64("STEP_COUNT")
         await b.write("CONTROL", RUN)
