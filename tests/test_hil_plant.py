@@ -131,12 +131,14 @@ def test_golden_plant_counts_match_the_float_plant(model, build):
 
 def test_golden_plant_stops_at_an_overflow_naming_node_and_time(model, build):
     from pendc.golden import OverflowStop
-    plant = make_plant("golden", model, build=build, initial=(0.9, 0.0, 0.0, 0.0))
+    # Table 14 has no end stops: pushed full scale from 0.1 m below the end of x's format
+    start = (build.graph.output("x").qformat.max_value - 0.1, 0.0, 0.0, 0.0)
+    plant = make_plant("golden", model, build=build, initial=start)
     with pytest.raises(OverflowStop, match=r"node 'x\w*' left its Q-format range at t = 0\.\d+ s") as err:
         for _ in range(1000):
             plant.step(10.0, 1000)
-    assert 0.1 < err.value.time < 0.4     # 0.1 m at up to 0.55 m/s
-    marking = make_plant("golden", model, build=build, initial=(0.9, 0.0, 0.0, 0.0), on_overflow="mark")
-    for _ in range(400):
+    assert 0.1 < err.value.time < 0.5     # 0.1 m at up to 0.55 m/s
+    marking = make_plant("golden", model, build=build, initial=start, on_overflow="mark")
+    for _ in range(500):
         marking.step(10.0, 1000)
     assert min(marking.overflows.values()) == err.value.step
