@@ -82,3 +82,16 @@ def test_physics_outside_the_catalogue_is_reported_unexplained():
     # the ripple depends on x: an x-periodic signal must be among what the residual follows
     assert any("x/0.06" in r["signal"] for r in d.correlations), d.correlations
     assert not d.at_noise_level and min(d.noise_ratio.values()) > 2
+
+
+def test_complete_model_of_the_shipped_two_effect_data_is_at_the_noise_level():
+    from pathlib import Path
+
+    from pendc.ident.noise import NOISE_FACTOR, noise_ratio
+    from pendc.sim.measurements import read_measurements
+
+    data = read_measurements(Path(__file__).resolve().parents[1] / "data" / "hidden_two_effects.csv")
+    spring = BASE.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05})
+    complete = noise_ratio(spring.with_effect("coulomb_pendulum", {"tau_c": 0.004}), [data])
+    assert max(complete.values()) <= NOISE_FACTOR, complete
+    assert noise_ratio(spring, [data])["theta"] > 5 * NOISE_FACTOR     # the pivot friction is still missing
