@@ -3,8 +3,9 @@
 Draws ``--graphs`` random typed graphs (tests/graphgen.py) from ``--seed``, checks them in
 batches of ``--batch`` (one Verilator build each) against the reference interpreter at every
 step and, for the first ``--golden`` graphs of each batch, against the compiled golden kernel;
-writes the count, the seed, timings and every mismatch to ``-o`` (JSON). Exit status 1 if
-any mismatch was found.
+writes the count, the seed, timings and every mismatch to ``-o`` (JSON), with the first
+mismatched graphs of a batch shrunk (under Icarus) and printed as Python for a regression
+test. Exit status 1 if any mismatch was found.
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from fuzzharness import check_batch  # noqa: E402
-from graphgen import KNOWN_ISSUES, draw_cases  # noqa: E402
+from fuzzharness import check_batch, shrink  # noqa: E402
+from graphgen import KNOWN_ISSUES, case_source, draw_cases  # noqa: E402
 
 from pendc.atomic import write_atomic  # noqa: E402
 
@@ -52,6 +53,7 @@ def main(argv=None) -> int:
     ap.add_argument("--batch", type=int, default=250, help="graphs per simulator build (default 250)")
     ap.add_argument("--golden", type=int, default=10, help="graphs per batch also run by the golden kernel")
     ap.add_argument("--sim", choices=("verilator", "icarus"), default="verilator")
+    ap.add_argument("--shrink", type=int, default=3, help="mismatched graphs per batch to shrink (Icarus)")
     ap.add_argument("--known", action="store_true", help="also generate the known, still open backend defects")
     ap.add_argument("-o", "--output", default=str(ROOT / "bench" / "out" / "fuzz.json"))
     args = ap.parse_args(argv)
@@ -75,10 +77,15 @@ def main(argv=None) -> int:
             lint.update(w.split(":")[0] for w in result.warnings)
             for c in cases:
                 kinds.update(n.kind.value for n in c.graph.nodes)
+            shrunk = {}
             for m in result.mismatches:
+                if m.case not in shrunk and len(shrunk) < args.shrink:
+                    small = shrink(cases[m.case], Path(tmp) / "shrink", "icarus")
+                    shrunk[m.case] = case_source(small)
                 mismatches.append({"batch": b, "seed": args.seed + b, "case": m.case, "engine": m.engine,
                                    "step": m.step, "port": m.port, "expected": m.expected, "actual": m.actual,
-                                   "detail": m.detail, "graph": cases[m.case].graph.text()})
+                                   "detail": m.detail, "graph": cases[m.case].graph.text(),
+                                   "shrunk": shrunk.get(m.case)})
             done += n
             write_report(args, avoid, done, mismatches, timings, kinds, ii, golden, lint, t_start,
                          complete=done == args.graphs)

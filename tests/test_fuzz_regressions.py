@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from fuzzharness import check_batch, simulator_available
-from graphgen import FuzzCase
+from fuzzharness import check_batch, shrink, simulator_available
+from graphgen import FuzzCase, case_source
 from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import Overflow, QFormat, Rounding
@@ -147,3 +147,19 @@ def test_mux_select_beyond_its_inputs(tmp_path):
              make("m", Kind.MUX, ("sel", "u", "u", "u"), qformat=QFormat(True, 8, 0))]
     assert mismatches(case(QFormat(True, 8, 0), nodes, "m", u=(0, 1, 2, 3)), tmp_path) == []
 
+
+
+def test_shrinking_keeps_the_failure_and_drops_the_rest(tmp_path):
+    """The shrinker on an open defect padded with an unrelated node and a long input."""
+    nodes = [make("s", Kind.ADD, ("u", "u"), qformat=QFormat(True, 10, 0)),
+             make("k", Kind.CONST, qformat=QFormat(True, 6, 2), value=1.5),
+             make("t", Kind.ADD, ("s", "k"), qformat=QFormat(True, 12, 2))]
+    big = case(QFormat(False, 8, 0), nodes, "t", u=(0, 1, 2, 255, 3) + (7,) * 15)
+    small = shrink(big, tmp_path, "icarus", budget=25)
+    assert mismatches(small, tmp_path) != []
+    assert len(small.u) < len(big.u) and len(small.graph.nodes) < len(big.graph.nodes)
+    namespace = {}
+    exec("import math\nfrom graphgen import FuzzCase\nfrom pendc.ir.graph import Graph\n"
+         "from pendc.ir.nodes import Kind, make\nfrom pendc.ir.qformat import Overflow, QFormat, Rounding\n"
+         + case_source(small), namespace)
+    assert namespace["case"].graph.text() == small.graph.text() and namespace["case"].u == small.u
