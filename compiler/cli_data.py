@@ -223,7 +223,8 @@ def read_options(args, experiment: str | None = None):
         theta_sign=float(getattr(args, "theta_sign", 1) or 1),
         experiment=experiment, resolution=dict(getattr(args, "resolution", None) or {}),
         allow_missing=missing, u_value=float(getattr(args, "u_value", 0.0) or 0.0),
-        sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True)
+        sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True,
+        plausible=True)
 
 
 def experiments_for(args, paths: list, positional: bool = True) -> list:

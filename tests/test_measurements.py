@@ -130,7 +130,7 @@ def test_initial_state_fits_velocity_over_first_10ms():
 
 def test_initial_state_uses_at_least_three_samples():
     # 100 Hz: the 10 ms window holds only 2 samples (slope 1); 3 samples give 0.03 / 0.02.
-    m = parse_measurements("t,u,x,theta\n0,5,0,0\n0.01,5,0.01,0\n0.02,5,0.03,0\n0.03,5,0.9,0\n")
+    m = parse_measurements("t,u,x,theta\n0,5,0,0\n0.01,5,0.01,0\n0.02,5,0.03,0\n0.03,5,9,0\n")
     assert m.initial_state()[1] == pytest.approx(1.5)
 
 

@@ -286,4 +286,12 @@ def test_sparse_input_file_is_not_taken_for_milliseconds():
     m = parse_measurements("t,u\n0,5\n1,6\n3,5\n4,5\n", required=("t", "u"))
     assert m.t.tolist() == [0.0, 1.0, 3.0, 4.0]
     with pytest.raises(PendcError, match="t looks like milliseconds"):
-        parse_measurements("t,u,x,theta\n0,5,0,0\n1,6,0,0\n3,5,0,0\n4,5,0,0\n")
+        parse_measurements("t,u,x,theta\n0,5,0,0\n1,6,0,0\n3,5,0,0\n4,5,0,0\n", options=opts(plausible=True))
+
+
+def test_limits_are_checked_for_identification_not_for_a_simulation_output():
+    t, theta, x, u = truth()
+    text = format_csv({"t": t, "u": u, "x": x + 1.5, "theta": theta})  # a simulated cart off the track
+    assert parse_measurements(text).x.max() > 1.5
+    with pytest.raises(PendcError, match="column 'x' looks like centimetres"):
+        parse_measurements(text, options=opts(plausible=True))

@@ -115,9 +115,10 @@ def parse_measurements(text: str, source: str = "<string>", required=REQUIRED,
     experiment or ``options.allow_missing`` lets an axis be absent: it is then filled
     and listed in ``missing``). Errors: malformed rows, missing or duplicate columns,
     NaN/inf in a known column (``required``, t, u, x, theta, dx, dtheta), time not
-    strictly increasing, outliers, and unit mistakes (:mod:`pendc.sim.plausibility`:
-    degrees, milliseconds, millimetres, millivolts). Voltages outside 0-10 V only add
-    an entry to ``warnings``.
+    strictly increasing or jumping by an outlier, angles in degrees, and with
+    ``options.plausible`` the rig's limits (:mod:`pendc.sim.plausibility`: outliers,
+    milliseconds, millimetres, millivolts). Voltages outside 0-10 V only add an entry
+    to ``warnings``.
     """
     options = options or ReadOptions()
     table = read_csv_table(io.BytesIO(text.encode("utf-8")), source, options.separator, options.decimal)  # str: utf-8

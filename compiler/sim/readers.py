@@ -44,7 +44,10 @@ class ReadOptions:
     gives theta = s * theta_file + pi. ``allow_missing`` axes (besides those the
     experiment makes irrelevant) are filled with zeros, ``u`` with ``u_value``.
     ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
-    :func:`pendc.sim.resample.regrid`); off by default so a library read is faithful.
+    :func:`pendc.sim.resample.regrid`) and ``plausible`` checks the values against the
+    rig's limits (:mod:`pendc.sim.plausibility`); both are off by default, so a library
+    read is faithful (a simulation may drive the cart off the track), and on for the
+    identification commands.
     """
 
     columns: dict = field(default_factory=dict)
@@ -64,6 +67,7 @@ class ReadOptions:
     sample_time: float | None = None
     rate: float | None = None
     uniform: bool = False
+    plausible: bool = False
 
     def __post_init__(self):
         for axis, unit in (("t", self.t_unit), ("x", self.x_unit), ("u", self.u_unit), ("theta", self.theta_unit)):
@@ -334,7 +338,12 @@ def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
 
 
 def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> None:
-    """The plausibility checks, in the order that gives the most telling message (appends notes)."""
+    """The checks, in the order that gives the most telling message (appends notes).
+
+    Always: time order, wrapped angles, degrees. With ``options.plausible`` (reading a
+    recording for identification) also the rig's physical limits: outliers and unit
+    mistakes in x, u, theta and t; a simulation's output may leave the track on purpose.
+    """
     t = columns["t"]
     plaus.check_time(table, t)
     if "theta" in columns:  # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
@@ -343,7 +352,18 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
             columns["theta"] = unwrapped
             notes.append(f"{table.source}: theta was wrapped to one turn ({wraps} jumps of a whole turn between "
                          f"samples, which the pendulum cannot make): unwrapped")
-        plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
+        if options.plausible:
+            plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
+    if options.plausible:
+        _check_limits(table, columns, options)
+    if "theta" in columns:
+        plaus.check_radians(table, t, columns["theta"], options.theta_unit is not None)
+    if options.plausible and ("x" in columns or "theta" in columns):  # an input alone may be sparse steps
+        plaus.check_time_unit(table, t, options.t_unit is not None)
+
+
+def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
+    """x, u and the velocities within the rig's limits: a few rows beyond are outliers, many a unit."""
     if "u" in columns:
         plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
                             ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
@@ -352,14 +372,10 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
         x = columns["x"]
         mm = float(x.max()) > plaus.X_LIMIT or float(x.min()) < -plaus.X_LIMIT  # then, only, look closer
         mm = mm and float(np.percentile(np.abs(x), 99)) > 75.0
-        plaus.check_bounded(table, "x", columns["x"], plaus.X_LIMIT, "m", "the track is 0.75 m long",
+        plaus.check_bounded(table, "x", x, plaus.X_LIMIT, "m", "the track is 0.75 m long",
                             ("millimetres" if mm else "centimetres",
                              "check --x-unit" if options.x_unit else f"use --x-unit {'mm' if mm else 'cm'}"))
     for name, limit in (("dx", plaus.DX_LIMIT), ("dtheta", plaus.DTHETA_LIMIT)):
         if name in columns:
             plaus.check_bounded(table, name, columns[name], limit, "per s", "faster than the rig can move",
                                 ("a unit mistake", "check its unit"))
-    if "theta" in columns:
-        plaus.check_radians(table, t, columns["theta"], options.theta_unit is not None)
-    if "x" in columns or "theta" in columns:  # a recorded motion; an input alone may be sparse steps
-        plaus.check_time_unit(table, t, options.t_unit is not None)
