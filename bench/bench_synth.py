@@ -1,6 +1,6 @@
 """Benchmark: synthesis of the default model's core per schedule preset, against the thesis.
 
-For each preset (``fast``, ``small``; the default build is ``fast``) the default model's
+For each preset (``default`` and ``small``; ``fast`` on request) the default model's
 HDL is emitted into a temporary folder and ``pendc report synth`` (Yosys ``synth_ecp5`` +
 nextpnr-ecp5, LFE5U-85F speed 6, out of context) runs on it. Results are cached by
 design hash, so a second run costs nothing. Ratios: ours / thesis (spec §5: 24 MULT18,
@@ -51,7 +51,7 @@ def synth_presets(presets, target: str = "ecp5-85k", log=print) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
-    ap.add_argument("--presets", default="fast,small")
+    ap.add_argument("--presets", default="default,small", help="comma-separated (fast too: about 3 min more)")
     ap.add_argument("--target", default="ecp5-85k")
     args = ap.parse_args(argv)
     result = {"target": args.target, "presets": synth_presets(args.presets.split(","), args.target)}
