@@ -26,7 +26,7 @@ from pendc.sim.measurements import read_measurements
 from pendc.sim.readers import ReadOptions
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 started = time.perf_counter()
-m = read_measurements(sys.argv[1], options=ReadOptions(uniform=True))
+m = read_measurements(sys.argv[1], options=ReadOptions(uniform=True, plausible=True))
 seconds = time.perf_counter() - started
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps({"rows": len(m.t), "baseline_bytes": base, "peak_bytes": peak, "seconds": seconds,

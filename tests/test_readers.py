@@ -203,7 +203,7 @@ from pendc.sim import csvread, matread, plausibility, readers, resample
 from pendc.sim.measurements import read_measurements
 from pendc.model import experiments
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-m = read_measurements(sys.argv[1], options=readers.ReadOptions(uniform=True))
+m = read_measurements(sys.argv[1], options=readers.ReadOptions(uniform=True, plausible=True))
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps({"rows": len(m.t), "extra": peak - base}))
 """
