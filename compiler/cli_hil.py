@@ -40,6 +40,9 @@ def cmd_hil(args) -> int:
     from .hil.records import write_run
     from .model.modelfile import load_model
 
+    if args.serve and args.controller is not None:
+        raise PendcError("hil: --serve and --controller exclude each other (the socket client is the controller)")
+    args.controller = args.controller or "builtin"
     model = load_model(args.model)
     meta = {"model": args.model or "models/sct_thesis_final.toml",
             "controller": "socket client" if args.serve else args.controller,
@@ -98,8 +101,8 @@ def _seconds(text: str) -> float:
 def add_parsers(sub) -> None:
     """Register ``hil`` and ``animate`` on the top-level subparsers."""
     p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
-    p.add_argument("--controller", default="builtin",
-                   help="builtin (swing-up + LQR balance), swing-up, balance, or package.module:Class")
+    p.add_argument("--controller",
+                   help="builtin (default: swing-up + LQR balance), swing-up, balance, or package.module:Class")
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")

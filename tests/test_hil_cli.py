@@ -96,6 +96,7 @@ def test_failing_controller_leaves_a_partial_record(user_dir, capsys):
     (["--serve", "8.8.8.8:5555"], "not a loopback address"),
     (["--serve", "127.0.0.1:99999"], "port must be in 0..65535"),
     (["--serve", "localhost"], "HOST:PORT"),
+    (["--serve", "127.0.0.1:5555", "--controller", "builtin"], "exclude each other"),
     (["--model", "no_such_model.toml"], "no_such_model.toml"),
     (["--plant", "analog"], "invalid choice"),
 ])
