@@ -17,6 +17,7 @@ golden model does not depend on when a pipelined core computes a combinational n
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from hypothesis import strategies as st
@@ -409,9 +410,30 @@ def case_source(case: FuzzCase, name: str = "case") -> str:
     return "\n".join(lines) + "\n"
 
 
+@contextmanager
+def _no_local_constants():
+    """Hypothesis mixes in numbers it finds in the source of every loaded local module (the
+    golden kernels compiled so far among them), which would make a seed's cases depend on what
+    ran before: draw without them. Private API, hence the guard."""
+    try:
+        from hypothesis.internal.conjecture import providers
+        empty = providers.Constants()
+        original = providers._get_local_constants
+    except (ImportError, AttributeError):
+        yield
+        return
+    providers.CONSTANTS_CACHE.cache.clear()
+    providers._get_local_constants = lambda: empty
+    try:
+        yield
+    finally:
+        providers._get_local_constants = original
+        providers.CONSTANTS_CACHE.cache.clear()
+
+
 def draw_cases(count: int, seed: int, **options) -> list:
-    """``count`` cases drawn by hypothesis from ``seed`` (deterministic: same seed, same cases);
-    ``options`` go to :func:`fuzz_cases`."""
+    """``count`` cases drawn by hypothesis from ``seed`` (deterministic: same seed, same cases,
+    whatever ran before in the process); ``options`` go to :func:`fuzz_cases`."""
     from hypothesis import HealthCheck, Phase, given, settings
     from hypothesis import seed as hypothesis_seed
 
@@ -424,5 +446,6 @@ def draw_cases(count: int, seed: int, **options) -> list:
     def collect(case):
         cases.append(case)
 
-    collect()
+    with _no_local_constants():
+        collect()
     return cases[:count]
