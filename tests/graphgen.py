@@ -275,7 +275,8 @@ def _fsm(b: _Builder, name: str) -> Node:
         rules.append((src, draw(st.sampled_from(("lt", "le", "gt", "ge"))), threshold, draw(st.sampled_from(states))))
     outputs = tuple(draw(st.integers(0, 15)) for _ in states)
     lo, hi = sorted((_grid_value(draw, fin), _grid_value(draw, fin)))
-    if draw(st.booleans()):
+    if draw(st.booleans()) or ("fsm-threshold-range" in b.avoid and not all(
+            -(1 << fin.width) <= threshold_int(x, fin) < 1 << fin.width for x in (lo, hi))):
         lo, hi = fin.min_value, fin.max_value
     return make(name, Kind.FSM, (a,), qformat=QFormat(False, output_width(outputs), 0), states=states,
                 reset=draw(st.sampled_from(states)), transitions=tuple(rules), outputs=outputs, lo=lo, hi=hi)
@@ -331,7 +332,7 @@ KNOWN_ISSUES = frozenset({
     "unsigned-operand",      # ADD/SUB/GAIN/MUL/NEG/CAST/MUX data/LUT read an unsigned value as signed
     "scalar-slice",          # SLICE of a 1-bit value selects a bit of a scalar wire
     "lut-narrow-input",      # a clamped table with more segments than its input reaches clamps wrongly
-    "fsm-threshold-range",   # an FSM threshold beyond its input's range wraps in its Verilog literal
+    "fsm-threshold-range",   # an FSM threshold or lo/hi bound beyond its input's range wraps in its Verilog literal
 })
 
 SCHEDULES = (None, (math.inf, None), (4.0, None), (10.0, None), (10.0, 1), (10.0, 3), (25.0, 2))
