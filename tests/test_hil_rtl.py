@@ -43,6 +43,6 @@ def test_rtl_plant_gives_the_golden_integers(rig, simulator, seconds):
         for k, volts in enumerate(u[:-1]):
             want, got = golden.step(volts, 1000), rtl.step(volts, 1000)
             assert got == want and rtl.raw() == golden.raw(), f"differs after {k + 1} ms"
-        assert abs(want.enc_x) > 100          # the cart moved
+        assert abs(want.enc_x) > 20           # the cart moved (50 counts in the first 5 ms)
         rtl.reset()
         assert rtl.step(10.0, 1000) == make_plant("golden", model, build=build).step(10.0, 1000)
