@@ -72,3 +72,24 @@ def test_bad_build_dir_is_one_line_error(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("pendc: error:") and "report.json" in err and "\n" not in err
     assert main(["report", "synth", "--target", "spartan3"]) == 2
+
+
+def test_logic_depth_stops_at_sequential_cells():
+    """A hand netlist: FF -> LUT -> CARRY -> CARRY -> FF -> LUT; constants are not drivers."""
+    from pendc.synth_netlist import cell_counts, logic_depth
+
+    def cell(kind, ins, outs):
+        return {"type": kind, "port_directions": {**{p: "input" for p in ins}, **{p: "output" for p in outs}},
+                "connections": {**ins, **outs}}
+    cells = {
+        "ff1": cell("TRELLIS_FF", {"DI": [9]}, {"Q": [2]}),
+        "lut": cell("LUT4", {"A": [2], "B": ["0"]}, {"Z": [3]}),
+        "c1": cell("CCU2C", {"A0": [3]}, {"S0": [4]}),
+        "c2": cell("CCU2C", {"A0": [4], "B0": [2]}, {"S0": [5]}),
+        "ff2": cell("TRELLIS_FF", {"DI": [5]}, {"Q": [6]}),
+        "lut2": cell("LUT4", {"A": [6]}, {"Z": [7]}),
+    }
+    depth, path = logic_depth({"modules": {"top": {"cells": cells}}}, "top", ("TRELLIS_FF",))
+    assert (depth, path) == (3, ["lut", "c1", "c2"])
+    stat = {"design": {"num_cells_by_type": {"LUT4": 2, "CCU2C": 2, "TRELLIS_FF": 2}}}
+    assert cell_counts(stat, "top") == {"LUT4": 2, "CCU2C": 2, "TRELLIS_FF": 2}
