@@ -212,9 +212,9 @@ class RtlPlant:
 
     def __init__(self, model: PlantModel, simulator: str = "verilator", dt: float = 1e-6, build=None,
                  on_overflow: str = "error", bus: str = "raptor"):
-        from ..backend.hdl import build_hdl, port_formats
-        from ..backend.viewmodel import build_view  # noqa: F401  (ii comes from report.json)
         import json
+
+        from ..backend.hdl import build_hdl, port_formats
 
         if simulator not in SIMULATORS:
             raise PendcError(f"unknown RTL simulator '{simulator}' (choose {', '.join(SIMULATORS)})")
