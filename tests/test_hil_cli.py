@@ -112,3 +112,16 @@ def test_builtin_balance_summary_without_out(capsys):
     out = capsys.readouterr().out
     assert "not upright at the end of the run" in out and "max |x|" in out
     assert not math.isnan(float(out.split("max |x| = ")[1].split()[0]))
+
+
+def test_the_documented_user_controllers_work(tmp_path, monkeypatch, capsys):
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "hil.md").read_text()
+    code = doc.split('```python\n"""Two controllers of my own')[1].split("```")[0]
+    (tmp_path / "my_controller_doc.py").write_text('"""Two controllers of my own' + code)
+    monkeypatch.chdir(tmp_path)
+    assert main(["hil", "--controller", "my_controller_doc:CartTo5cm", "--seconds", "3", "--out", "pid"]) == 0
+    meta, rows = read_rows(tmp_path / "pid" / "run.csv")
+    assert rows[-1][4] == "pid" and abs(float(rows[-1][2]) - 0.05) < 0.002   # as docs/hil.md says
+    assert max(float(r[2]) for r in rows) < 0.065
