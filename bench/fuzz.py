@@ -23,8 +23,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from fuzzharness import check_batch, shrink  # noqa: E402
-from graphgen import KNOWN_ISSUES, case_source, draw_cases  # noqa: E402
+from fuzzcases import case_source, draw_cases  # noqa: E402
+from fuzzharness import check_batch  # noqa: E402
+from fuzzshrink import shrink  # noqa: E402
+from graphgen import KNOWN_ISSUES  # noqa: E402
 
 from pendc.atomic import write_atomic  # noqa: E402
 

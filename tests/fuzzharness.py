@@ -160,10 +160,6 @@ def render(case: FuzzCase, module: str) -> tuple:
     return emit.render_core(case.graph, "fuzz", module=module, **kwargs)
 
 
-def _hexw(width: int) -> int:
-    return (width + 3) // 4
-
-
 def testbench(cases, views, frame: int, ufile: Path, ofile: Path) -> str:
     """The Verilog top: every core, its input from ``ufile``, its outputs to ``ofile``."""
     steps = cases[0].steps
@@ -404,85 +400,3 @@ def check_batch(cases, work: Path, sim: str = "verilator", frame_extra: int = 0,
         result.mismatches += compare(i, "golden", ref[i], rows)
     result.mismatches.sort(key=lambda m: (m.case, m.engine, m.step))
     return result
-
-
-def case_fails(case: FuzzCase, work: Path, sim: str = "icarus") -> bool:
-    """True if one case shows any mismatch (the predicate a shrinker minimises under)."""
-    return bool(check_batch([case], work, sim).mismatches)
-
-
-# ------------------------------------------------------------------------ shrinking
-
-def _rebuild(case: FuzzCase, nodes: list, outputs: list, u: tuple | None = None) -> FuzzCase | None:
-    """The case with ``nodes``/``outputs`` (dead nodes dropped), or None if that is not a valid core graph."""
-    from pendc.ir.graph import GraphError
-    from pendc.ir.verify import verify
-    by = {n.name: n for n in nodes}
-    live, todo = set(), [n for _, n in outputs]
-    while todo:
-        x = todo.pop()
-        if x not in live and x in by:
-            live.add(x)
-            todo.extend(by[x].inputs)
-    if "u" not in live:
-        return None
-    try:
-        graph = Graph.build(case.graph.name, [n for n in nodes if n.name in live], outputs)
-        verify(graph, typed=True)
-    except (GraphError, ValueError):
-        return None
-    return replace(case, graph=graph, u=case.u if u is None else u)
-
-
-def _candidates(case: FuzzCase, first_step: int):
-    """Smaller variants of ``case``: shorter input, no schedule, fewer outputs, nodes replaced
-    by constants, bypassed by one of their inputs or by a cast of it."""
-    from pendc.ir.nodes import make
-    g = case.graph
-    if first_step + 2 < len(case.u):
-        yield replace(case, u=case.u[:first_step + 2])
-    if case.schedule is not None:
-        yield replace(case, schedule=None)
-    nodes, outputs = list(g.nodes), list(g.outputs)
-    for k, (port, _) in enumerate(outputs):
-        if port not in ("x", "dx", "theta", "dtheta"):
-            yield _rebuild(case, nodes, outputs[:k] + outputs[k + 1:])
-    for n in reversed(g.nodes):
-        if n.kind in (Kind.INPUT,) or n.name.startswith("p_"):
-            continue
-        for src in dict.fromkeys(n.inputs):
-            if g[src].qformat == n.qformat and src != n.name:
-                swapped = [replace(m, inputs=tuple(src if i == n.name else i for i in m.inputs)) for m in nodes
-                           if m.name != n.name]
-                yield _rebuild(case, swapped, outputs)
-            elif src != n.name and n.kind is not Kind.CAST:
-                cast = make(n.name, Kind.CAST, (src,), qformat=n.qformat, rounding=n.rounding, overflow=n.overflow)
-                yield _rebuild(case, [cast if m.name == n.name else m for m in nodes], outputs)
-        if n.kind is not Kind.CONST:
-            const = make(n.name, Kind.CONST, qformat=n.qformat, value=0.0)
-            yield _rebuild(case, [const if m.name == n.name else m for m in nodes], outputs)
-
-
-def shrink(case: FuzzCase, work: Path, sim: str = "icarus", budget: int = 200) -> FuzzCase:
-    """A smaller case that still shows a mismatch of the same engine (greedy, at most ``budget`` runs)."""
-    first = check_batch([case], work, sim, golden=None).mismatches
-    if not first:
-        raise ValueError("the case does not fail")
-    engine = first[0].engine
-    runs = 0
-    improved = True
-    while improved and runs < budget:
-        improved = False
-        step = max(0, min(m.step for m in first))
-        for cand in _candidates(case, step):
-            if cand is None:
-                continue
-            runs += 1
-            found = [m for m in check_batch([cand], work, sim, golden=None if engine == "golden" else 0).mismatches
-                     if m.engine == engine]
-            if found:
-                case, first, improved = cand, found, True
-                break
-            if runs >= budget:
-                break
-    return case

@@ -13,7 +13,7 @@ import re
 import pytest
 
 from fuzzharness import check_batch, simulator_available
-from graphgen import draw_cases
+from fuzzcases import draw_cases
 
 QUICK_SEED = 20261123
 QUICK_GRAPHS = 200

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import pytest
 
-from fuzzharness import check_batch, shrink, simulator_available
-from graphgen import FuzzCase, case_source
+from fuzzcases import case_source
+from fuzzharness import check_batch, simulator_available
+from fuzzshrink import shrink
+from graphgen import FuzzCase
 from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import Overflow, QFormat, Rounding
