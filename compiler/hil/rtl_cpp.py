@@ -1,0 +1,227 @@
+"""The generated Verilog as a stepping plant under a plain C++ Verilator harness (no ``--timing``).
+
+Same request/answer line protocol and the same integers as :mod:`pendc.hil.rtl_plant`'s Verilog
+harness, whose clock schedule it reproduces edge for edge:
+
+* reset: ``step`` low, ``rst`` high for three clock cycles (three rising edges), then ``rst``
+  low; the encoder counts and ``lost`` clear and the channel levels at that moment are the
+  decoder's starting point;
+* ``0 u n``: ``u`` applied and ``step`` held high (it stays high until the next reset) for
+  ``n * ii`` clock cycles; after every falling edge the four channel lines are decoded like
+  :func:`pendc.hil.plant.x4_count_delta` (Gray index difference mod 4: +1, -1, or 2 = lost);
+* each answer: ``x dx theta dtheta enc_x enc_theta enc_x_a enc_x_b enc_theta_a enc_theta_b
+  overflow lost``, flushed at once.
+
+The C++ ``main`` toggles ``clk`` and calls ``eval()`` itself, which runs several hundred
+times faster than the event-driven ``--timing`` harness. Each design (core files + main) is
+built once and cached under its hash, next to the Verilog harnesses.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from ..codegen import cache_dir
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from .golden_plant import STATE_PORTS, build_for
+from .rtl_plant import VERILATOR_MAKE_VARS, RtlPlant, _tool
+
+CORE = "pendulum_core"
+EXECUTABLE = "pendc_hil_cpp"
+MAIN_FORMAT = 2          # bump when the C++ main changes shape
+MAX_PORT_WIDTH = 64      # every port must fit one C++ integer (Verilator's QData)
+# -O2 rather than verilated.mk's -Os: about 15 % more steps per second on this core, where
+# the core's own clocked logic takes over 80 % of the time
+MAKE_VARS = f"{VERILATOR_MAKE_VARS} OPT_FAST=-O2 OPT_GLOBAL=-O2"
+
+
+def _cpp_int_type(width: int) -> str:
+    """Verilator's C++ container for a port of ``width`` bits."""
+    return "CData" if width <= 8 else "SData" if width <= 16 else "IData" if width <= 32 else "QData"
+
+
+def main_source(ports: dict, ii: int) -> str:
+    """The C++ ``main`` around Verilator's ``V{CORE}`` model (ports: report.json's "ports")."""
+    too_wide = [p for p in ("u",) + STATE_PORTS if ports[p]["width"] > MAX_PORT_WIDTH]
+    if too_wide:
+        raise PendcError(f"the C++ Verilator plant handles ports of up to {MAX_PORT_WIDTH} bits; "
+                         f"{', '.join(too_wide)} is wider (use --plant golden)")
+    uw = ports["u"]["width"]
+    value = {p: (f"sext(core->{p}, {ports[p]['width']})" if ports[p]["signed"]
+                 else f"(long long)(uint64_t)core->{p}") for p in STATE_PORTS}
+    return f"""// pendc HIL plant (pendc.hil.rtl_cpp, format {MAIN_FORMAT}): lockstep over stdin/stdout.
+#include "V{CORE}.h"
+#include "verilated.h"
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+
+// a signed port's bits, sign-extended from its width (Verilator zeroes the unused bits)
+static inline long long sext(uint64_t v, int width) {{
+    if (width >= 64) return (long long)v;
+    const uint64_t sign = 1ULL << (width - 1);
+    v &= (sign << 1) - 1;
+    return (long long)((v ^ sign) - sign);
+}}
+
+// Gray index of the channel levels (A, B) along increasing position (A leads)
+static inline int gray(int a, int b) {{ return a ? (b ? 2 : 1) : (b ? 3 : 0); }}
+
+struct Harness {{
+    std::unique_ptr<VerilatedContext> ctx;
+    std::unique_ptr<V{CORE}> core;
+    long long cnt_x = 0, cnt_t = 0;
+    int lost = 0, px = 0, pt = 0;
+
+    Harness() : ctx(new VerilatedContext), core(new V{CORE}(ctx.get())) {{
+        core->clk = 0;
+        core->rst = 1;
+        core->step = 0;
+        core->u = 0;
+        core->eval();
+    }}
+
+    void cycle() {{
+        core->clk = 1;
+        core->eval();
+        core->clk = 0;
+        core->eval();
+    }}
+
+    // after a falling edge: the channel lines change only when a step's update lands
+    void count() {{
+        const int gx = gray(core->enc_x_a, core->enc_x_b), gt = gray(core->enc_theta_a, core->enc_theta_b);
+        const int dxg = (gx - px) & 3, dtg = (gt - pt) & 3;
+        cnt_x += (dxg == 1) - (dxg == 3);
+        cnt_t += (dtg == 1) - (dtg == 3);
+        if (dxg == 2 || dtg == 2) lost = 1;
+        px = gx;
+        pt = gt;
+    }}
+
+    void reset() {{
+        core->step = 0;
+        core->rst = 1;
+        for (int i = 0; i < 3; ++i) cycle();
+        core->rst = 0;
+        cnt_x = cnt_t = 0;
+        lost = 0;
+        px = gray(core->enc_x_a, core->enc_x_b);
+        pt = gray(core->enc_theta_a, core->enc_theta_b);
+    }}
+
+    void run(long long u, long long n) {{
+        core->u = ({_cpp_int_type(uw)})((uint64_t)u & {hex((1 << uw) - 1)}ULL);
+        core->step = 1;
+        core->eval();
+        for (long long c = n * {ii}LL; c > 0; --c) {{
+            cycle();
+            count();
+        }}
+    }}
+
+    void answer() {{
+        std::printf("%lld %lld %lld %lld %lld %lld %d %d %d %d %d %d\\n", {", ".join(value[p] for p in STATE_PORTS)},
+                    cnt_x, cnt_t, (int)core->enc_x_a, (int)core->enc_x_b, (int)core->enc_theta_a,
+                    (int)core->enc_theta_b, (int)core->overflow, lost);
+        std::fflush(stdout);
+    }}
+}};
+
+int main(int argc, char** argv) {{
+    Harness h;
+    h.ctx->commandArgs(argc, argv);
+    h.reset();
+    h.answer();
+    for (;;) {{
+        long long kind = -1, u = 0, n = 0;
+        const int got = std::scanf("%lld %lld %lld", &kind, &u, &n);
+        if (got < 1) break;                    // end of input: the host closed the pipe
+        if (got != 3 || kind < 0 || kind > 1 || (kind == 0 && (n < 1 || n > 0x7fffffffLL))) {{
+            std::printf("ERROR bad request\\n");
+            std::fflush(stdout);
+            return 1;
+        }}
+        if (kind == 1) h.reset();
+        else h.run(u, n);
+        h.answer();
+    }}
+    h.core->final();
+    return 0;
+}}
+"""
+
+
+def _build_command(work: Path, sources: list) -> list:
+    return [_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", CORE,
+            "-Mdir", str(work / "obj_dir"), "-o", EXECUTABLE, "-O3", "--x-assign", "fast", "--x-initial", "fast",
+            "--noassert", "-Wno-fatal", "-Wno-lint", "-MAKEFLAGS", MAKE_VARS] + [str(s) for s in sources]
+
+
+def build_cpp_harness(files: dict, ports: dict, ii: int) -> Path:
+    """The Verilator C++ plant executable for these HDL files, built once per design hash and cached."""
+    main = main_source(ports, ii)
+    digest = hashlib.sha256()
+    for name in sorted(files):
+        if name.endswith(".v"):
+            digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
+    digest.update(main.encode() + MAKE_VARS.encode())
+    final = cache_dir("rtl_plants") / f"verilator-cpp-{digest.hexdigest()[:20]}"
+    target = final / "obj_dir" / EXECUTABLE
+    if target.exists():
+        return target
+    work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
+    try:
+        sources = [work / "main.cpp"]
+        sources[0].write_text(main)
+        for name in sorted(files):
+            if name.endswith(".v"):
+                (work / name).write_text(files[name])
+                sources.append(work / name)
+        r = subprocess.run(_build_command(work, sources), capture_output=True, text=True, cwd=work)
+        if r.returncode != 0 or not (work / "obj_dir" / EXECUTABLE).exists():
+            raise PendcError("building the C++ Verilator plant failed: "
+                             f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
+        for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
+            f.unlink()
+        try:
+            os.replace(work, final)
+        except OSError:                        # another process built it first
+            shutil.rmtree(work, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    return target
+
+
+class VerilatorCppPlant(RtlPlant):
+    """The generated core under a plain C++ Verilator harness, stepped in lockstep.
+
+    Behaves exactly like ``RtlPlant(model, "verilator")`` (same integers, same overflow and
+    lost-count errors, :meth:`raw`, :meth:`close`, ``with``); only the executable differs."""
+
+    def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
+                 bus: str = "raptor"):
+        from ..backend.hdl import build_hdl, port_formats
+
+        if on_overflow not in ("error", "mark"):
+            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
+        self.build = build_for(model, dt, build)
+        # "verilator": RtlPlant runs the executable itself and names the simulator in its errors
+        self.model, self.dt, self.simulator, self.on_overflow = model, float(dt), "verilator", on_overflow
+        files = build_hdl(self.build.graph, self.build.resources.to_json(), source=model.source, bus=bus)
+        report = json.loads(files["report.json"])
+        self.ports = port_formats(self.build.graph)
+        self._lsb = {p: 2.0 ** -report["ports"][p]["frac"] for p in STATE_PORTS}
+        self._u_format = self.build.graph["u"].qformat
+        self.executable = build_cpp_harness(files, report["ports"], int(report["ii"]))
+        self._proc = None
+        self.overflow_at = None
+        self.reset()
