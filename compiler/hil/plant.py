@@ -211,8 +211,9 @@ class FloatPlant:
 def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **options) -> Plant:
     """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
 
-    ``options`` go to the plant's constructor (``method`` for float; ``build`` for golden and
-    the RTL plants, to reuse a compiled build)."""
+    ``options`` go to the plant's constructor: ``method`` for float; ``build`` (reuse a compiled
+    build), ``on_overflow`` ("error" or "mark") for golden and the RTL plants; ``initial``
+    (x, dx, theta, dtheta) for golden; ``bus`` for the RTL plants."""
     if kind not in PLANT_KINDS:
         raise PendcError(f"unknown plant '{kind}' (choose {', '.join(PLANT_KINDS)})")
     if model is None:
