@@ -151,6 +151,27 @@ def test_pipelined_schedule_of_a_register_loop(tmp_path):
     assert mismatches(c, tmp_path) == []
 
 
+@pytest.mark.xfail(strict=True, reason="shared-unit-table: with a DSP budget the product r0*r0 feeding a table "
+                   "address comes from a shared unit; viewmodel._emit_lut loads the table-side registers (n_t_f_r, "
+                   "the ROM word register) on every clock, so by the interpolation cycle they hold values computed "
+                   "from the unit's next phase (long run seed 14, batch 11: theta 0 instead of 524288)")
+def test_table_addressed_by_a_shared_multiplier(tmp_path):
+    from pendc.ir import lut as lut_sem
+    fin, fout = QFormat(True, 2, -5), QFormat(True, 25, 25)
+    table = lut_sem.fill_table("tanh(v/4)", 0.0, 1, 2, fin, fout, True, True)
+    nodes = [make("r0", Kind.REGISTER, ("r0_next",), qformat=QFormat(True, 4, 0), reset=6.0),
+             make("r0_next", Kind.CONST, qformat=QFormat(True, 4, 0), value=0.0),
+             make("sq", Kind.MUL, ("r0", "r0"), qformat=fin, rounding=Rounding.TRUNCATE, overflow=Overflow.SATURATE),
+             make("t", Kind.LUT, ("sq",), qformat=fout, expr="tanh(v/4)", lo=0.0, hi=256.0, periodic=True,
+                  addr_bits=1, interpolate=True, shift=2, table=table),
+             make("k", Kind.CONST, qformat=QFormat(True, 6, -3), value=0.0),
+             make("g", Kind.GAIN, ("k",), qformat=QFormat(True, 28, 22), cfmt="FIX32_29", value=-3.999999998137355),
+             make("s", Kind.ADD, ("t", "g"), qformat=QFormat(True, 30, 22)),
+             make("uu", Kind.ADD, ("u", "s"), qformat=QFormat(True, 30, 22))]
+    c = case(QFormat(True, 8, 0), nodes, "uu", u=(3, 4, 5), schedule=(10.0, 3))
+    assert mismatches(c, tmp_path) == []
+
+
 @pytest.mark.xfail(strict=True, reason="IR: a MUX whose select exceeds its data inputs (allowed by the verifier; "
                    "lower_encoders relies on it never happening) makes the interpreter and golden kernel raise "
                    "IndexError while the Verilog picks the last input")
