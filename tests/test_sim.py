@@ -78,13 +78,13 @@ def test_run_py_on_another_model_with_shared_multipliers(tmp_path):
     model.write_text((repo / "models" / "sct_thesis_final.toml").read_text()
                      + "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n")
     cmd = [sys.executable, "tb/run.py", "--sim", "icarus", "--model", str(model),
-           "--preset", "small", "--suite", "core", "-k", "reset_state,every_step", "--work", str(tmp_path),
+           "--preset", "small", "--suite", "core", "-k", "reset_state,every_step/stim=chirp_low", "--work", str(tmp_path),
            "--json", str(tmp_path / "summary.json")]
     r = subprocess.run(cmd, cwd=repo, capture_output=True, text=True)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     summary = json.loads((tmp_path / "summary.json").read_text())
     (suite,) = summary["suites"]
-    assert suite["tests"] >= 2 and suite["failed"] == 0
+    assert suite["tests"] == 2 and suite["failed"] == 0
     report = json.loads((tmp_path / "hdl_raptor" / "report.json").read_text())
     assert report["source"].endswith("quick_model.toml")
     assert report["ii"] > 2 and report["schedule"]["units"] and report["schedule"]["preset"] == "small"
