@@ -18,6 +18,7 @@ from pendc.build_cache import compile_cached
 from pendc.errors import PendcError
 from pendc.hil.plant import Plant, make_plant
 from pendc.hil.rtl_cpp import VerilatorCppPlant, main_source
+from pendc.hil.rtl_plant import RtlPlant
 from pendc.model.modelfile import load_model
 
 RIG = str(Path(__file__).resolve().parents[1] / "models" / "sct_rig.toml")
@@ -68,7 +69,7 @@ def test_cpp_plant_gives_the_golden_integers_over_random_requests(rig, cpp):
 @needs_verilator
 def test_cpp_plant_answers_like_the_verilog_harness(rig, cpp):
     model, build = rig
-    with make_plant("verilator", model, build=build, on_overflow="mark") as rtl:
+    with RtlPlant(model, "verilator", build=build, on_overflow="mark") as rtl:   # the --timing harness
         assert rtl.reset() == cpp.reset()
         for k, (volts, n) in enumerate(_requests(seed=5, count=60)):
             if k == 40:
