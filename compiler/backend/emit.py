@@ -17,6 +17,8 @@ from pathlib import Path
 
 import jinja2
 
+from ..atomic import make_public_dir
+from ..errors import PendcError
 from ..ir.graph import Graph
 from .viewmodel import CoreView, build_view
 
@@ -94,26 +96,57 @@ def build_id(files: dict) -> int:
     return int.from_bytes(h.digest()[:4], "big")
 
 
+# what a build folder holds: a folder with anything else in it is the user's, not ours to replace
+_BUILD_SUFFIXES = frozenset({".v", ".sv", ".vh", ".json"})
+
+
+def _refuse_foreign(out: Path, files: dict) -> None:
+    """Raise unless ``out`` is absent, empty, or holds only files a build writes."""
+    if not out.exists() and not out.is_symlink():
+        return
+    if out.is_symlink() or not out.is_dir():
+        kind = "a symbolic link" if out.is_symlink() else "a file" if out.is_file() else "not a folder"
+        raise PendcError(f"{out}: is {kind}; refusing to replace it with a folder of Verilog")
+    suffixes = _BUILD_SUFFIXES | {Path(name).suffix for name in files}
+    try:
+        foreign = sorted(p.name for p in out.iterdir()
+                         if p.is_symlink() or not p.is_file() or p.suffix not in suffixes)
+    except OSError as exc:
+        raise PendcError(f"{out}: cannot read the folder: {exc.strerror or exc}") from None
+    if foreign:
+        raise PendcError(f"{out}: holds {', '.join(foreign[:3])}{' ...' if len(foreign) > 3 else ''}, "
+                         f"which a build does not write; refusing to replace the folder (give a new or empty one)")
+
+
 def write_tree(out_dir: str | os.PathLike, files: dict) -> None:
-    """Replace ``out_dir`` by exactly ``files`` (name -> text), via a temporary folder and renames."""
+    """Replace ``out_dir`` by exactly ``files`` (name -> text), via a temporary folder and renames.
+
+    Refuses (:class:`PendcError` naming ``out_dir``) to replace a file, a symbolic link or a
+    folder holding anything a build does not write; the new folder's mode follows the umask."""
     out = Path(out_dir)
     parent = out.parent if str(out.parent) else Path(".")
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    _refuse_foreign(out, files)
+    tmp = old = None
     try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = make_public_dir(f".{out.name}.", parent)
         for name, text in sorted(files.items()):
             (tmp / name).write_text(text, encoding="utf-8", newline="\n")
-        old = None
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
             old.rmdir()
             os.replace(out, old)
         os.replace(tmp, out)
+        tmp = None
         if old is not None:
             shutil.rmtree(old)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    except OSError as exc:
+        if old is not None and old.exists() and not out.exists():
+            os.replace(old, out)   # the swap failed half-way: the user's previous build comes back
+        raise PendcError(f"{out}: cannot write the build folder: {exc.strerror or exc}") from None
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def dumps_json(obj) -> str:
