@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from .emit import build_id, dumps_json, render_core, write_tree
@@ -70,9 +71,14 @@ def write_hdl(out_dir, files: dict) -> None:
 
 
 def differences(out_dir, files: dict) -> list:
-    """Names of files that differ between ``out_dir`` and ``files`` (missing and extra included)."""
+    """Names of files that differ between ``out_dir`` and ``files`` (missing and extra included).
+
+    Raises :class:`PendcError` naming ``out_dir`` if it is missing or not a folder."""
     out = Path(out_dir)
-    present = {p.name for p in out.iterdir() if p.is_file()} if out.is_dir() else set()
+    if not out.is_dir():   # "every file differs" would hide the real problem
+        raise PendcError(f"{out}: folder does not exist" if not out.exists()
+                         else f"{out}: is not a folder")
+    present = {p.name for p in out.iterdir() if p.is_file()}
     diff = sorted(present ^ set(files))
     for name in sorted(present & set(files)):
         if (out / name).read_text(encoding="utf-8") != files[name]:
