@@ -24,7 +24,13 @@ TOP_LEVEL = ("plant", "effects", "fit", "meta", "hardware")
 
 
 def default_model_path() -> Path:
-    """``models/sct_thesis_final.toml`` of the source tree (Table 14 of the thesis)."""
+    """``models/sct_thesis_final.toml`` (Table 14 of the thesis): the copy shipped in the
+    package (``pendc/models/`` of an installed wheel), else the source tree's ``models/``."""
+    from importlib import resources
+
+    shipped = Path(str(resources.files("pendc"))) / "models" / "sct_thesis_final.toml"
+    if shipped.is_file():
+        return shipped
     return Path(__file__).resolve().parents[2] / "models" / "sct_thesis_final.toml"
 
 
