@@ -13,6 +13,7 @@ import json
 import os
 import shutil
 import tempfile
+from importlib import resources
 from pathlib import Path
 
 import jinja2
@@ -22,7 +23,11 @@ from ..errors import PendcError
 from ..ir.graph import Graph
 from .viewmodel import CoreView, build_view
 
-TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
+# the templates ship in the wheel as pendc/templates/ (pyproject package-data); in the source
+# tree and its editable install they are the top-level templates/ folder
+TEMPLATES = next((p for p in (Path(str(resources.files("pendc"))) / "templates",
+                              Path(__file__).resolve().parents[2] / "templates") if p.is_dir()),
+                 Path(__file__).resolve().parents[2] / "templates")
 GENERATOR = "pendc"
 
 
