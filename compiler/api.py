@@ -55,7 +55,8 @@ def _datasets(data, reading: dict) -> list:
     items = _as_list(data)
     if not items:
         raise PendcError("no data given")
-    options = ReadOptions(**{"uniform": True, **reading})
+    # the same rig-limit checks as the commands (millimetres, millivolts, outliers are refused)
+    options = ReadOptions(**{"uniform": True, "plausible": True, **reading})
     out = []
     for d in items:
         if isinstance(d, Measurement):

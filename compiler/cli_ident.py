@@ -100,22 +100,29 @@ def cmd_diagnose(args) -> int:
         lines += [f"  {r['target']:12s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
         hint = parameter_hint(model, d.correlations)
         if hint:
-            lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {' '.join(args.data)} "
+            lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
                          f"--model {args.model or 'models/sct_thesis_final.toml'} --free {hint[0]} -o NEW.toml")
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
-        lines.append(f"Next: pendc fit {' '.join(args.data)} --model {args.model or 'models/sct_thesis_final.toml'} "
+        lines.append(f"Next: pendc fit {_data_words(args)} --model {args.model or 'models/sct_thesis_final.toml'} "
                      f"--add {best.effect} -o NEW.toml")
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
 
 
+def _data_words(args) -> str:
+    """The data files and the reading options they were read with, for a command to suggest or record."""
+    from .cli_data import reading_arguments
+
+    return " ".join([*args.data, *reading_arguments(args)])
+
+
 def _command(args) -> str:
     """The fit command line, rebuilt from the parsed options (paths as given)."""
-    parts = ["pendc fit", *args.data]
+    parts = ["pendc fit", _data_words(args)]
     for flag, value in (("--model", args.model), ("--add", args.add), ("--free", args.free),
-                        ("--outputs", args.outputs), ("--experiment", getattr(args, "experiment", None))):
+                        ("--outputs", args.outputs)):
         if value:
             parts += [flag, str(value)]
     if args.validate:
