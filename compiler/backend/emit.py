@@ -131,6 +131,9 @@ def write_tree(out_dir: str | os.PathLike, files: dict) -> None:
     out = Path(out_dir)
     parent = out.parent if str(out.parent) else Path(".")
     _refuse_foreign(out, files)
+    blocking = next((a for a in out.parents if a.exists() and not a.is_dir()), None)
+    if blocking is not None:   # else mkdir's "File exists" would not say which
+        raise PendcError(f"{out}: {blocking} is not a folder")
     tmp = old = None
     try:
         parent.mkdir(parents=True, exist_ok=True)
