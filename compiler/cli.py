@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 
 from .errors import PendcError
@@ -15,6 +16,12 @@ from .errors import PendcError
 
 class _Parser(argparse.ArgumentParser):
     """argparse, but a usage mistake is one line, like every other error."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse takes "-1e-6" for an option ("expected one argument"); a number in any
+        # notation is a value, so `--dt -1e-6` is refused for being negative, not misread
+        self._negative_number_matcher = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|nan)$")
 
     def error(self, message):
         # the top-level parser's prog is "pendc", which main() already prints once
