@@ -23,6 +23,19 @@ class _Parser(argparse.ArgumentParser):
         # notation is a value, so `--dt -1e-6` is refused for being negative, not misread
         self._negative_number_matcher = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|nan)$")
 
+    def format_help(self) -> str:
+        """argparse's help; fit and diagnose also list the effect catalogue (names for --add)."""
+        text = super().format_help()
+        if self.prog.split()[-1] in ("fit", "diagnose"):
+            from .model.effects import CATALOGUE
+
+            width = max(len(name) for name in CATALOGUE)
+            lines = [f"  {name:<{width}}  {effect.summary} [{', '.join(p.name for p in effect.params)}]"
+                     for name, effect in CATALOGUE.items()]
+            text += "\neffects (names for --add; parameters in brackets, free them with --free):\n" + \
+                "\n".join(lines) + "\n"
+        return text
+
     def error(self, message):
         # the top-level parser's prog is "pendc", which main() already prints once
         prefix = self.prog.removeprefix("pendc").strip()
@@ -267,7 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="reports on the compiled model: qformat, resources, or synth "
                        "(Yosys + nextpnr on a build folder)")
-    p.add_argument("what", choices=("qformat", "resources", "synth"))
+    p.add_argument("what", choices=("qformat", "resources", "synth"),
+                   help="qformat: per signal its range, chosen Q-format and error against float; resources: the "
+                        "resource estimate and DSP blocks per product; synth: Yosys + nextpnr on --build-dir")
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--json", action="store_true", help="machine-readable output; synth: target, top, ii, fmax_mhz, "
                    "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")
