@@ -34,10 +34,15 @@ def _target_of(path: Path) -> Path:
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file in the same folder and a rename.
+    """Write ``text`` (UTF-8, ``\\n`` line ends) to ``path`` via a temporary file and a rename.
 
     Raises :class:`PendcError` naming ``path`` if it is a folder or anything but a regular
     file, if its folder is missing or not writable, or if the write fails (disk full)."""
+    write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Binary :func:`write_atomic`: the same refusals, messages and modes (images, videos)."""
     shown = Path(path)
     path = _target_of(shown)
     folder = path.parent if str(path.parent) else Path(".")
@@ -53,8 +58,8 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
         raise PendcError(f"{shown}: cannot write in folder {folder}: {_reason(exc)}") from None
     try:
         os.chmod(tmp, mode)   # mkstemp makes it private; the result is an ordinary file
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
         os.replace(tmp, path)
     except BaseException as exc:
         if os.path.exists(tmp):

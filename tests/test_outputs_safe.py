@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from pendc.atomic import write_atomic
+from pendc.atomic import write_atomic, write_bytes_atomic
 from pendc.backend.emit import write_tree
 from pendc.backend.hdl import differences
 from pendc.cli import main
@@ -165,3 +165,19 @@ def test_write_atomic_through_a_symlink_keeps_the_link(tmp_path):
     (tmp_path / "link.csv").symlink_to("real.csv")
     write_atomic(tmp_path / "link.csv", "new\n")
     assert (tmp_path / "link.csv").is_symlink() and (tmp_path / "real.csv").read_text() == "new\n"
+
+
+def test_write_bytes_atomic_has_the_same_guarantees(tmp_path, umask022):
+    (tmp_path / "a.png").mkdir()
+    before = snapshot(tmp_path)
+    with pytest.raises(PendcError, match=r"a\.png: is a folder"):
+        write_bytes_atomic(tmp_path / "a.png", b"\x89PNG")
+    assert snapshot(tmp_path) == before
+    write_bytes_atomic(tmp_path / "b.png", b"\x89PNG\r\n")
+    assert (tmp_path / "b.png").read_bytes() == b"\x89PNG\r\n"
+    assert stat.S_IMODE((tmp_path / "b.png").stat().st_mode) == 0o644
+
+
+def test_write_atomic_keeps_line_ends_and_unicode(tmp_path):
+    write_atomic(tmp_path / "t.txt", "θ = 1\nx\n")
+    assert (tmp_path / "t.txt").read_bytes() == "θ = 1\nx\n".encode("utf-8")
