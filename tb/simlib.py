@@ -126,7 +126,7 @@ class CoreBench:
 
         ``rows[j]`` is golden row k0+j (len(u)+1 rows). The core's sticky overflow must
         be low before row ``ovf_from`` and high from it (None: never, unless ``ovf_before``).
-        ``on_step(j)`` (async) is awaited in the middle of step j if given."""
+        ``on_step(j, c)`` (async) is awaited in every clock cycle c of step j if given."""
         d = self.dut
         n = len(u)
         expect = [tuple(int(x) for x in r) for r in rows]
@@ -150,9 +150,14 @@ class CoreBench:
                 break
             self.set_u(u[j])
             if on_step is not None and ii > 1:
-                await Timer((ii - 1) * self.period, unit="ns")
-                await on_step(j)
-                await Timer(self.period, unit="ns")
+                # on_step(j, c) in every cycle c of the step, 1 ns after the boundary's edge: a
+                # scheduled core computes each node (and its overflow term) in one cycle only
+                await Timer(1, unit="ns")
+                for c in range(ii):
+                    await on_step(j, c)
+                    if c < ii - 1:
+                        await Timer(self.period, unit="ns")
+                await Timer(self.period - 1, unit="ns")
             else:
                 await Timer(step_ns, unit="ns")
         d.step.value = 0

@@ -18,7 +18,7 @@ says which HDL folder the runner built). Register offsets come from report.json
 * ``soft_and_hard_reset``: SOFT_RESET mid-run clears state, counters and RUN and keeps
   U/STEP_DIV/N_STEPS; the reset pin mid-run restores every register;
 * ``step_counter``: 64-bit step counter carries into STEP_COUNT_HI, LO reads latch HI;
-* ``overflow_flags``: from a golden state just before the bang-bang overflow (deposited
+* ``overflow_flags``: from a golden state just before the full push overflow (deposited
   into the core), OVERFLOW.CORE/STICKY and STATUS.OVERFLOW rise, STICKY is write-1-to-
   clear, SOFT_RESET clears both.
 """

@@ -15,7 +15,7 @@ lines is bit-exact; a failure names the first differing step and port(s).
   floor(x / 2.5 um) and floor(theta / 0.314 mrad) of the core's state (the encoder
   phases integrate the state increments on their own, finer grid, so the decoded
   position may differ from the state by a little more than one count's width);
-* ``overflow_bang_bang``: full-scale bang-bang at 0.9 Hz spins the pendulum; the sticky
+* ``overflow_full_push``: full-scale input held drives the cart off its range; the sticky
   flag rises exactly one step after the golden model's first overflow, and the core's
   per-node overflow terms name the same node(s); reset clears it;
 * ``reset_mid_run``: reset in the middle of a step returns to the reset state, and a
@@ -169,7 +169,7 @@ async def encoders_decode(dut):
 
 
 @cocotb.test()
-async def overflow_bang_bang(dut):
+async def overflow_full_push(dut):
     """Beyond the training range the sticky flag rises when the golden model overflows."""
     o = vectors()["overflow"]
     assert "error" not in o, o.get("error")
@@ -177,16 +177,16 @@ async def overflow_bang_bang(dut):
     await tb.start()
     k_star, k0 = o["k_star"], o["k0"]
     core = dut.core
-    wires = [(getattr(core, w), node) for w, node in vectors()["ovf_wires"]]
+    wires = [(getattr(core, w), node, stage) for w, node, stage in vectors()["ovf_stages"]]
     if profile() == "full":
         # from reset with Timer awaits: no overflow at any 1000th step up to k0
         def check(i):
             got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
             if got != want:
                 diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
-                raise StepMismatch(f"bang-bang: first mismatch at step {i * CHUNK}: " + "; ".join(diff))
+                raise StepMismatch(f"full push: first mismatch at step {i * CHUNK}: " + "; ".join(diff))
             if int(dut.overflow.value):
-                raise StepMismatch(f"bang-bang: overflow high at step {i * CHUNK}, golden model: first overflow at "
+                raise StepMismatch(f"full push: overflow high at step {i * CHUNK}, golden model: first overflow at "
                                    f"step {k_star}{tb.overflow_terms()}")
         await tb.run_chunks(o["u"][:k0 // CHUNK], CHUNK, check)
         how = "from reset"
@@ -195,14 +195,15 @@ async def overflow_bang_bang(dut):
         how = f"from the golden state at step {k0}"
     flagged = {}
 
-    async def probe(j):
-        if j in (k_star - k0 - 1, k_star - k0):   # last cycle of the step: every term is settled
-            flagged[j] = sorted({node for h, node in wires if int(h.value)})
-    await tb.run_every_step(o["u_win"], o["rows"], k0, "bang-bang", ovf_from=k_star - k0 + 1, on_step=probe)
+    async def probe(j, cycle):
+        if j in (k_star - k0 - 1, k_star - k0):   # each term in the cycle that computes its node
+            high = {node for h, node, stage in wires if stage == cycle and int(h.value)}
+            flagged[j] = sorted(set(flagged.get(j, ())) | high)
+    await tb.run_every_step(o["u_win"], o["rows"], k0, "full push", ovf_from=k_star - k0 + 1, on_step=probe)
     assert flagged.get(k_star - k0 - 1) == [], f"overflow terms high one step early: {flagged.get(k_star - k0 - 1)}"
     assert flagged.get(k_star - k0) == o["nodes"], \
         f"at step {k_star} the core flags {flagged.get(k_star - k0)}, the golden model {o['nodes']}"
-    dut._log.info("bang-bang (%s): overflow at step %d (t = %.6f s) in node(s) %s, RTL flag from step %d, "
+    dut._log.info("full push (%s): overflow at step %d (t = %.6f s) in node(s) %s, RTL flag from step %d, "
                   "as the golden model", how, k_star, k_star * vectors()["dt"], o["nodes"], k_star + 1)
     await tb.reset()
     assert int(dut.overflow.value) == 0, "reset does not clear the sticky overflow flag"

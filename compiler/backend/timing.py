@@ -86,12 +86,17 @@ class Datapath:
             p = self.net.wire(f"u_{unit.name}_p", wa + wb, f"$signed(u_{unit.name}_a) * $signed(u_{unit.name}_b)")
             self.net.wire(f"u_{unit.name}_p_unused", wa + wb, p, signed=False)
 
+    def overflow_stages(self) -> list:
+        """``(wire, node, stage)`` of every overflow term: the cycle of the step in which the
+        term is valid and counts (FSMs update in the last cycle)."""
+        last = self.schedule.ii - 1
+        return [(wire, node, last if self.kinds.get(node) is Kind.FSM else self.schedule.stage.get(node, 0))
+                for wire, node in self.net.overflow]
+
     def overflow_hit(self, multicycle: bool) -> str:
         """Expression: some node overflowed in the cycle it is computed in, during a step."""
         by_stage: dict = {}
-        last = self.schedule.ii - 1
-        for wire, node in self.net.overflow:
-            stage = last if self.kinds.get(node) is Kind.FSM else self.schedule.stage.get(node, 0)
+        for wire, _, stage in self.overflow_stages():
             by_stage.setdefault(stage, []).append(wire)
         if not by_stage:
             return "1'b0"

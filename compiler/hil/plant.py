@@ -224,5 +224,8 @@ def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **o
     if kind == "golden":
         from .golden_plant import GoldenPlant
         return GoldenPlant(model, dt=dt, **options)
+    if kind == "verilator":   # plain C++ harness: 2-3x faster than the --timing Verilog one, same integers
+        from .rtl_cpp import VerilatorCppPlant
+        return VerilatorCppPlant(model, dt=dt, **options)
     from .rtl_plant import RtlPlant
     return RtlPlant(model, simulator=kind, dt=dt, **options)
