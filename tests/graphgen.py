@@ -331,7 +331,6 @@ KNOWN_ISSUES = frozenset({
     "unsigned-operand",      # ADD/SUB/GAIN/MUL/NEG/CAST/MUX data/LUT read an unsigned value as signed
     "scalar-slice",          # SLICE of a 1-bit value selects a bit of a scalar wire
     "lut-narrow-input",      # a clamped table with more segments than its input reaches clamps wrongly
-    "shared-unit-table",     # a table addressed by a shared multiplier's product reads a later phase's value
     "fsm-threshold-range",   # an FSM threshold or lo/hi bound beyond its input's range wraps in its Verilog literal
 })
 

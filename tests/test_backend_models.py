@@ -74,6 +74,10 @@ def test_effect_reaches_the_verilog_bit_exactly(effect, tmp_path):
     gold = np.stack([np.asarray(trace.outputs[p], np.int64) for p in ("x", "dx", "theta", "dtheta")], 1)
     mismatch = np.flatnonzero((rtl != gold).any(axis=1))
     assert mismatch.size == 0, f"first mismatch at step {mismatch[0]}: rtl {rtl[mismatch[0]]} golden {gold[mismatch[0]]}"
-    assert np.ptp(gold[:, 0]) > 0 and np.ptp(gold[:, 2]) > 0       # something moved
+    # something moved: the cart, and the pendulum's rate (12 ms from rest through a motor lag can
+    # leave theta's increment below one LSB of its integrator input, so theta itself may still be 0)
+    assert np.ptp(gold[:, 0]) > 0 and np.ptp(gold[:, 3]) > 0
     if effect == "cart_spring":
-        assert any(n.kind.value == "mul" or n.kind.value == "gain" for n in g.nodes if "x" in n.inputs)
+        # the spring multiplies x itself, or x narrowed to the multiplier's width first
+        xs = {"x"} | {n.name for n in g.nodes if n.kind.value == "cast" and tuple(n.inputs) == ("x",)}
+        assert any(n.kind.value in ("mul", "gain") for n in g.nodes if xs & set(n.inputs))

@@ -151,10 +151,6 @@ def test_pipelined_schedule_of_a_register_loop(tmp_path):
     assert mismatches(c, tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="shared-unit-table: with a DSP budget the product r0*r0 feeding a table "
-                   "address comes from a shared unit; viewmodel._emit_lut loads the table-side registers (n_t_f_r, "
-                   "the ROM word register) on every clock, so by the interpolation cycle they hold values computed "
-                   "from the unit's next phase (long run seed 14, batch 11: theta 0 instead of 524288)")
 def test_table_addressed_by_a_shared_multiplier(tmp_path):
     from pendc.ir import lut as lut_sem
     fin, fout = QFormat(True, 2, -5), QFormat(True, 25, 25)

@@ -44,7 +44,7 @@ def _decl(name, width, signed):
 def core_context(view: CoreView, header: str, dt: float) -> dict:
     regs = [_decl(n, w, True) for n, w, _, _ in view.registers]
     regs += [_decl(f["state"], f["width"], False) for f in view.fsms]
-    regs += [_decl(n, w, False) for n, w, _ in view.lut_regs]
+    regs += [_decl(n, w, False) for n, w, _, _ in view.lut_regs]
     regs += [_decl(n, w, s) for n, w, s, _, _ in view.dp.pipe_regs]
     pw = view.phase_width
     stages = {}
@@ -57,8 +57,8 @@ def core_context(view: CoreView, header: str, dt: float) -> dict:
         "phase_last": f"{pw}'d{view.ii - 1}",
         "wires": [_decl(*d) for d in view.net.decls], "regs": regs,
         "assigns": [{"lhs": lhs, "rhs": rhs} for lhs, rhs in view.net.assigns],
-        "roms": [{"name": r.name, "inst": r.inst, "addr": r.addr, "q": r.q} for r in view.roms],
-        "lut_regs": [{"name": n, "source": s} for n, _, s in view.lut_regs],
+        "roms": [{"name": r.name, "inst": r.inst, "addr": r.addr, "q": r.q, "en": r.en} for r in view.roms],
+        "lut_regs": [{"name": n, "source": s, "en": e} for n, _, s, e in view.lut_regs],
         "state_regs": [{"name": n, "reset": reset, "next": nxt} for n, _, reset, nxt in view.registers],
         "fsms": [{"state": f["state"], "reset": f["reset"], "rules": [{"cond": c, "next": s} for c, s in f["rules"]]}
                  for f in view.fsms],

@@ -93,6 +93,12 @@ class Datapath:
         return [(wire, node, last if self.kinds.get(node) is Kind.FSM else self.schedule.stage.get(node, 0))
                 for wire, node in self.net.overflow]
 
+    def cycle_gate(self, stage: int) -> str:
+        """Expression true in cycle ``stage`` of a step being computed."""
+        if self.schedule.ii == 1:
+            return "step"
+        return "(ready & step)" if stage == 0 else f"(phase == {ulit(stage, self.phase_width)})"
+
     def overflow_hit(self, multicycle: bool) -> str:
         """Expression: some node overflowed in the cycle it is computed in, during a step."""
         by_stage: dict = {}
@@ -101,12 +107,8 @@ class Datapath:
         if not by_stage:
             return "1'b0"
         terms = []
-        pw = self.phase_width
         for stage in sorted(by_stage):
             ors = " | ".join(by_stage[stage])
-            if not multicycle:
-                gate = "step"
-            else:
-                gate = "(ready & step)" if stage == 0 else f"(phase == {ulit(stage, pw)})"
+            gate = self.cycle_gate(stage) if multicycle else "step"
             terms.append(f"({gate} & ({ors}))")
         return " | ".join(terms)

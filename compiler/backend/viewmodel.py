@@ -35,6 +35,7 @@ class Rom:
     words: list        # hex strings, index = address
     addr: str          # address wire in the core
     q: str             # registered data wire in the core
+    en: str            # read enable: the cycle the address is valid in (the word then holds until the next step)
 
 
 @dataclass
@@ -47,7 +48,7 @@ class CoreView:
     registers: list = field(default_factory=list)   # (name, width, signed, reset literal, next)
     fsms: list = field(default_factory=list)        # dict(name, state_width, reset, input, rules, ...)
     roms: list = field(default_factory=list)
-    lut_regs: list = field(default_factory=list)    # (name, width, source) registered beside a ROM
+    lut_regs: list = field(default_factory=list)    # (name, width, source, enable) registered beside a ROM
     outputs: list = field(default_factory=list)     # (port, wire)
     dp: Datapath | None = None                      # pipeline registers, shared units, overflow gating
 
@@ -248,16 +249,21 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat) -> None:
         words.append(f"{word:0{(word_w + 3) // 4}x}")
     q = f"{name}_q"
     net.decls.append((q, word_w, False))
+    # The table word and its side registers load only in the cycle the address is valid and then
+    # hold: a shared multiplier may interpolate cycles later, when the address wires hold another
+    # phase's values.
+    read_cycle = view.dp.schedule.lut_addr[n.name]
+    en, en_q = view.dp.cycle_gate(read_cycle), view.dp.cycle_gate(read_cycle + 1)
     view.roms.append(Rom(name=f"{view.module}_rom_{n.name}", inst=f"u_rom_{n.name}", addr_width=aw,
-                         data_width=word_w, words=words, addr=addr, q=q))
+                         data_width=word_w, words=words, addr=addr, q=q, en=en))
     fr = f"{name}_f_r"
-    view.lut_regs.append((fr, max(shift, 1), frac))
+    view.lut_regs.append((fr, max(shift, 1), frac, en))
     if outside != "1'b0":
         orr = f"{name}_outside_r"
-        view.lut_regs.append((orr, 1, outside))
+        view.lut_regs.append((orr, 1, outside, en))
         net.overflow.append((orr, n.name))
     if n.name in view.dp.schedule.rom_reg:       # ROM word through a fabric register: cuts clock-to-out
-        view.lut_regs.append((f"{q}_r", word_w, q))
+        view.lut_regs.append((f"{q}_r", word_w, q, en_q))
         q = f"{q}_r"
     y0 = net.wire(f"{name}_y0", wo, f"{q}[{word_w - 1}:{dwid}]" if interp else q)
     if not interp or shift == 0:
