@@ -63,8 +63,11 @@ def test_untyped_graph_is_folded_and_deduplicated(build):
 
 def test_ranges_cover_the_training_stimuli(build):
     r = build.ranges
-    assert r.sources == tuple(training_stimuli(OPTIONS.training_scale))
-    assert set(r.sources) == {"chirp_low", "chirp_high", "steps", "swing_up", "random"}
+    names = tuple(training_stimuli(OPTIONS.training_scale))
+    assert set(names) == {"chirp_low", "chirp_high", "steps", "swing_up", "random"}
+    assert r.sources[:len(names)] == names
+    # then the full-scale envelope a plant must survive (switching, track ends, spinning)
+    assert r.sources[len(names):] and all(s.startswith("envelope:") for s in r.sources[len(names):])
     for s in ("x", "dx", "theta", "dtheta"):
         assert r[s] > 0
         assert build.graph[s].qformat.max_value >= r[s]
