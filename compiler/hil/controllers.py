@@ -92,7 +92,24 @@ class PendulumConstants:
                    lin=linearise_upright(model))
 
 
-class EnergySwingUp:
+class _VelocityObserver:
+    """Cart and pendulum rates from the encoder positions, as a real controller must get them."""
+
+    def __init__(self, period: float):
+        self.vx = FilteredDifference(period)
+        self.vth = FilteredDifference(period)
+
+    def reset(self) -> None:
+        """Back to the initial state (velocity filters empty)."""
+        self.vx.reset()
+        self.vth.reset()
+
+    def observe(self, meas: Measurement) -> tuple[float, float]:
+        """Update the velocity filters; return (dx, dtheta)."""
+        return self.vx.update(meas.x), self.vth.update(meas.theta)
+
+
+class EnergySwingUp(_VelocityObserver):
     """Energy pumping (Åström–Furuta): a cart acceleration k (E_up - E) sign(dtheta cos theta),
     saturated, plus a spring and damper that keep the cart near the track centre. The
     acceleration is turned into volts by inverting the model's linear cart response
@@ -106,17 +123,7 @@ class EnergySwingUp:
         self.period = period
         self.gain, self.accel_max = gain, accel_max
         self.centre_k, self.centre_d = centre_k, centre_d
-        self.vx = FilteredDifference(period)
-        self.vth = FilteredDifference(period)
-
-    def reset(self) -> None:
-        """Back to the initial state (velocity filters empty)."""
-        self.vx.reset()
-        self.vth.reset()
-
-    def observe(self, meas: Measurement) -> tuple[float, float]:
-        """Update the velocity filters; return (dx, dtheta)."""
-        return self.vx.update(meas.x), self.vth.update(meas.theta)
+        super().__init__(period)
 
     def energy(self, theta: float, dtheta: float) -> float:
         """Pendulum energy, zero at the pivot height (upright at rest has E = m g L)."""
@@ -139,7 +146,7 @@ class EnergySwingUp:
         return self.command(meas, dx, dtheta)
 
 
-class LqrBalance:
+class LqrBalance(_VelocityObserver):
     """Discrete LQR about the upright on (x - x_ref, dx, phi, dphi), phi = theta - pi wrapped.
     The gain comes from the model's own linearisation (see :mod:`pendc.hil.linearize`).
     ``x_ref`` may be a float or a function of time (the 4 cm step scenario)."""
@@ -152,17 +159,7 @@ class LqrBalance:
         self.period = period
         self.lqr: DiscreteLqr = design_lqr(consts.lin, period, q_diag, r)
         self.x_ref = x_ref if callable(x_ref) else (lambda t, v=float(x_ref): v)
-        self.vx = FilteredDifference(period)
-        self.vth = FilteredDifference(period)
-
-    def reset(self) -> None:
-        """Back to the initial state (velocity filters empty)."""
-        self.vx.reset()
-        self.vth.reset()
-
-    def observe(self, meas: Measurement) -> tuple[float, float]:
-        """Update the velocity filters; return (dx, dtheta)."""
-        return self.vx.update(meas.x), self.vth.update(meas.theta)
+        super().__init__(period)
 
     def command(self, meas: Measurement, dx: float, dtheta: float) -> float:
         """Volts for the filtered state."""
