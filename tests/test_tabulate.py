@@ -186,8 +186,14 @@ def test_model_domains_come_from_ranges(build):
     g, r = build.graph, build.ranges
     luts = g.of_kind(Kind.LUT)
     assert luts
+
+    def ranged(name):      # a table may read its input narrowed to the multiplier width: look through the cast
+        while name not in r.lo and g[name].kind is Kind.CAST:
+            name = g[name].inputs[0]
+        return name
+
     for n in luts:
-        src = n.inputs[0]
+        src = ranged(n.inputs[0])
         if n.param("periodic"):
             assert src == "theta_turns" and (n.param("lo"), n.param("hi")) == (0.0, 1.0)
             continue
@@ -197,7 +203,7 @@ def test_model_domains_come_from_ranges(build):
         # once filled, hi is the last grid point: at least the wanted reach, at most twice the span
         assert reach * (1 - 1e-9) <= n.param("hi") <= lo + 2 * (reach - lo) + g[src].qformat.lsb
     stribeck = g["F_fric_then_sgn_dx_lut"]
-    assert stribeck.inputs == ("abs_dx",) and stribeck.param("lo") == 0.0
+    assert ranged(stribeck.inputs[0]) == "abs_dx" and stribeck.param("lo") == 0.0
 
 
 def test_model_tables(build):
