@@ -19,19 +19,13 @@ built once and cached under its hash, next to the Verilog harnesses.
 
 from __future__ import annotations
 
-import hashlib
 import json
-import os
-import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
-from ..codegen import cache_dir
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .golden_plant import STATE_PORTS, build_for
-from .rtl_plant import VERILATOR_MAKE_VARS, RtlPlant, _tool
+from .rtl_plant import VERILATOR_MAKE_VARS, RtlPlant, _tool, build_cached
 
 CORE = "pendulum_core"
 EXECUTABLE = "pendc_hil_cpp"
@@ -167,38 +161,10 @@ def _build_command(work: Path, sources: list) -> list:
 
 def build_cpp_harness(files: dict, ports: dict, ii: int) -> Path:
     """The Verilator C++ plant executable for these HDL files, built once per design hash and cached."""
-    main = main_source(ports, ii)
-    digest = hashlib.sha256()
-    for name in sorted(files):
-        if name.endswith(".v"):
-            digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
-    digest.update(main.encode() + MAKE_VARS.encode())
-    final = cache_dir("rtl_plants") / f"verilator-cpp-{digest.hexdigest()[:20]}"
-    target = final / "obj_dir" / EXECUTABLE
-    if target.exists():
-        return target
-    work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
-    try:
-        sources = [work / "main.cpp"]
-        sources[0].write_text(main)
-        for name in sorted(files):
-            if name.endswith(".v"):
-                (work / name).write_text(files[name])
-                sources.append(work / name)
-        r = subprocess.run(_build_command(work, sources), capture_output=True, text=True, cwd=work)
-        if r.returncode != 0 or not (work / "obj_dir" / EXECUTABLE).exists():
-            raise PendcError("building the C++ Verilator plant failed: "
-                             f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
-        for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
-            f.unlink()
-        try:
-            os.replace(work, final)
-        except OSError:                        # another process built it first
-            shutil.rmtree(work, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
-    return target
+    def commands_for(folder: Path, sources: list):
+        return [_build_command(folder, sources)], folder / "obj_dir" / EXECUTABLE
+    return build_cached("verilator-cpp", files, {"main.cpp": main_source(ports, ii)}, MAKE_VARS, commands_for,
+                        "C++ Verilator plant")
 
 
 class VerilatorCppPlant(RtlPlant):

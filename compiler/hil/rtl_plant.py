@@ -164,32 +164,38 @@ def _build_commands(simulator: str, work: Path, sources: list) -> tuple[list, Pa
     return [[_tool("iverilog"), "-g2005", "-s", TOP, "-o", str(exe)] + [str(s) for s in sources]], exe
 
 
-def build_harness(files: dict, ports: dict, ii: int, simulator: str) -> Path:
-    """The simulator executable (Verilator binary or Icarus .vvp) for these HDL files, built once
-    per design hash and cached."""
-    harness = harness_source(ports, ii)
+def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, what: str) -> Path:
+    """An executable built once per design hash and cached under ``rtl_plants/``.
+
+    The HDL ``files`` and the harness files ``extra`` ({name: text}, compiled first) are written
+    to a fresh folder, ``commands_for(folder, sources) -> (commands, target)`` runs there, and the
+    folder is renamed into place; ``salt`` (simulator, build flags) is part of the hash."""
     digest = hashlib.sha256()
     for name in sorted(files):
         if name.endswith(".v"):
             digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
-    digest.update(harness.encode() + simulator.encode())
-    final = cache_dir("rtl_plants") / f"{simulator}-{digest.hexdigest()[:20]}"
-    _, target = _build_commands(simulator, final, [])
+    for name in sorted(extra):
+        digest.update(name.encode() + b"\0" + extra[name].encode() + b"\0")
+    digest.update(salt.encode())
+    final = cache_dir("rtl_plants") / f"{kind}-{digest.hexdigest()[:20]}"
+    _, target = commands_for(final, [])
     if target.exists():
         return target
     work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
     try:
         sources = []
+        for name, text in extra.items():
+            (work / name).write_text(text)
+            sources.append(work / name)
         for name in sorted(files):
             if name.endswith(".v"):
                 (work / name).write_text(files[name])
                 sources.append(work / name)
-        (work / f"{TOP}.v").write_text(harness)
-        commands, built = _build_commands(simulator, work, [work / f"{TOP}.v"] + sources)
+        commands, built = commands_for(work, sources)
         for cmd in commands:
             r = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
             if r.returncode != 0 or not built.exists() and cmd is commands[-1]:
-                raise PendcError(f"building the {simulator} harness failed: "
+                raise PendcError(f"building the {what} failed: "
                                  f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
         for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
             f.unlink()
@@ -201,6 +207,14 @@ def build_harness(files: dict, ports: dict, ii: int, simulator: str) -> Path:
         shutil.rmtree(work, ignore_errors=True)
         raise
     return target
+
+
+def build_harness(files: dict, ports: dict, ii: int, simulator: str) -> Path:
+    """The simulator executable (Verilator binary or Icarus .vvp) for these HDL files, built once
+    per design hash and cached."""
+    return build_cached(simulator, files, {f"{TOP}.v": harness_source(ports, ii)}, simulator,
+                        lambda folder, sources: _build_commands(simulator, folder, sources),
+                        f"{simulator} harness")
 
 
 class RtlPlant:
