@@ -168,6 +168,12 @@ async def encoders_decode(dut):
     assert stats["span_x"] > 10, "the cart hardly moved: not an encoder test"
 
 
+# Beyond this many steps the overflow scenario starts from the golden state near the overflow
+# even in the full profile (the long runs already check seconds from reset): the full push
+# overflows after 3.7 M steps, minutes of simulation at ii = 14.
+FULL_FROM_RESET_STEPS = 1_000_000
+
+
 @cocotb.test()
 async def overflow_full_push(dut):
     """Beyond the training range the sticky flag rises when the golden model overflows."""
@@ -178,7 +184,7 @@ async def overflow_full_push(dut):
     k_star, k0 = o["k_star"], o["k0"]
     core = dut.core
     wires = [(getattr(core, w), node, stage) for w, node, stage in vectors()["ovf_stages"]]
-    if profile() == "full":
+    if profile() == "full" and k0 <= FULL_FROM_RESET_STEPS:
         # from reset with Timer awaits: no overflow at any 1000th step up to k0
         def check(i):
             got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
