@@ -215,7 +215,8 @@ def _add_ident_options(p) -> None:
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--outputs", help="outputs to compare: x, theta or x,theta (default: every output the data "
                                      "move; held or missing ones are left out with a note)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true",
+                   help="print the result as JSON instead of text (non-finite numbers as null)")
 
 
 def add_parsers(sub) -> None:
