@@ -54,6 +54,8 @@ class Datapath:
         """Declare the shared units and the pipeline registers (widths from the wires they copy)."""
         self.emit_units()
         decls = {name: (width, signed) for name, width, signed in self.net.decls}
+        for wire, stage in self._piped_overflow(decls):
+            self._piped.setdefault(wire, (f"{wire}_p", stage))
         self.pipe_regs = [(reg, *decls[wire], wire, stage) for wire, (reg, stage) in self._piped.items()]
 
     def product(self, base: str, node: str, a: tuple, b: tuple) -> str:
@@ -99,10 +101,23 @@ class Datapath:
             return "step"
         return "(ready & step)" if stage == 0 else f"(phase == {ulit(stage, self.phase_width)})"
 
+    def _piped_overflow(self, decls: dict) -> list:
+        """``(wire, stage)`` of the overflow terms counted one cycle late from a pipeline register:
+        those of every cycle but the last of a pipelined step (the OR of all terms into the sticky
+        flag would otherwise end every cycle's longest path; the last cycle's terms stay direct,
+        so the flag still rises with ``ready``). Terms that already are registers stay as they are."""
+        if not self.registered or self.schedule.ii < 2:
+            return []
+        last = self.schedule.ii - 1
+        return [(wire, stage) for wire, _, stage in self.overflow_stages() if stage < last and wire in decls]
+
     def overflow_hit(self, multicycle: bool) -> str:
-        """Expression: some node overflowed in the cycle it is computed in, during a step."""
+        """Expression: some node overflowed during a step (counted in the cycle it is computed in,
+        or in the next from its pipeline register: see ``_piped_overflow``)."""
         by_stage: dict = {}
         for wire, _, stage in self.overflow_stages():
+            if multicycle and wire in self._piped and self.registered and stage < self.schedule.ii - 1:
+                wire, stage = self._piped[wire][0], stage + 1
             by_stage.setdefault(stage, []).append(wire)
         if not by_stage:
             return "1'b0"
