@@ -11,6 +11,7 @@ import json
 import re
 import sys
 
+from .cli_data import MODEL_HELP, positive as _positive
 from .errors import PendcError
 
 
@@ -36,20 +37,21 @@ class _Parser(argparse.ArgumentParser):
                 "\n".join(lines) + "\n"
         return text
 
+    def parse_known_args(self, args=None, namespace=None):
+        """argparse's, but a sub-command refuses what it does not take itself, naming itself and
+        what it does take (the top level would only say "unrecognized arguments")."""
+        parsed, extras = super().parse_known_args(args, namespace)
+        if extras and self.prog != "pendc":
+            takes = [a.option_strings[-1] for a in self._actions
+                     if a.option_strings and not isinstance(a, argparse._HelpAction)]
+            self.error(f"unrecognized arguments: {' '.join(extras)}"
+                       + (f" ({self.prog.removeprefix('pendc ')} takes {', '.join(takes)})" if takes else ""))
+        return parsed, extras
+
     def error(self, message):
         # the top-level parser's prog is "pendc", which main() already prints once
         prefix = self.prog.removeprefix("pendc").strip()
         raise PendcError(f"{prefix}: {message}" if prefix else message)
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not value > 0 or value != value or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
-    return value
 
 
 def _state(text: str) -> tuple:
@@ -159,7 +161,7 @@ def _build(model, args):
 
 def cmd_build(args) -> int:
     from .backend.hdl import build_hdl, differences, write_hdl
-    from .model.modelfile import load_model
+    from .model.modelfile import build_source, load_model, model_fingerprint
 
     if args.preset is not None and args.ii is not None:
         raise PendcError("--preset and --ii both choose the schedule: give one of them")
@@ -168,12 +170,8 @@ def cmd_build(args) -> int:
             raise PendcError(f"{flag} must be a positive integer, got {value}")
     model = load_model(args.model)
     build = _build(model, args)
-    source = model.source
-    try:  # name the model by its path relative to the project, so hdl_out/ is the same on every machine
-        from pathlib import Path
-        source = str(Path(model.source).resolve().relative_to(Path(__file__).resolve().parents[1]))
-    except ValueError:
-        pass
+    # named by content and compiler version, never by path: the same model builds the same files anywhere
+    source = build_source(model)
     request = {"target": build.options.target, "preset": args.preset, "ii": args.ii, "dsp": args.dsp}
     files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus,
                       request={k: v for k, v in request.items() if v is not None})
@@ -189,7 +187,8 @@ def cmd_build(args) -> int:
     else:
         report = json.loads(files["report.json"])
         sched = report["schedule"]
-        print(f"pendc: wrote {len(files)} files to {args.output}/ (top {report['wrapper']} around "
+        print(f"pendc: wrote {len(files)} files to {args.output}/ (model {model.source}, {model_fingerprint(model)}; "
+              f"top {report['wrapper']} around "
               f"{report['top']}, {report['ii']} clock cycles per model step, "
               f"{report['resources'].get('dsp_scheduled', report['resources'].get('dsp'))} DSP blocks "
               f"{report['resources'].get('dsp_shape', '')}"
@@ -203,7 +202,7 @@ def cmd_report(args) -> int:
 
     if args.what == "synth":
         from .synth import format_synth_report, synthesize
-        result = synthesize(args.build_dir, args.target or "ecp5-85k", freq_mhz=args.freq, use_cache=not args.no_cache,
+        result = synthesize(args.build_dir, args.target, freq_mhz=args.freq, use_cache=not args.no_cache,
                             log=lambda text: print(f"pendc: {text}", file=sys.stderr))
         if args.json:
             _emit_json(result.to_json())
@@ -239,10 +238,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_derive)
 
     p = sub.add_parser("simulate", help="float simulation of a model on an input file")
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--input", required=True, help="CSV with columns t,u")
+    p.add_argument("--model", help=MODEL_HELP)
+    p.add_argument("--input", required=True, help="CSV with columns t,u ('-': standard input)")
     p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default stdout")
-    p.add_argument("--dt", type=_positive_float, default=1e-6, help="integration step in s (default 1e-6)")
+    p.add_argument("--dt", type=_positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
     p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0); "
                                              "with --fixed the state registers start there")
@@ -256,7 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("build", help="compile the model to Verilog (hdl_out/)")
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("-o", "--output", default="hdl_out", help="output folder (default hdl_out)")
     p.add_argument("--bus", choices=("raptor", "axi-lite"), default="raptor", help="bus wrapper (default raptor)")
     p.add_argument("--json", action="store_true", help="print report.json")
@@ -278,30 +277,42 @@ def build_parser() -> argparse.ArgumentParser:
     add_hil_parsers(sub)
     add_identification_parsers(sub)
 
-    p = sub.add_parser("report", help="reports on the compiled model: qformat, resources, or synth "
-                       "(Yosys + nextpnr on a build folder)")
-    p.add_argument("what", choices=("qformat", "resources", "synth"),
-                   help="qformat: per signal its range, chosen Q-format and error against float; resources: the "
-                        "resource estimate and DSP blocks per product; synth: Yosys + nextpnr on --build-dir")
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--json", action="store_true", help="machine-readable output; synth: target, top, ii, fmax_mhz, "
-                   "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")
-    p.add_argument("--build-dir", default="hdl_out", help="synth: the `pendc build` output folder (default hdl_out)")
-    p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"),
-                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only); "
-                        "resources/qformat: whose multiplier shape the formats fit")
-    p.add_argument("--freq", type=_positive_float, default=100.0,
-                   help="synth: clock goal for nextpnr in MHz (default 100)")
-    p.add_argument("--drift", action="store_true", help="qformat: also measure fixed-vs-float drift on the "
-                   "full 20 s chirp and 5 s swing-up")
-    p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
-    p.set_defaults(func=cmd_report)
+    _add_report_parsers(sub)
 
     p = sub.add_parser("stimulus", help="write one of the standard input signals as a t,u CSV")
     p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")
     p.add_argument("-o", "--output", help="output CSV; default stdout")
     p.set_defaults(func=cmd_stimulus)
     return parser
+
+
+def _add_report_parsers(sub) -> None:
+    """``report qformat|resources|synth``: a sub-parser per kind, so each takes (and its --help
+    lists) only the options that mean something for it."""
+    p = sub.add_parser("report", help="reports on the compiled model: qformat, resources, or synth "
+                       "(Yosys + nextpnr on a build folder)",
+                       description="Reports on the compiled model. Each kind takes its own options: "
+                                   "pendc report KIND --help.")
+    kinds = p.add_subparsers(dest="what", metavar="KIND", required=True, parser_class=_Parser)
+    q = kinds.add_parser("qformat", help="per signal its range, chosen Q-format and error against float")
+    r = kinds.add_parser("resources", help="the resource estimate and DSP blocks per product")
+    s = kinds.add_parser("synth", help="Yosys + nextpnr on a `pendc build` output folder (--build-dir)")
+    for k in (q, r):
+        k.add_argument("--model", help=MODEL_HELP)
+        k.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"),
+                       help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
+        k.add_argument("--json", action="store_true", help="machine-readable output")
+        k.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    q.add_argument("--drift", action="store_true", help="also measure fixed-vs-float drift on the full 20 s chirp "
+                   "and 5 s swing-up")
+    s.add_argument("--build-dir", default="hdl_out", help="the `pendc build` output folder (default hdl_out)")
+    s.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"), default="ecp5-85k",
+                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only)")
+    s.add_argument("--freq", type=_positive, default=100.0, help="clock goal for nextpnr in MHz (default 100)")
+    s.add_argument("--json", action="store_true", help="machine-readable output: target, top, ii, fmax_mhz, "
+                   "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")
+    s.add_argument("--no-cache", action="store_true", help="run Yosys and nextpnr even if a cached result exists")
+    p.set_defaults(func=cmd_report)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -14,6 +14,7 @@ import math
 import sys
 
 PENDC_COLUMNS = ("t", "u", "x", "theta", "dx", "dtheta")
+MODEL_HELP = "model file (default: models/sct_thesis_final.toml; '-': standard input)"
 
 FORMATS_HELP = """\
 measurement files:
@@ -91,9 +92,8 @@ def _steps(text: str) -> dict:
     return out
 
 
-
-
-def _finite(text: str) -> float:
+def finite(text: str) -> float:
+    """An argparse type: a finite number."""
     try:
         value = float(text)
     except ValueError:
@@ -103,8 +103,9 @@ def _finite(text: str) -> float:
     return value
 
 
-def _positive(text: str) -> float:
-    value = _finite(text)
+def positive(text: str) -> float:
+    """An argparse type: a finite number above zero (a step, a rate, a time)."""
+    value = finite(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
     return value
@@ -166,12 +167,12 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--missing", default="", metavar="AXES",
                    help="axes the file may lack, filled with 0 (u with --u-value), e.g. --missing u "
                         "(cart_held allows x and u, pendulum_removed theta, without this option)")
-    g.add_argument("--u-value", type=_finite, default=0.0, metavar="V", help="value of an absent u (default 0 V)")
+    g.add_argument("--u-value", type=finite, default=0.0, metavar="V", help="value of an absent u (default 0 V)")
     g.add_argument("--resolution", type=_steps, default={}, metavar="STEPS",
                    help="measurement steps, e.g. theta=3.1416e-4,x=2.5e-6 (default: estimated from the data)")
-    g.add_argument("--sample-time", type=_positive, metavar="S",
+    g.add_argument("--sample-time", type=positive, metavar="S",
                    help="sample time of a file without a time vector (Simulink 'Array'/'Structure')")
-    g.add_argument("--rate", type=_positive, metavar="HZ",
+    g.add_argument("--rate", type=positive, metavar="HZ",
                    help="resample onto a uniform grid at this rate (default: keep a uniform file's rate "
                         "up to 1 kHz, average faster ones down to 1 kHz)")
     p.formatter_class = argparse.RawDescriptionHelpFormatter

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import sys
 
+from .cli_data import MODEL_HELP
 from .errors import PendcError
 
 
@@ -79,10 +80,9 @@ def cmd_hil(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .hil.animate import animate_run
-    from .hil.records import read_run
+    from .hil.animate import animate_run, read_run_input
 
-    record = read_run(args.run)
+    record = read_run_input(args.run)
     animate_run(record, args.output, fps=args.fps)
     print(f"wrote {args.output}")
     return 0
@@ -103,7 +103,7 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
     p.add_argument("--controller",
                    help="builtin (default: swing-up + LQR balance), swing-up, balance, or package.module:Class")
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")
     p.add_argument("--seconds", type=_seconds, default=12.0, help="simulated time (default 12)")
@@ -117,7 +117,7 @@ def add_parsers(sub) -> None:
     p.set_defaults(func=cmd_hil)
 
     p = sub.add_parser("animate", help="virtual pendulum from a run.csv: self-contained HTML, GIF or MP4")
-    p.add_argument("run", help="run.csv of pendc hil (or any CSV with t, x, theta)")
+    p.add_argument("run", help="run.csv of pendc hil (or any CSV with t, x, theta; '-': standard input)")
     p.add_argument("-o", "--output", required=True, help="pendulum.html, .gif or .mp4")
     p.add_argument("--fps", type=int, default=25, help="GIF/MP4 frames per second (default 25)")
     p.set_defaults(func=cmd_animate)

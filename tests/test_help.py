@@ -11,9 +11,6 @@ import pytest
 from pendc.cli import build_parser, main
 from pendc.model.effects import CATALOGUE
 
-# options in files this test's author does not own that still lack a help string (listed for their owners)
-KNOWN_MISSING = {("diagnose", "--json"): "cli_ident.py (H1)", ("fit", "--json"): "cli_ident.py (H1)"}
-
 
 def actions(parser, path=()):
     """(command path, option name, action) for every action of every (sub)parser."""
@@ -26,19 +23,15 @@ def actions(parser, path=()):
 
 
 def cases():
-    out = []
-    for path, name, action in actions(build_parser()):
-        key = (" ".join(path), name)
-        marks = [pytest.mark.xfail(strict=True, reason=f"no help= in {KNOWN_MISSING[key]}")] \
-            if key in KNOWN_MISSING else []
-        out.append(pytest.param(action, id=f"{key[0] or 'pendc'} {name}", marks=marks))
-    return out
+    return [pytest.param(action, id=f"{' '.join(path) or 'pendc'} {name}")
+            for path, name, action in actions(build_parser())]
 
 
 def test_the_walk_sees_every_subcommand():
-    commands = {path[0] for path, _, _ in actions(build_parser()) if path}
+    paths = {path for path, _, _ in actions(build_parser()) if path}
     assert {"derive", "simulate", "build", "report", "stimulus", "hil", "animate", "compare", "diagnose",
-            "fit"} <= commands
+            "fit"} <= {path[0] for path in paths}
+    assert {("report", "qformat"), ("report", "resources"), ("report", "synth")} <= paths
 
 
 @pytest.mark.parametrize("action", cases())
@@ -87,15 +80,58 @@ def test_dash_reads_the_input_from_standard_input(monkeypatch, capsys):
     assert out.splitlines()[-1].startswith("0.002,")
 
 
-@pytest.mark.xfail(strict=True, reason="load_model (model/modelfile.py, H1) reads no '-': '-: model file not found'")
 def test_dash_reads_the_model_from_standard_input(monkeypatch, capsys, tmp_path):
+    """The same model from standard input and from its file builds the same files."""
     from pendc.model.modelfile import default_model_path
 
+    assert main(["build", "-o", str(tmp_path / "from_file")]) == 0
     stdin_text(monkeypatch, default_model_path().read_text())
-    assert main(["build", "--model", "-", "-o", str(tmp_path / "out")]) == 0
+    assert main(["build", "--model", "-", "-o", str(tmp_path / "from_stdin")]) == 0
+    assert "(model <stdin>, sha256:" in capsys.readouterr().err
+    one, two = tmp_path / "from_file", tmp_path / "from_stdin"
+    assert sorted(p.name for p in one.iterdir()) == sorted(p.name for p in two.iterdir())
+    assert all((one / p.name).read_bytes() == (two / p.name).read_bytes() for p in one.iterdir())
 
 
-@pytest.mark.xfail(strict=True, reason="animate (hil/animate.py, H4) reads no '-': '-: cannot read'")
+def test_a_model_from_standard_input_is_named_stdin_in_errors(monkeypatch, capsys):
+    stdin_text(monkeypatch, "[plant]\ng = 9.81\n")
+    assert main(["report", "resources", "--model", "-"]) == 2
+    assert capsys.readouterr().err.startswith("pendc: error: <stdin>: [plant] lacks")
+
+
 def test_dash_reads_the_run_for_animate_from_standard_input(monkeypatch, capsys, tmp_path):
     stdin_text(monkeypatch, "t,x,theta\n0,0,0\n0.01,0,0.1\n0.02,0,0.2\n")
     assert main(["animate", "-", "-o", str(tmp_path / "a.html")]) == 0
+    page = (tmp_path / "a.html").read_text()
+    assert '"theta":[0.0,0.1,0.2]' in page
+
+
+def test_a_bad_run_from_standard_input_is_named_stdin(monkeypatch, capsys, tmp_path):
+    stdin_text(monkeypatch, "t,x\n0,0\n")
+    assert main(["animate", "-", "-o", str(tmp_path / "a.html")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pendc: error: <stdin>: line 1: no column 'theta'") and "stdin.csv" not in err, err
+    assert not (tmp_path / "a.html").exists()
+
+
+@pytest.mark.parametrize("argv, kind, takes", [
+    (["report", "resources", "--drift"], "report resources", "--model, --target, --json, --no-cache"),
+    (["report", "synth", "--model", "m.toml"], "report synth", "--build-dir"),
+    (["report", "qformat", "--build-dir", "hdl_out"], "report qformat", "--drift"),
+    (["report", "qformat", "--freq", "50"], "report qformat", "--drift"),
+])
+def test_an_option_of_another_report_kind_is_refused_by_name(argv, kind, takes, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"pendc: error: {kind}: unrecognized arguments: {argv[2]}") and takes in err, err
+
+
+def test_report_help_lists_only_the_options_of_its_kind(capsys):
+    helps = {}
+    for kind in ("qformat", "resources", "synth"):
+        with pytest.raises(SystemExit):
+            main(["report", kind, "--help"])
+        helps[kind] = capsys.readouterr().out
+    assert "--drift" in helps["qformat"] and "--drift" not in helps["resources"] + helps["synth"]
+    assert "--build-dir" in helps["synth"] and "--build-dir" not in helps["qformat"] + helps["resources"]
+    assert "--model" not in helps["synth"] and "--freq" not in helps["qformat"]

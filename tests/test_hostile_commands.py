@@ -121,8 +121,8 @@ ROWS = [
     ("report-bad-model", {"m.toml": "[plant]\n"}, ["report", "qformat", "--model", "m.toml"], r"m\.toml", None),
     ("report-synth-missing-build-dir", {}, ["report", "synth", "--build-dir", "nowhere"], r"nowhere", None),
     ("report-freq-negative", {}, ["report", "synth", "--freq", "-5"], r"--freq", None),
-    ("report-drift-with-resources", {}, ["report", "resources", "--drift"], r"--drift",
-     "report --drift is accepted for `resources` and ignored (cli.py cmd_report, H5)"),
+    ("report-drift-with-resources", {}, ["report", "resources", "--drift"],
+     r"report resources: unrecognized arguments: --drift \(report resources takes --model", None),
     # --- hil --controller
     ("hil-controller-no-module", {}, ["hil", "--controller", "no_such_module_xyz:Ctl", "--seconds", "0.01"],
      r"no_such_module_xyz", None),

@@ -96,3 +96,51 @@ def test_fitted_file_keeps_comments_and_intervals_and_reads_back(tmp_path):
 def test_bad_intervals_are_one_line_errors():
     with pytest.raises(PendcError, match=r"fit.intervals.k_c must be \[low, high\]"):
         parse_model(PLANT + "[fit.intervals]\nk_c = 3\n")
+
+
+def test_a_folder_is_named_as_a_folder(tmp_path):
+    with pytest.raises(PendcError, match=r"m\.toml: is a folder, not a model file$"):
+        (tmp_path / "m.toml").mkdir() or load_model(tmp_path / "m.toml")
+
+
+def test_not_utf8_is_one_line_naming_the_file(tmp_path):
+    (tmp_path / "m.toml").write_bytes(b"[plant]\n# Gewicht \xe4\ng = 9.81\n")
+    with pytest.raises(PendcError, match=r"m\.toml: line 2: not UTF-8 text"):
+        load_model(tmp_path / "m.toml")
+
+
+def stdin_bytes(monkeypatch, data: bytes):
+    import io
+    import sys
+
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data), encoding="utf-8"))
+
+
+def test_dash_is_standard_input_named_stdin(monkeypatch):
+    stdin_bytes(monkeypatch, default_model_path().read_bytes())
+    m = load_model("-")
+    assert m == load_model() and m.source == "<stdin>"
+    stdin_bytes(monkeypatch, PLANT.replace("M=100.0", "M=-1.0").encode())
+    with pytest.raises(PendcError, match=r"^<stdin>: .*must be positive"):
+        load_model("-")
+
+
+def test_fingerprint_is_the_model_not_its_file():
+    from pendc.model.modelfile import build_source, model_fingerprint
+
+    base = parse_model(PLANT + "[effects.drive]\nalpha=50.0\nV_off=5.0\n", source="a.toml")
+    same = [
+        parse_model("# another layout\n[effects.drive]\nV_off = 5.0\nalpha = 50.0\n[plant]\n"
+                    "I=0.006\nL=0.1\nm=0.5\nM=100.0\ng=9.8\n[meta]\nnote = 'x'\n[fit]\nfree = ['alpha']\n",
+                    source="elsewhere/b.toml"),
+    ]
+    other = [
+        parse_model(PLANT.replace("M=100.0", "M=100.5") + "[effects.drive]\nalpha=50.0\nV_off=5.0\n"),
+        parse_model(PLANT + "[effects.drive]\nalpha=50.0\nV_off=5.0\n[effects.viscous_cart]\nb_x=1.0\n"),
+        parse_model(PLANT + "[effects.drive]\nalpha=50.0\nV_off=5.0\n[hardware]\ntraining_scale = 0.5\n"),
+    ]
+    fp = model_fingerprint(base)
+    assert fp.startswith("sha256:") and len(fp) == 7 + 16
+    assert [model_fingerprint(m) for m in same] == [fp]
+    assert len({fp, *(model_fingerprint(m) for m in other)}) == 1 + len(other)
+    assert fp in build_source(base) and "a.toml" not in build_source(base)

@@ -13,6 +13,7 @@ import json
 import math
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -21,12 +22,29 @@ import numpy as np
 from ..atomic import write_atomic
 from ..errors import PendcError
 from .animate_html import PAGE
-from .records import RunRecord, write_bytes_atomic
+from .records import RunRecord, read_run, write_bytes_atomic
 
 HTML_RATE = 100.0    # frames per simulated second kept in the page
 TRACK = 0.75         # m
 ROD = 0.22           # m, pivot to bob centre as drawn
 FORMATS = (".html", ".gif", ".mp4")
+STDIN = "-"
+STDIN_SOURCE = "<stdin>"
+
+
+def read_run_input(path) -> RunRecord:
+    """:func:`~pendc.hil.records.read_run`, with ``-`` for standard input (``<stdin>`` in errors)."""
+    if str(path) != STDIN:
+        return read_run(path)
+    data = sys.stdin.buffer.read()
+    # read_run reads a path: give it one, and the user's name for it back in any error
+    with tempfile.TemporaryDirectory(prefix="pendc-animate.") as folder:
+        spool = Path(folder) / "stdin.csv"
+        spool.write_bytes(data)
+        try:
+            return read_run(spool)
+        except PendcError as exc:
+            raise PendcError(str(exc).replace(str(spool), STDIN_SOURCE)) from None
 
 
 def resample(record: RunRecord, rate: float) -> dict:

@@ -34,16 +34,59 @@ def default_model_path() -> Path:
     return Path(__file__).resolve().parents[2] / "models" / "sct_thesis_final.toml"
 
 
-def load_model(path: str | os.PathLike | None = None) -> PlantModel:
-    """Read and validate a model file; ``None`` means the shipped default model."""
-    path = Path(path) if path is not None else default_model_path()
+STDIN = "-"    # the path that means standard input, as for every file pendc reads
+STDIN_SOURCE = "<stdin>"   # what errors and provenance call a model read from standard input
+
+
+def read_model_text(path: str | os.PathLike | None = None) -> tuple[str, str]:
+    """The text of a model file and the name errors give it: ``None`` is the shipped default
+    model, ``-`` standard input (named ``<stdin>``)."""
+    if path is not None and str(path) == STDIN:
+        import sys
+
+        data, source = sys.stdin.buffer.read(), STDIN_SOURCE
+    else:
+        path = Path(path) if path is not None else default_model_path()
+        source = str(path)
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            raise PendcError(f"{path}: model file not found") from None
+        except IsADirectoryError:
+            raise PendcError(f"{path}: is a folder, not a model file") from None
+        except OSError as exc:
+            raise PendcError(f"{path}: cannot read model file ({exc.strerror or exc})") from None
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PendcError(f"{path}: model file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PendcError(f"{path}: cannot read model file ({exc})") from None
-    return parse_model(text, source=str(path))
+        return data.decode("utf-8"), source
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise PendcError(f"{source}: line {line}: not UTF-8 text ({exc.reason}); a model file is UTF-8") from None
+
+
+def load_model(path: str | os.PathLike | None = None) -> PlantModel:
+    """Read and validate a model file; ``None`` means the shipped default model, ``-`` standard input."""
+    text, source = read_model_text(path)
+    return parse_model(text, source=source)
+
+
+def model_fingerprint(model: PlantModel) -> str:
+    """``sha256:`` and 16 hex digits of what the compiler reads from ``model`` (its constants,
+    effects and ``[hardware]`` table, in a canonical form): equal for the same model wherever
+    its file is and whatever its comments, layout or ``[meta]`` and ``[fit]`` tables say."""
+    import json
+
+    canonical = json.dumps({"plant": model.plant, "effects": model.effects, "hardware": model.hardware},
+                           sort_keys=True, separators=(",", ":"), default=repr)
+    return "sha256:" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:16]
+
+
+def build_source(model: PlantModel) -> str:
+    """How a build names its model (file headers, report.json, and through them the build id):
+    the model's fingerprint and the compiler version, never a path, so the same model builds
+    byte-identical files wherever it lies and wherever it is built from."""
+    from .. import __version__
+
+    return f"model {model_fingerprint(model)}, pendc {__version__}"
 
 
 def parse_model(text: str, source: str = "<model>") -> PlantModel:
