@@ -26,17 +26,16 @@ sys.path.insert(0, str(ROOT / "tests"))
 from fuzzcases import case_source, draw_cases  # noqa: E402
 from fuzzharness import check_batch  # noqa: E402
 from fuzzshrink import shrink  # noqa: E402
-from graphgen import KNOWN_ISSUES  # noqa: E402
 
 from pendc.atomic import write_atomic  # noqa: E402
 
 
-def write_report(args, avoid, done, mismatches, timings, kinds, ii, golden, lint, t_start, complete) -> None:
+def write_report(args, done, mismatches, timings, kinds, ii, golden, lint, t_start, complete) -> None:
     """The JSON record, rewritten after every batch so an interrupted run still leaves its count."""
     report = {
         "graphs": done, "complete": complete, "seed": args.seed, "batch_seeds": "seed + batch index", "batch": args.batch,
         "simulator": args.sim, "steps_per_graph": 40, "golden_checked": golden,
-        "avoided_known_issues": sorted(avoid), "mismatches": len(mismatches),
+        "mismatches": len(mismatches),
         "mismatched_graphs": len({(m["batch"], m["case"]) for m in mismatches}),
         "node_kinds": dict(sorted(kinds.items())), "ii": {str(k): v for k, v in sorted(ii.items())},
         "lint_warnings": dict(lint), "timings_s": {k: round(v, 2) for k, v in timings.items()},
@@ -56,13 +55,11 @@ def main(argv=None) -> int:
     ap.add_argument("--golden", type=int, default=10, help="graphs per batch also run by the golden kernel")
     ap.add_argument("--sim", choices=("verilator", "icarus"), default="verilator")
     ap.add_argument("--shrink", type=int, default=3, help="mismatched graphs per batch to shrink (Icarus)")
-    ap.add_argument("--known", action="store_true", help="also generate the known, still open backend defects")
     ap.add_argument("-o", "--output", default=str(ROOT / "bench" / "out" / "fuzz.json"))
     args = ap.parse_args(argv)
     if args.graphs < 1 or args.batch < 1 or args.golden < 0:
         ap.error("--graphs and --batch must be >= 1, --golden >= 0")
     warnings.simplefilter("ignore")     # hypothesis' own notes about non-test use
-    avoid = frozenset() if args.known else KNOWN_ISSUES
     t_start = time.perf_counter()
     mismatches, timings, kinds, ii, golden, lint = [], Counter(), Counter(), Counter(), 0, Counter()
     done = 0
@@ -70,7 +67,7 @@ def main(argv=None) -> int:
         for b, start in enumerate(range(0, args.graphs, args.batch)):
             n = min(args.batch, args.graphs - start)
             t0 = time.perf_counter()
-            cases = draw_cases(n, args.seed + b, avoid=avoid)
+            cases = draw_cases(n, args.seed + b)
             timings["generate"] += time.perf_counter() - t0
             result = check_batch(cases, Path(tmp) / f"b{b}", args.sim, golden=args.golden)
             timings.update(result.timings)
@@ -89,7 +86,7 @@ def main(argv=None) -> int:
                                    "detail": m.detail, "graph": cases[m.case].graph.text(),
                                    "shrunk": shrunk.get(m.case)})
             done += n
-            write_report(args, avoid, done, mismatches, timings, kinds, ii, golden, lint, t_start,
+            write_report(args, done, mismatches, timings, kinds, ii, golden, lint, t_start,
                          complete=done == args.graphs)
             print(f"fuzz: batch {b}: {done}/{args.graphs} graphs, {len(mismatches)} mismatches "
                   f"({time.perf_counter() - t_start:.0f} s)", flush=True)

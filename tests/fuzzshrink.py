@@ -51,8 +51,9 @@ def _candidates(case: FuzzCase, first_step: int):
     for k, (port, _) in enumerate(outputs):
         if port not in ("x", "dx", "theta", "dtheta"):
             yield _rebuild(case, nodes, outputs[:k] + outputs[k + 1:])
+    probes = {name for _, name in outputs}
     for n in reversed(g.nodes):
-        if n.kind in (Kind.INPUT,) or n.name.startswith("p_"):
+        if n.kind in (Kind.INPUT,) or n.name in probes:
             continue
         for src in dict.fromkeys(n.inputs):
             if g[src].qformat == n.qformat and src != n.name:
@@ -67,9 +68,10 @@ def _candidates(case: FuzzCase, first_step: int):
             yield _rebuild(case, [const if m.name == n.name else m for m in nodes], outputs)
 
 
-def shrink(case: FuzzCase, work: Path, sim: str = "icarus", budget: int = 200) -> FuzzCase:
-    """A smaller case that still shows a mismatch of the same engine (greedy, at most ``budget`` runs)."""
-    first = check_batch([case], work, sim, golden=None).mismatches
+def shrink(case: FuzzCase, work: Path, sim: str = "icarus", budget: int = 200, mutate=None) -> FuzzCase:
+    """A smaller case that still shows a mismatch of the same engine (greedy, at most ``budget``
+    runs); ``mutate`` alters the emitted Verilog as in :func:`fuzzharness.check_batch`."""
+    first = check_batch([case], work, sim, golden=None, mutate=mutate).mismatches
     if not first:
         raise ValueError("the case does not fail")
     engine = first[0].engine
@@ -82,8 +84,8 @@ def shrink(case: FuzzCase, work: Path, sim: str = "icarus", budget: int = 200) -
             if cand is None:
                 continue
             runs += 1
-            found = [m for m in check_batch([cand], work, sim, golden=None if engine == "golden" else 0).mismatches
-                     if m.engine == engine]
+            found = [m for m in check_batch([cand], work, sim, golden=None if engine == "golden" else 0,
+                                            mutate=mutate).mismatches if m.engine == engine]
             if found:
                 case, first, improved = cand, found, True
                 break

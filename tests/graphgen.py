@@ -5,7 +5,11 @@ core's output ports), an input integer per step, and an optional schedule (clock
 budget) for backends that pipeline. The graphs use every node kind with random Q-formats
 (signed and unsigned, 1 to 64 bits, fraction bits beyond the width or negative), random
 rounding and overflow, registers with feedback, FSMs, LUTs (periodic or clamped, with or
-without interpolation), muxes, slices and compares. Every graph passes
+without interpolation, inputs narrower than their index), muxes (also with fewer data
+inputs than select codes), slices (of 1-bit values too), compares and FSMs (thresholds and
+input ranges at and beyond the input's range). Node names often extend one another
+(``a``, ``a_x``, ``p`` beside the probe ``p_x``), the way the backend names its helper wires.
+Nothing is steered around: every graph the verifier accepts may come up. Every graph passes
 ``verify(graph, typed=True)``: a candidate node that would break a width rule is dropped
 while drawing, so hypothesis never has to reject a whole graph.
 
@@ -23,7 +27,7 @@ from hypothesis import strategies as st
 
 from pendc.ir import lut as lut_sem
 from pendc.ir import verify as verify_mod
-from pendc.ir.fsm import output_width, threshold_int
+from pendc.ir.fsm import output_width
 from pendc.ir.graph import Graph, GraphError
 from pendc.ir.nodes import COMPARE_OPS, Kind, Node, make
 from pendc.ir.qformat import Overflow, QFormat, Rounding, bits_for
@@ -31,6 +35,10 @@ from pendc.ir.qformat import Overflow, QFormat, Rounding, bits_for
 STATE_PORTS = ("x", "dx", "theta", "dtheta")
 FLAG_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
 LUT_EXPRS = ("sin(v)", "cos(3*v)", "atan(v)", "tanh(v/4)", "exp(-v**2)", "v", "v**2", "v/2 - 1/3")
+# suffixes the backend appends to a node's wire for its helpers (and then some): a node named
+# after another plus one of these is where generated Verilog names would collide
+NAME_SUFFIXES = ("_x", "_a", "_b", "_r", "_s", "_z", "_p", "_q", "_q_r", "_d", "_f", "_f_r", "_ovf", "_sel",
+                 "_in0", "_in1", "_state", "_unused", "_idx", "_addr", "_y0", "_step", "_1", "_x_1")
 OP_KINDS = (Kind.ADD, Kind.SUB, Kind.NEG, Kind.MUL, Kind.GAIN, Kind.CAST, Kind.CONST, Kind.MUX,
             Kind.SLICE, Kind.COMPARE, Kind.LUT, Kind.FSM)
 
@@ -88,6 +96,11 @@ def qformats(draw, signed: bool | None = None, max_width: int = 64) -> QFormat:
 qformat_strategy = st.composite(qformats)
 
 
+def _sw(f: QFormat) -> int:
+    """Bits of ``f``'s values as signed numbers."""
+    return f.width + (0 if f.signed else 1)
+
+
 def _near(draw, signed: bool, width: int, frac: int) -> QFormat:
     """An output format near the exact result's (``width`` bits, ``frac`` fraction bits):
     a few fraction bits more or (often) fewer, integer bits cut so values may overflow."""
@@ -102,12 +115,29 @@ def _near(draw, signed: bool, width: int, frac: int) -> QFormat:
 class _Builder:
     """Nodes drawn so far; ``pool`` are the names a new node may read."""
 
-    def __init__(self, draw, avoid: frozenset = frozenset()):
+    def __init__(self, draw):
         self.draw = draw
-        self.avoid = avoid
         self.nodes: list = []
         self.fmt: dict = {}
         self.pool: list = []
+        # probes and the sign probe are named at the end: reserved from the start
+        self.names: set = {f"p_{p}" for p in STATE_PORTS + FLAG_PORTS} | {"u", "u_sign", "p_u_sign"}
+
+    def name(self, plain: str) -> str:
+        """``plain`` or, often, a name extending another one (or a probe's prefix ``p``)."""
+        draw = self.draw
+        choice = draw(st.integers(0, 3))
+        if choice == 1:
+            stem = draw(st.sampled_from(sorted(self.names | {"p", "u", "n"})))
+            candidate = stem + draw(st.sampled_from(NAME_SUFFIXES))
+        elif choice == 2:
+            candidate = draw(st.sampled_from(("p", "n", "p_x_x", "u_rom", "r0_next_x")))
+        else:
+            candidate = plain
+        if candidate in self.names:
+            candidate = plain if plain not in self.names else f"{plain}_{len(self.names)}"
+        self.names.add(candidate)
+        return candidate
 
     def add(self, node: Node) -> bool:
         if not node_ok(node, [self.fmt[i] for i in node.inputs]):
@@ -116,10 +146,6 @@ class _Builder:
         self.fmt[node.name] = node.qformat
         self.pool.append(node.name)
         return True
-
-    def operand(self, f: QFormat) -> bool:
-        """May ``f`` feed a node that reads its input as a signed number?"""
-        return f.signed or "unsigned-operand" not in self.avoid
 
     def pick(self, where=None) -> str | None:
         names = [n for n in self.pool if where is None or where(self.fmt[n])]
@@ -139,37 +165,31 @@ def _const(b: _Builder, name: str) -> Node:
 def _arith(b: _Builder, name: str, kind: Kind) -> Node | None:
     draw = b.draw
     if kind in (Kind.MUL, Kind.GAIN):
-        a = b.pick(lambda f: f.width <= 32 and b.operand(f))
+        a = b.pick(lambda f: f.width <= 32)
         if a is None:
             return None
         fa = b.fmt[a]
         if kind is Kind.MUL:
-            c = b.pick(lambda f: f.width <= 32 and b.operand(f))
+            c = b.pick(lambda f: f.width <= 32)
             fc = b.fmt[c]
             inputs, params = (a, c), {}
         else:
             fc = qformats(draw, signed=True, max_width=32)
             k = draw(st.integers(fc.min_int, fc.max_int))
             inputs, params = (a,), {"value": math.ldexp(k, -fc.frac), "cfmt": str(fc)}
-        out = _near(draw, True, fa.width + fc.width, fa.frac + fc.frac)
+        out = _near(draw, True, _sw(fa) + _sw(fc), fa.frac + fc.frac)
     elif kind in (Kind.ADD, Kind.SUB):
-        a, c = b.pick(b.operand), b.pick(b.operand)
-        if a is None or c is None:
-            return None
+        a, c = b.pick(), b.pick()
         fa, fc = b.fmt[a], b.fmt[c]
         frac = max(fa.frac, fc.frac)
         inputs, params = (a, c), {}
-        out = _near(draw, True, max(fa.int_bits, fc.int_bits) + frac + 1, frac)
+        out = _near(draw, True, max(_sw(fa) - fa.frac, _sw(fc) - fc.frac) + frac + 1, frac)
     elif kind is Kind.NEG:
-        a = b.pick(b.operand)
-        if a is None:
-            return None
+        a = b.pick()
         inputs, params = (a,), {}
-        out = _near(draw, True, b.fmt[a].width + 1, b.fmt[a].frac)
+        out = _near(draw, True, _sw(b.fmt[a]) + 1, b.fmt[a].frac)
     else:   # CAST
-        a = b.pick(b.operand)
-        if a is None:
-            return None
+        a = b.pick()
         fa = b.fmt[a]
         inputs, params = (a,), {}
         out = _near(draw, fa.signed, fa.width, fa.frac)
@@ -178,9 +198,8 @@ def _arith(b: _Builder, name: str, kind: Kind) -> Node | None:
 
 def _slice(b: _Builder, name: str, src: str | None = None, max_bits: int = 8) -> Node:
     draw = b.draw
-    a = src or b.pick(lambda f: f.width > 1 or "scalar-slice" not in b.avoid)
-    if a is None:
-        return None
+    a = src or b.pick(lambda f: f.width == 1) if draw(st.integers(0, 3)) == 0 else src or b.pick()
+    a = a or b.pick()
     w = b.fmt[a].width
     if draw(st.integers(0, 4)) == 0:
         return make(name, Kind.SLICE, (a,), qformat=QFormat(False, 1, 0), hi=-1, lo=-1)
@@ -197,16 +216,13 @@ def _mux(b: _Builder, name: str) -> Node | None:
     draw = b.draw
     sel = b.pick(_select)
     if sel is None:
-        sel = f"{name}_sel"
+        sel = b.name(f"{name}_sel")
         node = _slice(b, sel, max_bits=2)
         if node is None or not b.add(node):
             return None
-    # as many data inputs as select codes: the IR leaves an out-of-range select undefined
-    # (interpreter and golden kernel raise, the Verilog picks the last input), see the report
-    n = 1 << b.fmt[sel].width
-    data = [b.pick(b.operand) for _ in range(n)]
-    if None in data:
-        return None
+    # up to one data input per select code: a select beyond the last input picks the last one
+    n = draw(st.integers(2, max(2, 1 << b.fmt[sel].width)))
+    data = [b.pick() for _ in range(n)]
     f0 = b.fmt[data[0]]
     out = _near(draw, f0.signed, f0.width, f0.frac)
     return make(name, Kind.MUX, (sel, *data), qformat=out, rounding=_rounding(draw), overflow=_overflow(draw))
@@ -215,6 +231,18 @@ def _mux(b: _Builder, name: str) -> Node | None:
 def _compare(b: _Builder, name: str) -> Node:
     a, c = b.pick(), b.pick()
     return make(name, Kind.COMPARE, (a, c), qformat=QFormat(False, 1, 0), op=b.draw(st.sampled_from(COMPARE_OPS)))
+
+
+def _edge_value(draw, fin: QFormat) -> float:
+    """A real value at, just beyond or far beyond the edges of the input's range."""
+    lsb = fin.lsb
+    return draw(st.sampled_from((fin.min_value, fin.max_value, fin.min_value - lsb, fin.max_value + lsb,
+                                 fin.min_value - lsb / 2, fin.max_value + lsb / 2, fin.max_value + 0.75 * lsb,
+                                 fin.min_value - 1e6 * lsb, fin.max_value * 1e6 + lsb, 1e300, -1e300)))
+
+
+def _fsm_value(draw, fin: QFormat) -> float:
+    return _edge_value(draw, fin) if draw(st.integers(0, 2)) == 0 else _grid_value(draw, fin)
 
 
 def _grid_value(draw, fin: QFormat, spread: float = 1.0) -> float:
@@ -227,9 +255,8 @@ def _grid_value(draw, fin: QFormat, spread: float = 1.0) -> float:
 
 def _lut(b: _Builder, name: str) -> Node | None:
     draw = b.draw
-    a = b.pick(b.operand)
-    if a is None:
-        return None
+    a = b.pick(lambda f: f.width <= 4) if draw(st.integers(0, 3)) == 0 else None   # narrower than the index
+    a = a or b.pick()
     fin = b.fmt[a]
     expr = draw(st.sampled_from(LUT_EXPRS))
     ab = draw(st.integers(1, 5))
@@ -241,19 +268,20 @@ def _lut(b: _Builder, name: str) -> Node | None:
         lo_i = draw(st.integers(-span, span))
         lo, hi, shift = math.ldexp(lo_i, -fin.frac), math.ldexp(lo_i + span, -fin.frac), s
     else:
-        lo_i = draw(st.integers(fin.min_int, fin.max_int))
-        span = draw(st.integers(1, max(1, fin.max_int - fin.min_int)))
+        # the domain may start below the input's range and reach far beyond it
+        room = fin.max_int - fin.min_int
+        lo_i = draw(st.integers(fin.min_int - (room if draw(st.integers(0, 4)) == 0 else 0), fin.max_int))
+        span = draw(st.integers(1, max(1, room * draw(st.sampled_from((1, 1, 1, 4))))))
         lo, reach = math.ldexp(lo_i, -fin.frac), math.ldexp(lo_i + span, -fin.frac)
         shift = lut_sem.grid_shift(lo, reach, ab, fin)
-        if "lut-narrow-input" in b.avoid and ab >= fin.width + 1 - shift:
-            return None
         last = (1 << ab) - (0 if interp else 1)
         hi = math.ldexp(lut_sem.lo_int(lo, fin) + (last << shift), -fin.frac)
     grid = lut_sem.grid_points(lo, ab, shift, fin, interp)
     ymax = float(max(abs(lut_sem.evaluate(expr, grid)).max(), 1e-3))
-    width = draw(st.integers(2, 40))
-    ibits = bits_for(ymax) + draw(st.integers(-2, 1))
-    fout = QFormat(True, width, width - ibits)
+    signed = draw(st.integers(0, 3)) > 0       # an unsigned table clamps negative values to 0
+    width = draw(st.integers(2 if signed else 1, 40))
+    ibits = bits_for(ymax, signed) + draw(st.integers(-2, 1))
+    fout = QFormat(signed, width, width - ibits)
     table = lut_sem.fill_table(expr, lo, ab, shift, fin, fout, interp, periodic)
     return make(name, Kind.LUT, (a,), qformat=fout, rounding=_rounding(draw), expr=expr, lo=lo, hi=hi,
                 periodic=periodic, addr_bits=ab, interpolate=interp, shift=shift, table=table)
@@ -268,14 +296,11 @@ def _fsm(b: _Builder, name: str) -> Node:
     rules = []
     for _ in range(draw(st.integers(1, 5))):
         src = draw(st.sampled_from(("*",) + states))
-        threshold = _grid_value(draw, fin)
-        if "fsm-threshold-range" in b.avoid and not -(1 << fin.width) <= threshold_int(threshold, fin) < 1 << fin.width:
-            continue
+        threshold = _fsm_value(draw, fin)
         rules.append((src, draw(st.sampled_from(("lt", "le", "gt", "ge"))), threshold, draw(st.sampled_from(states))))
     outputs = tuple(draw(st.integers(0, 15)) for _ in states)
-    lo, hi = sorted((_grid_value(draw, fin), _grid_value(draw, fin)))
-    if draw(st.booleans()) or ("fsm-threshold-range" in b.avoid and not all(
-            -(1 << fin.width) <= threshold_int(x, fin) < 1 << fin.width for x in (lo, hi))):
+    lo, hi = sorted((_fsm_value(draw, fin), _fsm_value(draw, fin)))
+    if draw(st.booleans()):
         lo, hi = fin.min_value, fin.max_value
     return make(name, Kind.FSM, (a,), qformat=QFormat(False, output_width(outputs), 0), states=states,
                 reset=draw(st.sampled_from(states)), transitions=tuple(rules), outputs=outputs, lo=lo, hi=hi)
@@ -295,10 +320,6 @@ def _draw_node(b: _Builder, name: str, kind: Kind) -> Node | None:
     if kind is Kind.FSM:
         return _fsm(b, name)
     return _arith(b, name, kind)
-
-
-def graph_u_wide(b: _Builder) -> bool:
-    return b.fmt["u"].width > 1 or "scalar-slice" not in b.avoid
 
 
 def _live(nodes: list, outputs: list) -> set:
@@ -324,42 +345,32 @@ def _inputs(draw, fmt: QFormat, steps: int) -> tuple:
     return tuple(out[:steps])
 
 
-# Backend defects found by this fuzzer and not fixed yet (tests/test_fuzz_regressions.py holds one
-# strict-xfail counterexample each): the quick profile steers around them so that it guards
-# everything else; ``avoid=frozenset()`` generates them again.
-KNOWN_ISSUES = frozenset({
-    "unsigned-operand",      # ADD/SUB/GAIN/MUL/NEG/CAST/MUX data/LUT read an unsigned value as signed
-    "scalar-slice",          # SLICE of a 1-bit value selects a bit of a scalar wire
-    "lut-narrow-input",      # a clamped table with more segments than its input reaches clamps wrongly
-    "fsm-threshold-range",   # an FSM threshold or lo/hi bound beyond its input's range wraps in its Verilog literal
-})
-
 SCHEDULES = (None, (math.inf, None), (4.0, None), (10.0, None), (10.0, 1), (10.0, 3), (25.0, 2))
 
 
 @st.composite
-def fuzz_cases(draw, max_nodes: int = 14, steps: int = 40, avoid: frozenset = KNOWN_ISSUES) -> FuzzCase:
-    """A random typed graph the core backend accepts, ``steps`` + 1 input integers and a schedule;
-    ``avoid`` names the :data:`KNOWN_ISSUES` to steer around."""
-    b = _Builder(draw, avoid)
+def fuzz_cases(draw, max_nodes: int = 14, steps: int = 40) -> FuzzCase:
+    """A random typed graph the core backend accepts, ``steps`` + 1 input integers and a schedule."""
+    b = _Builder(draw)
     b.add(make("u", Kind.INPUT, qformat=qformats(draw), port="u"))
     registers = []
     for r in range(draw(st.integers(0, 3))):
         fmt = qformats(draw)
         reset = _grid_value(draw, fmt)
-        registers.append((f"r{r}", fmt, reset))
-        b.fmt[f"r{r}"] = fmt
-        b.pool.append(f"r{r}")
+        name = b.name(f"r{r}")
+        registers.append((name, fmt, reset))
+        b.fmt[name] = fmt
+        b.pool.append(name)
     for i in range(draw(st.integers(1, max_nodes))):
-        node = _draw_node(b, f"n{i}", draw(st.sampled_from(OP_KINDS)))
+        node = _draw_node(b, b.name(f"n{i}"), draw(st.sampled_from(OP_KINDS)))
         if node is not None:
             b.add(node)
     # close the feedback loops: each register takes a (cast) value drawn from the whole graph
     for name, fmt, reset in registers:
-        src = b.pick(b.operand) or name
+        src = b.pick()
         nxt = name
         if src != name:
-            cast = make(f"{name}_next", Kind.CAST, (src,), qformat=fmt, rounding=_rounding(draw),
+            cast = make(b.name(f"{name}_next"), Kind.CAST, (src,), qformat=fmt, rounding=_rounding(draw),
                         overflow=_overflow(draw))
             if b.add(cast):
                 nxt = cast.name
@@ -381,8 +392,7 @@ def fuzz_cases(draw, max_nodes: int = 14, steps: int = 40, avoid: frozenset = KN
     live = _live(b.nodes, outputs)
     if "u" not in live:    # the core's input port must exist: show its sign bit on a flag port
         free = [p for p in FLAG_PORTS if all(p != q for q, _ in outputs)]
-        sign = (make("u_sign", Kind.SLICE, ("u",), qformat=QFormat(False, 1, 0), hi=-1, lo=-1)
-                if graph_u_wide(b) else make("u_sign", Kind.COMPARE, ("u", "u"), qformat=QFormat(False, 1, 0), op="ge"))
+        sign = make("u_sign", Kind.SLICE, ("u",), qformat=QFormat(False, 1, 0), hi=-1, lo=-1)
         b.nodes += [sign,
                     make("p_u_sign", Kind.REGISTER, ("u_sign",), qformat=QFormat(False, 1, 0), reset=0.0)]
         outputs.append((free[0], "p_u_sign"))
@@ -390,8 +400,5 @@ def fuzz_cases(draw, max_nodes: int = 14, steps: int = 40, avoid: frozenset = KN
     graph = Graph.build("fuzz", [n for n in b.nodes if n.name in live], outputs)
     verify_mod.verify(graph, typed=True)
     u = _inputs(draw, graph["u"].qformat, steps + 1)
-    schedules = SCHEDULES
-    if "shared-unit-table" in avoid and graph.of_kind(Kind.LUT):
-        schedules = tuple(x for x in SCHEDULES if x is None or x[1] is None)
-    schedule = draw(st.sampled_from(schedules))
+    schedule = draw(st.sampled_from(SCHEDULES))
     return FuzzCase(graph=graph, u=u, schedule=schedule)

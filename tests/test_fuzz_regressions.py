@@ -1,11 +1,13 @@
 """Shrunk counterexamples of the backend fuzzer (tests/test_fuzz_backend.py), one test each.
 
-Each graph is the smallest form of a mismatch the fuzzer found: fixed ones pass, open ones
-are strict xfails naming the defect (and graphgen.KNOWN_ISSUES entry the quick profile
-steers around), so they flip to failures once the backend is fixed.
+Each graph is the smallest form of a mismatch the fuzzer found, with the defect it showed
+in its docstring; every one is fixed, and the generator (tests/graphgen.py) produces each
+kind of case again.
 """
 
 from __future__ import annotations
+
+import re
 
 import pytest
 
@@ -70,52 +72,50 @@ def test_unsigned_saturation_clamps_to_zero(tmp_path):
     assert mismatches(case(QFormat(True, 8, 0), nodes, "d", u=(3, 100, 10, -128, 127)), tmp_path) == []
 
 
-# ---------------------------------------------------------------- open (not in files the fuzzer owns)
 
-@pytest.mark.xfail(strict=True, reason="unsigned-operand: viewmodel.py sizes ADD/SUB as max(int bits) + frac + 1, "
-                   "no room for the sign of an unsigned operand: 255 + 255 (UFIX8_0) wraps to -2 in the 9-bit sum")
 def test_sum_of_unsigned_values(tmp_path):
+    """255 + 255 (UFIX8_0) into FIX10_0: the sum was sized with no sign bit for the
+    unsigned operands and wrapped to -2 (viewmodel ADD/SUB width)."""
     c = case(QFormat(False, 8, 0), [make("s", Kind.ADD, ("u", "u"), qformat=QFormat(True, 10, 0))], "s",
              u=(255, 200, 1, 0))
     assert mismatches(c, tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="unsigned-operand: arith.requantize fits a signed exact value and "
-                   "viewmodel.py passes an unsigned CAST/MUX input unchanged: UFIX8_0 255 becomes -1")
 def test_cast_of_an_unsigned_value(tmp_path):
+    """UFIX8_0 255 cast to FIX10_0: arith.requantize read the unsigned input as
+    two's complement and gave -1."""
     c = case(QFormat(False, 8, 0), [make("c", Kind.CAST, ("u",), qformat=QFormat(True, 10, 0))], "c",
              u=(255, 128, 1, 0))
     assert mismatches(c, tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="unsigned-operand: timing.Datapath.product sign-extends both "
-                   "operands (extend(..., True, ...)): UFIX8_0 200 * 2 gives -112")
 def test_product_of_an_unsigned_value(tmp_path):
+    """UFIX8_0 200 * 2: timing.Datapath.product sign-extended the unsigned
+    operand and gave -112."""
     nodes = [make("two", Kind.CONST, qformat=QFormat(True, 3, 0), value=2.0),
              make("prod", Kind.MUL, ("u", "two"), qformat=QFormat(True, 12, 0))]
     assert mismatches(case(QFormat(False, 8, 0), nodes, "prod", u=(200, 255, 1, 0)), tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="wire-name-collision: viewmodel.py names a node's helper wires n_<node>_x, "
-                   "n_<node>_a ...; a node named 'p' next to one named 'p_x' declares n_p_x twice")
 def test_node_names_that_extend_each_other(tmp_path):
+    """Nodes 'p' and 'p_x': the helper wire n_p_x of 'p' was declared
+    again as the value of 'p_x' (names now come from the netlist's allocator)."""
     nodes = [make("two", Kind.CONST, qformat=QFormat(True, 3, 0), value=2.0),
              make("p", Kind.MUL, ("u", "two"), qformat=QFormat(True, 12, 0))]
     assert mismatches(case(QFormat(True, 8, 0), nodes, "p", u=(100, -3, 1, 0)), tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="scalar-slice: viewmodel.py SLICE prints n_x[0] for a 1-bit input, a "
-                   "bit select of a scalar wire (Icarus: 'can not select part of scalar')")
 def test_slice_of_a_one_bit_value(tmp_path):
+    """SLICE 0..0 of a 1-bit flag printed n_f[0], a bit select of a scalar
+    wire (Icarus: 'can not select part of scalar')."""
     nodes = [make("f", Kind.COMPARE, ("u", "u"), qformat=FLAG, op="ge"),
              make("b", Kind.SLICE, ("f",), qformat=FLAG, hi=0, lo=0)]
     assert mismatches(case(QFormat(True, 8, 0), nodes, "b", u=(1, 2, 3)), tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="lut-narrow-input: viewmodel._emit_lut compares the index with "
-                   "literal(segments, iw + 1), which wraps when the table has more segments than the "
-                   "input reaches (16 segments, 3-bit index: 5'sd16 is -16), so every input clamps high")
 def test_table_with_more_segments_than_its_input_reaches(tmp_path):
+    """16 segments, 3-bit index: the index was compared with
+    literal(16, 4) = -16, so every input clamped high."""
     from pendc.ir import lut as lut_sem
     fin, fout = QFormat(True, 2, 0), QFormat(True, 12, 8)
     table = lut_sem.fill_table("tanh(v/4)", -2.0, 4, 0, fin, fout, False, False)
@@ -124,19 +124,18 @@ def test_table_with_more_segments_than_its_input_reaches(tmp_path):
     assert mismatches(case(fin, [lut], "t", u=(0, 1, -2, -1, 0)), tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="fsm-threshold-range: viewmodel._emit_fsm prints the threshold as "
-                   "literal(t, input width + 1): threshold 2 on a UFIX1_0 input is 2'sd2 = -2, so 'ge' always fires")
 def test_fsm_threshold_beyond_its_input_range(tmp_path):
+    """Threshold 2 on a UFIX1_0 input was printed 2'sd2 = -2, so 'ge'
+    always fired (thresholds beyond the range are now constant tests)."""
     nodes = [make("f", Kind.COMPARE, ("u", "u"), qformat=FLAG, op="gt"),
              make("m", Kind.FSM, ("f",), qformat=QFormat(False, 3, 0), states=("a", "b"), reset="a",
                   transitions=(("*", "ge", 1.5, "b"),), outputs=(1, 6), lo=0.0, hi=1.0)]
     assert mismatches(case(QFormat(True, 4, 0), nodes, "m", u=(1, 2, 3, 4)), tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="fsm-threshold-range: viewmodel._emit_fsm checks the input range with "
-                   "literal(lo, input width + 1): lo = hi = 1.5 on a UFIX1_0 input is 2'sd2 = -2, so the RTL never "
-                   "raises the flag the interpreter raises at step 0 (found by the long run, seed 11 batch 9)")
 def test_fsm_input_range_beyond_its_input_format(tmp_path):
+    """lo = hi = 1.5 on a UFIX1_0 input was printed 2'sd2 = -2: the RTL
+    never raised the flag the interpreter raised at step 0 (long run, seed 11 batch 9)."""
     nodes = [make("f", Kind.COMPARE, ("u", "u"), qformat=FLAG, op="gt"),
              make("m", Kind.FSM, ("f",), qformat=QFormat(False, 3, 0), states=("a", "b"), reset="a",
                   transitions=(("*", "ge", 1.0, "b"),), outputs=(1, 6), lo=1.5, hi=1.5)]
@@ -168,24 +167,32 @@ def test_table_addressed_by_a_shared_multiplier(tmp_path):
     assert mismatches(c, tmp_path) == []
 
 
-@pytest.mark.xfail(strict=True, reason="IR: a MUX whose select exceeds its data inputs (allowed by the verifier; "
-                   "lower_encoders relies on it never happening) makes the interpreter and golden kernel raise "
-                   "IndexError while the Verilog picks the last input")
 def test_mux_select_beyond_its_inputs(tmp_path):
+    """A 2-bit select over three data inputs reading 3: the interpreter and
+    golden kernel raised IndexError, the Verilog picked the last input; now all pick the last
+    input (pendc.ir.nodes)."""
     nodes = [make("sel", Kind.SLICE, ("u",), qformat=QFormat(False, 2, 0), hi=1, lo=0),
              make("m", Kind.MUX, ("sel", "u", "u", "u"), qformat=QFormat(True, 8, 0))]
     assert mismatches(case(QFormat(True, 8, 0), nodes, "m", u=(0, 1, 2, 3)), tmp_path) == []
 
 
 
+def _every_adder_subtracts(files: dict) -> dict:
+    """A planted miscompile (no open defect is left to shrink)."""
+    return {name: re.sub(r"(assign n_\w+_x = n_\w+_a) \+ ", r"\1 - ", text) for name, text in files.items()}
+
+
 def test_shrinking_keeps_the_failure_and_drops_the_rest(tmp_path):
-    """The shrinker on an open defect padded with an unrelated node and a long input."""
-    nodes = [make("s", Kind.ADD, ("u", "u"), qformat=QFormat(True, 10, 0)),
-             make("k", Kind.CONST, qformat=QFormat(True, 6, 2), value=1.5),
-             make("t", Kind.ADD, ("s", "k"), qformat=QFormat(True, 12, 2))]
-    big = case(QFormat(False, 8, 0), nodes, "t", u=(0, 1, 2, 255, 3) + (7,) * 15)
-    small = shrink(big, tmp_path, "icarus", budget=25)
-    assert mismatches(small, tmp_path) != []
+    """The shrinker on a planted miscompile padded with an unrelated node and a long input."""
+    nodes = [make("k", Kind.CONST, qformat=QFormat(True, 6, 2), value=1.5),
+             make("s", Kind.ADD, ("u", "k"), qformat=QFormat(True, 12, 2)),
+             make("n", Kind.NEG, ("u",), qformat=QFormat(True, 10, 0)),
+             make("z", Kind.CAST, ("n",), qformat=QFormat(True, 12, 2)),
+             make("t", Kind.ADD, ("s", "z"), qformat=QFormat(True, 12, 2))]
+    big = case(QFormat(False, 8, 0), nodes, "t", u=(0, 0, 0, 255, 3) + (7,) * 15)
+    assert check_batch([big], tmp_path, "icarus", golden=0, mutate=_every_adder_subtracts).mismatches
+    small = shrink(big, tmp_path, "icarus", budget=25, mutate=_every_adder_subtracts)
+    assert check_batch([small], tmp_path, "icarus", golden=0, mutate=_every_adder_subtracts).mismatches
     assert len(small.u) < len(big.u) and len(small.graph.nodes) < len(big.graph.nodes)
     namespace = {}
     exec("import math\nfrom graphgen import FuzzCase\nfrom pendc.ir.graph import Graph\n"

@@ -18,16 +18,68 @@ from ..ir.qformat import Overflow, QFormat, Rounding
 
 @dataclass
 class Netlist:
-    """Flat lists the templates print: declarations, assignments, overflow terms."""
+    """Flat lists the templates print: declarations, assignments, overflow terms.
+
+    Every name in the core's namespace goes through the netlist: node values are *claimed*
+    up front (:meth:`claim`, ``n_<node>``), every helper wire or register takes a :meth:`fresh`
+    name (its wanted name, or that name with the first free ``_<k>`` suffix), so a helper of
+    node ``p`` (``n_p_x``) can never collide with the value of a node named ``p_x``."""
 
     decls: list = field(default_factory=list)      # (name, width, signed)
     assigns: list = field(default_factory=list)    # (lhs, rhs)
     overflow: list = field(default_factory=list)   # (wire, node name)
+    taken: set = field(default_factory=set)
+    _claimed: set = field(default_factory=set)     # claimed, not declared yet
 
-    def wire(self, name: str, width: int, rhs: str, signed: bool = True) -> str:
+    def claim(self, name: str) -> str:
+        """Reserve ``name`` exactly (a node's value, a port, a name the template prints)."""
+        if name in self.taken:
+            raise ValueError(f"Verilog name {name} is claimed twice")
+        self.taken.add(name)
+        self._claimed.add(name)
+        return name
+
+    def fresh(self, name: str, claim: bool = False) -> str:
+        """``name``, or ``name_<k>`` with the smallest k >= 1 not taken yet; now taken (and
+        claimed, for a wire declared later with ``own=True``, if ``claim``)."""
+        candidate, k = name, 0
+        while candidate in self.taken:
+            k += 1
+            candidate = f"{name}_{k}"
+        self.taken.add(candidate)
+        if claim:
+            self._claimed.add(candidate)
+        return candidate
+
+    def wire(self, name: str, width: int, rhs: str, signed: bool = True, own: bool = False) -> str:
+        """Declare and assign a wire; returns its name. ``own``: ``name`` was claimed for this
+        wire (a node's value), otherwise the wire gets a fresh name derived from ``name``."""
+        if own:
+            if name not in self._claimed:
+                raise ValueError(f"Verilog name {name} was not claimed (or is declared twice)")
+            self._claimed.discard(name)
+        else:
+            name = self.fresh(name)
         self.decls.append((name, width, signed))
         self.assigns.append((name, rhs))
         return name
+
+
+def signed_width(lo: int, hi: int) -> int:
+    """Bits of the narrowest two's-complement number holding every integer in ``lo..hi``."""
+    return 1 + max(lo.bit_length() if lo >= 0 else (-lo - 1).bit_length(),
+                   hi.bit_length() if hi >= 0 else (-hi - 1).bit_length())
+
+
+def operand_width(fmt: QFormat) -> int:
+    """Bits of ``fmt``'s values as a signed number (an unsigned value needs a zero sign bit)."""
+    return fmt.width + (0 if fmt.signed else 1)
+
+
+def wrap_signed(value: int, width: int) -> int:
+    """``value`` modulo 2**width, as a two's-complement number of ``width`` bits."""
+    value &= (1 << width) - 1
+    return value - (1 << width) if value >> (width - 1) else value
 
 
 def literal(value: int, width: int) -> str:
@@ -65,12 +117,24 @@ def aligned(sig: str, fmt: QFormat, frac: int, width: int) -> str:
 
 
 def requantize(net: Netlist, base: str, exact: str, width: int, frac: int, out: QFormat,
-               rounding: Rounding, overflow: Overflow, node: str) -> str:
-    """Fit the signed exact value ``exact`` (``width`` bits, ``frac`` fraction bits) into ``out``.
+               rounding: Rounding, overflow: Overflow, node: str, signed: bool = True,
+               result: str | None = None) -> str:
+    """Fit the exact value ``exact`` (``width`` bits, two's complement if ``signed``, else
+    unsigned; ``frac`` fraction bits) into ``out``.
 
-    Returns the name of a wire of ``out.width`` bits; registers the overflow wire, if the
-    value can overflow at all, under ``node``.
+    Returns the name of a wire of ``out.width`` bits: ``result`` if given (a claimed name),
+    else a fresh name from ``base``; helper wires take fresh names from ``base``. Registers
+    the overflow wire, if the value can overflow at all, under ``node``.
     """
+    if not signed:      # a zero sign bit: every step below reads the value as signed
+        exact = net.wire(f"{base}_z", width + 1, f"{{1'b0, {exact}}}")
+        width += 1
+
+    def done(rhs: str) -> str:
+        if result is not None:
+            return net.wire(result, out.width, rhs, out.signed, own=True)
+        return net.wire(base, out.width, rhs, out.signed)
+
     sh = frac - out.frac
     if sh > 0:
         if rounding is Rounding.NEAREST:
@@ -96,7 +160,7 @@ def requantize(net: Netlist, base: str, exact: str, width: int, frac: int, out: 
     sign = bits(s, s_w, s_w - 1)
     if out.signed:
         if s_w <= w:
-            return net.wire(base, w, extend(s, s_w, True, w), out.signed)
+            return done(extend(s, s_w, True, w))
         top = bits(s, s_w, s_w - 1, w - 1)
         out_of_range = f"~((&{top}) | ~(|{top}))"
     elif s_w <= w:       # an unsigned result only overflows when negative
@@ -108,5 +172,5 @@ def requantize(net: Netlist, base: str, exact: str, width: int, frac: int, out: 
     low = bits(s, s_w, w - 1, 0) if s_w > w else extend(s, s_w, True, w)
     if overflow is Overflow.SATURATE:
         hi, lo = ulit(out.max_int & ((1 << w) - 1), w), ulit(out.min_int & ((1 << w) - 1), w)
-        return net.wire(base, w, f"{ovf} ? ({sign} ? {lo} : {hi}) : {low}", out.signed)
-    return net.wire(base, w, low, out.signed)
+        return done(f"{ovf} ? ({sign} ? {lo} : {hi}) : {low}")
+    return done(low)

@@ -47,7 +47,7 @@ class Datapath:
         if self.kinds[node] in SOURCES or stage >= cycle or not self.registered:
             return wire
         if wire not in self._piped:
-            self._piped[wire] = (f"{wire}_p", stage)
+            self._piped[wire] = (self.net.fresh(f"{wire}_p"), stage)
         return self._piped[wire][0]
 
     def finish(self) -> None:
@@ -58,35 +58,47 @@ class Datapath:
             self._piped.setdefault(wire, (f"{wire}_p", stage))
         self.pipe_regs = [(reg, *decls[wire], wire, stage) for wire, (reg, stage) in self._piped.items()]
 
-    def product(self, base: str, node: str, a: tuple, b: tuple) -> str:
-        """Wire of the exact signed product of operands ``(expr, width, constant or None)``:
-        its own multiplier, or a slice of the shared unit's product."""
-        width = a[1] + b[1]
+    def __post_init__(self):
+        # the shared units' wires are named before any product reads them
+        self._unit_wires = {u.name: {side: self.net.fresh(f"u_{u.name}_{side}", claim=True) for side in ("a", "b", "p", "p_unused")}
+                            for u in self.schedule.units}
+
+    def product(self, base: str, node: str, a: tuple, b: tuple) -> tuple:
+        """``(wire, width)`` of the exact signed product of operands ``(expr, width, constant
+        or None, signed)`` (a constant is a signed integer, an unsigned operand is read with a
+        zero sign bit): its own multiplier, or a slice of the shared unit's product."""
+        sw = [w + (0 if s or c is not None else 1) for _, w, c, s in (a, b)]
+        width = sw[0] + sw[1]
         unit = self.unit_of(node)
+        big, small = ((a, sw[0]), (b, sw[1])) if a[1] >= b[1] else ((b, sw[1]), (a, sw[0]))
+        if unit is not None and (big[1] > unit.widths[0] or small[1] > unit.widths[1]):
+            unit = None     # an unsigned operand as wide as the unit: the unit's signed operand cannot hold it
         if unit is None:
-            ops = [f"$signed({literal(c, width) if c is not None else extend(e, w, True, width)})" for e, w, c in (a, b)]
-            return self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}")
-        big, small = (a, b) if a[1] >= b[1] else (b, a)
+            ops = [f"$signed({literal(c, width) if c is not None else extend(e, w, s, width)})" for e, w, c, s in (a, b)]
+            return self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}"), width
         wa, wb = unit.widths
-        ea = literal(big[2], wa) if big[2] is not None else extend(big[0], big[1], True, wa)
-        eb = literal(small[2], wb) if small[2] is not None else extend(small[0], small[1], True, wb)
+        names = self._unit_wires[unit.name]
+        (e1, w1, c1, s1), (e2, w2, c2, s2) = big[0], small[0]
+        ea = literal(c1, wa) if c1 is not None else extend(e1, w1, s1, wa)
+        eb = literal(c2, wb) if c2 is not None else extend(e2, w2, s2, wb)
         self.unit_ops.setdefault(unit.name, []).append((self.schedule.stage[node], ea, eb))
-        p = f"u_{unit.name}_p"
-        return self.net.wire(f"{base}_x", width, p if width == wa + wb else f"{p}[{width - 1}:0]")
+        p = names["p"]
+        return self.net.wire(f"{base}_x", width, p if width == wa + wb else f"{p}[{width - 1}:0]"), width
 
     def emit_units(self) -> None:  # called by finish()
         """Declare every shared unit: phase-selected operands and one product."""
         pw = self.phase_width
         for unit in self.schedule.units:
             wa, wb = unit.widths
+            names = self._unit_wires[unit.name]
             uses = self.unit_ops.get(unit.name, [])
             for side, width, j in (("a", wa, 1), ("b", wb, 2)):
                 rhs = uses[-1][j] if uses else literal(0, width)
                 for stage, *ops in reversed(uses[:-1]):
                     rhs = f"(phase == {ulit(stage, pw)}) ? {ops[j - 1]} : {rhs}"
-                self.net.wire(f"u_{unit.name}_{side}", width, rhs)
-            p = self.net.wire(f"u_{unit.name}_p", wa + wb, f"$signed(u_{unit.name}_a) * $signed(u_{unit.name}_b)")
-            self.net.wire(f"u_{unit.name}_p_unused", wa + wb, p, signed=False)
+                self.net.wire(names[side], width, rhs, own=True)
+            p = self.net.wire(names["p"], wa + wb, f"$signed({names['a']}) * $signed({names['b']})", own=True)
+            self.net.wire(names["p_unused"], wa + wb, p, signed=False, own=True)
 
     def overflow_stages(self) -> list:
         """``(wire, node, stage)`` of every overflow term: the cycle of the step in which the

@@ -217,12 +217,13 @@ class _Gen:
             return self.requant(i, node, f"{a[0]} * {a[1]}", (min(p), max(p)), fr[0] + fr[1])
         if k is Kind.CAST:
             return self.requant(i, node, a[0], self.bounds(ins[0]), fr[0])
-        if k is Kind.MUX:
+        if k is Kind.MUX:       # a select beyond the data inputs picks the last one (pendc.ir.nodes)
             lines = []
             for j in range(1, len(ins)):
-                lines.append(f"{'if' if j == 1 else 'elif'} {a[0]} == {j - 1}:")
+                last = j == len(ins) - 1
+                lines.append("else:" if last else f"{'if' if j == 1 else 'elif'} {a[0]} == {j - 1}:")
                 lines += ["    " + s for s in self.requant(i, node, a[j], self.bounds(ins[j]), fr[j])]
-            return lines + ["else:", "    raise IndexError('mux select out of range')"]
+            return lines
         if k is Kind.SLICE:
             hi, lo = _slice_bits(node, self.g[ins[0]].qformat)
             if hi - lo + 1 > 63 or lo < 0:
@@ -275,8 +276,9 @@ class _Gen:
         if k is Kind.MUX:
             lines = [f"m{i} = int({a[0]})"]
             for j in range(1, len(ins)):
-                lines += [f"{'if' if j == 1 else 'elif'} m{i} == {j - 1}:", f"    v{i} = {a[j]}"]
-            return lines + ["else:", "    raise IndexError('mux select out of range')"]
+                last = j == len(ins) - 1
+                lines += ["else:" if last else f"{'if' if j == 1 else 'elif'} m{i} == {j - 1}:", f"    v{i} = {a[j]}"]
+            return lines
         if k is Kind.SLICE:
             hi, lo = node.param("hi"), node.param("lo")
             if hi == lo == -1:
@@ -316,12 +318,19 @@ class _Gen:
         src = node.inputs[0]
         v = f"v{self.idx[src]}"
         states, trans = node.param("states"), node.param("transitions")
-        if self.fixed:
+        if self.fixed:      # thresholds on the input's grid; beyond its range a test is a constant
             fin = self.g[src].qformat
-            th = lambda x: _i(fsm_sem.threshold_int(x, fin))  # noqa: E731
+
+            def test(op, x):
+                t = fsm_sem.threshold_int(x, fin)
+                fixed = fsm_sem.constant_outcome(op, t, fin)
+                return f"{v} {_CMP[op]} {_i(t)}" if fixed is None else str(fixed)
         else:
-            th = _f
-        lines = [f"if not ({th(node.param('lo'))} <= {v} <= {th(node.param('hi'))}):",
+            def test(op, x):
+                return f"{v} {_CMP[op]} {_f(x)}"
+        outside = (f"{test('lt', node.param('lo'))} or {test('gt', node.param('hi'))}" if self.fixed
+                   else f"not ({_f(node.param('lo'))} <= {v} <= {_f(node.param('hi'))})")   # NaN is outside
+        lines = [f"if {outside}:",
                  f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
         per_state = [[t for t in trans if t[0] in ("*", name)] for name in states]
         shared = all(r == per_state[0] for r in per_state)   # only "*" rules: no dispatch on the state
@@ -333,7 +342,7 @@ class _Gen:
             for r, (_, op, threshold, dst) in enumerate(rules):
                 if op not in ("lt", "le", "gt", "ge"):
                     raise ValueError(f"FSM '{node.name}': unknown transition op {op!r}")
-                lines += [f"{pad}{'if' if r == 0 else 'elif'} {v} {_CMP[op]} {th(threshold)}:",
+                lines += [f"{pad}{'if' if r == 0 else 'elif'} {test(op, threshold)}:",
                           f"{pad}    s{i} = {states.index(dst)}"]
         return lines
 

@@ -30,8 +30,26 @@ _OPS = {
 
 
 def threshold_int(threshold: float, fin: QFormat) -> int:
-    """A threshold expressed on the input's integer grid (to nearest)."""
-    return math.floor(math.ldexp(threshold, fin.frac) + 0.5)
+    """A threshold expressed on the input's integer grid (to nearest), clamped to one step
+    beyond the input's range: ``min_int - 1 .. max_int + 1`` (every comparison of an input
+    value with it comes out as with the unclamped threshold, and it stays a small integer)."""
+    lo, hi = fin.min_int - 1, fin.max_int + 1
+    try:
+        scaled = math.ldexp(threshold, fin.frac)
+    except OverflowError:
+        return hi if threshold > 0 else lo
+    if math.isinf(scaled):
+        return hi if scaled > 0 else lo
+    return min(max(math.floor(scaled + 0.5), lo), hi)
+
+
+def constant_outcome(op: str, t: int, fin: QFormat) -> bool | None:
+    """``v op t`` for every value ``v`` of ``fin`` when the threshold integer ``t`` lies outside
+    the input's range (the comparison does not depend on ``v``), else None."""
+    if fin.min_int <= t <= fin.max_int:
+        return None
+    above = t > fin.max_int
+    return above if op in ("lt", "le") else not above
 
 
 def next_state(state: int, v: int, fin: QFormat, states: tuple, transitions: tuple) -> int:

@@ -157,8 +157,8 @@ class FloatInterpreter(_Base):
             return a[0], False
         if k is Kind.COMPARE:
             return float(_CMP[node.param("op")](a[0], a[1])), False
-        if k is Kind.MUX:
-            return a[1 + int(a[0])], False
+        if k is Kind.MUX:       # a select beyond the data inputs picks the last one
+            return a[1 + min(int(a[0]), len(a) - 2)], False
         if k is Kind.SLICE:
             hi, lo = node.param("hi"), node.param("lo")
             if hi == lo == -1:
@@ -229,8 +229,8 @@ class FixedInterpreter(_Base):
             frac = max(f)
             x, y = _aligned(a[0], f[0], frac), _aligned(a[1], f[1], frac)
             return int(_CMP[node.param("op")](x, y)), False
-        elif k is Kind.MUX:
-            j = 1 + a[0]
+        elif k is Kind.MUX:     # a select beyond the data inputs picks the last one
+            j = 1 + min(a[0], len(a) - 2)
             exact, frac = a[j], f[j]
         elif k is Kind.SLICE:
             hi, lo = node.param("hi"), node.param("lo")

@@ -17,16 +17,23 @@ fitted into the node's own Q-format) follows the rule in the table below; then
 | REGISTER | next                   | reset (real value)                     | last step's ``next`` (format must equal next's)     |
 | LUT      | a                      | expr, lo, hi, periodic, addr_bits,     | table[addr] (+ slope * offset if interpolating),    |
 |          |                        | interpolate, table (filled late)       | f = output frac; see pendc.ir.lut                   |
-| MUX      | sel, in0, in1, ...     | -                                      | in_sel aligned to the output, f = output frac       |
+| MUX      | sel, in0, in1, ...     | -                                      | in_sel aligned to the output, f = output frac;      |
+|          |                        |                                        | a select beyond the last input picks the last one   |
 | SLICE    | a                      | hi, lo (bit positions)                 | bits hi..lo of a's integer, unsigned, f = 0         |
 | COMPARE  | a, b                   | op (lt le gt ge eq ne)                 | 1 if real(a) op real(b) else 0, UFIX1_0             |
 | CAST     | a                      | -                                      | a, f = fa (only requantised into the node's format) |
 | FSM      | a                      | states, transitions, outputs, reset,   | Moore output word of the state after this step      |
 |          |                        | lo, hi (valid input range)             | (see pendc.ir.fsm)                                  |
 
+Operands are read by their format's signedness: an unsigned value is never taken as
+two's complement (its exact results count it with a zero sign bit, one bit more).
 Multiplier operands (GAIN input and constant, MUL inputs) are at most 32 bits; every
-exact intermediate fits in 64 bits (the verifier checks both), so the compiled
+exact intermediate fits in 64 signed bits (the verifier checks both), so the compiled
 golden model can use machine integers.
+
+A MUX select beyond its data inputs (a 2-bit select over three inputs reading 3) is
+defined: it selects the last data input, in the interpreters, the golden kernel and the
+Verilog alike (the select of a narrower-than-power-of-two mux saturates).
 """
 
 from __future__ import annotations

@@ -298,9 +298,14 @@ def _operand(node: Node, fmt: QFormat, what: str) -> None:
         _fail(node, f"multiplier operand {what} is {fmt} ({fmt.width} bits), at most {MULT_OPERAND_BITS} allowed")
 
 
+def _signed_bits(fmt: QFormat) -> int:
+    """Bits of ``fmt``'s values as signed numbers (an unsigned value needs a zero sign bit)."""
+    return fmt.width + (0 if fmt.signed else 1)
+
+
 def _aligned_sum_bits(fa: QFormat, fb: QFormat) -> int:
-    # both operands shifted to the larger fraction, plus one bit for the carry
-    return max(fa.int_bits, fb.int_bits) + max(fa.frac, fb.frac) + 1
+    # both operands (as signed numbers) shifted to the larger fraction, plus one bit for the carry
+    return max(_signed_bits(fa) - fa.frac, _signed_bits(fb) - fb.frac) + max(fa.frac, fb.frac) + 1
 
 
 def _check_typed(node: Node, fin: list) -> None:
@@ -324,13 +329,13 @@ def _check_typed(node: Node, fin: list) -> None:
     elif k is Kind.MUL:
         _operand(node, fin[0], f"'{node.inputs[0]}'")
         _operand(node, fin[1], f"'{node.inputs[1]}'")
-        _fits(node, fin[0].width + fin[1].width, "the product")
+        _fits(node, _signed_bits(fin[0]) + _signed_bits(fin[1]), "the product")
     elif k is Kind.GAIN:
         _check_gain(node, fin[0])
     elif k is Kind.MUX:
         _check_mux(node, fin)
     elif k is Kind.CAST:
-        _fits(node, fin[0].width + max(0, out.frac - fin[0].frac), "the input aligned to the output")
+        _fits(node, _signed_bits(fin[0]) + max(0, out.frac - fin[0].frac), "the input aligned to the output")
     elif k is Kind.LUT:
         _check_table(node, fin[0])
 
@@ -343,7 +348,7 @@ def _check_gain(node: Node, fin: QFormat) -> None:
         _fail(node, f"param 'cfmt' {node.param('cfmt')!r} is not a Q-format")
     _operand(node, fin, f"'{node.inputs[0]}'")
     _operand(node, cfmt, "(the constant)")
-    _fits(node, fin.width + cfmt.width, "the product")
+    _fits(node, _signed_bits(fin) + cfmt.width, "the product")
     # from_float saturates silently: a constant that does not fit would be a different gain
     scaled = math.floor(math.ldexp(node.param("value"), cfmt.frac) + 0.5)
     if not cfmt.contains(scaled):
@@ -358,7 +363,7 @@ def _check_mux(node: Node, fin: list) -> None:
     if data > 1 << sel.width:
         _fail(node, f"{data} data inputs but a {sel.width}-bit select reaches only {1 << sel.width}")
     for name, f in zip(node.inputs[1:], fin[1:]):
-        _fits(node, f.width + max(0, node.qformat.frac - f.frac), f"input '{name}' aligned to the output")
+        _fits(node, _signed_bits(f) + max(0, node.qformat.frac - f.frac), f"input '{name}' aligned to the output")
 
 
 def _check_table(node: Node, fin: QFormat) -> None:
