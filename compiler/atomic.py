@@ -41,8 +41,12 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
-    """Binary :func:`write_atomic`: the same refusals, messages and modes (images, videos)."""
+def check_file_output(path: str | os.PathLike) -> Path:
+    """Raise :class:`PendcError` naming ``path`` unless a file can be written there (no folder,
+    device or socket in the way, its folder exists, no trailing '/'); the file a write lands in.
+    Call it before long work whose result goes to ``path``."""
+    if str(path).endswith(("/", os.sep)) and not Path(path).is_dir():
+        raise PendcError(f"{path}: ends in '/', which names a folder; give a file name")
     shown = Path(path)
     path = _target_of(shown)
     folder = path.parent if str(path.parent) else Path(".")
@@ -51,6 +55,14 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
         raise PendcError(f"{shown}: is {kind}; refusing to replace it with a file")
     if not folder.is_dir():
         raise PendcError(f"{shown}: folder {folder} does not exist")
+    return path
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Binary :func:`write_atomic`: the same refusals, messages and modes (images, videos)."""
+    shown = Path(path)
+    path = check_file_output(path)
+    folder = path.parent if str(path.parent) else Path(".")
     try:
         mode = stat.S_IMODE(path.stat().st_mode) if path.exists() else 0o666 & ~current_umask()
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=folder)

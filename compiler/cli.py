@@ -84,9 +84,11 @@ def cmd_derive(args) -> int:
 def cmd_simulate(args) -> int:
     from .model.modelfile import load_model
     from .sim.measurements import format_csv, read_measurements
-    from .atomic import write_atomic
+    from .atomic import check_file_output, write_atomic
     from .sim.simulator import Simulator
 
+    if args.output not in (None, "-"):
+        check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
     data = read_measurements(args.input, required=("t", "u"))
     for w in data.warnings:
@@ -168,6 +170,8 @@ def cmd_build(args) -> int:
     for flag, value in (("--ii", args.ii), ("--dsp", args.dsp)):
         if value is not None and value < 1:
             raise PendcError(f"{flag} must be a positive integer, got {value}")
+    if args.output == "-":
+        raise PendcError("build: -o names the output folder; a build is a folder of files, not standard output")
     model = load_model(args.model)
     build = _build(model, args)
     # named by content and compiler version, never by path: the same model builds the same files anywhere
@@ -315,6 +319,21 @@ def _add_report_parsers(sub) -> None:
     p.set_defaults(func=cmd_report)
 
 
+# the arguments that name a file to read (where '-' means standard input), by attribute
+_INPUTS = {"model": "--model", "input": "--input", "data": "data file", "validate": "--validate", "run": "run"}
+
+
+def _stdin_read_once(args) -> None:
+    """Standard input holds one file: refuse a command line that gives '-' to two inputs."""
+    given = []
+    for attr, name in _INPUTS.items():
+        value = getattr(args, attr, None)
+        values = value if isinstance(value, list) else [value]
+        given += [name for v in values if v is not None and str(v) == "-"]
+    if len(given) > 1:
+        raise PendcError(f"standard input ('-') can be read only once; it is given to {' and '.join(given)}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
@@ -322,6 +341,7 @@ def main(argv: list[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2
+        _stdin_read_once(args)
         return args.func(args)
     except PendcError as exc:
         print(f"pendc: error: {exc}", file=sys.stderr)

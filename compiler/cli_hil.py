@@ -34,6 +34,21 @@ def _address(text: str) -> tuple[str, int]:
     return parse_loopback_address(text)
 
 
+def _check_out_folder(out: str) -> None:
+    """Refuse an ``--out`` that cannot become the run's folder before the run, not after it."""
+    from pathlib import Path
+
+    if out == "-":
+        raise PendcError("hil: --out names a folder for run.csv, summary.json and run.png, not standard output "
+                         "(--json prints the summary)")
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise PendcError(f"{out}: is a file; --out names a folder for run.csv, summary.json and run.png")
+    blocking = next((a for a in folder.parents if a.exists() and not a.is_dir()), None)
+    if blocking is not None:
+        raise PendcError(f"{out}: {blocking} is not a folder")
+
+
 def cmd_hil(args) -> int:
     from .hil.controller_spec import make_controller
     from .hil.loop import run_closed_loop
@@ -44,8 +59,10 @@ def cmd_hil(args) -> int:
     if args.serve and args.controller is not None:
         raise PendcError("hil: --serve and --controller exclude each other (the socket client is the controller)")
     args.controller = args.controller or "builtin"
+    if args.out is not None:
+        _check_out_folder(args.out)
     model = load_model(args.model)
-    meta = {"model": args.model or "models/sct_thesis_final.toml",
+    meta = {"model": model.source if args.model else "models/sct_thesis_final.toml",
             "controller": "socket client" if args.serve else args.controller,
             "period_s": f"{args.period:g}"}
     address = _address(args.serve) if args.serve else None   # bad address: fail before any work

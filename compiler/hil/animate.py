@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
+from ..atomic import check_file_output, write_atomic
 from ..errors import PendcError
 from .animate_html import PAGE
 from .records import RunRecord, read_run, write_bytes_atomic
@@ -35,6 +35,8 @@ STDIN_SOURCE = "<stdin>"
 def read_run_input(path) -> RunRecord:
     """:func:`~pendc.hil.records.read_run`, with ``-`` for standard input (``<stdin>`` in errors)."""
     if str(path) != STDIN:
+        if Path(path).is_dir():
+            raise PendcError(f"{path}: is a folder, not a run file")
         return read_run(path)
     data = sys.stdin.buffer.read()
     # read_run reads a path: give it one, and the user's name for it back in any error
@@ -75,13 +77,15 @@ def html_page(record: RunRecord, title: str) -> str:
 
 def animate_run(record: RunRecord, output, fps: int = 25) -> None:
     """Write the animation of ``record`` to ``output`` (format from the extension)."""
+    if str(output) == "-":
+        raise PendcError("animate: -o names a file (.html, .gif or .mp4), not standard output")
+    if Path(output).is_dir():
+        raise PendcError(f"{output}: is a folder; give a file name ending in .html, .gif or .mp4")
+    check_file_output(output)   # before rendering: a movie takes a while
     output = Path(output)
     suffix = output.suffix.lower()
     if suffix not in FORMATS:
         raise PendcError(f"{output}: unknown animation format '{suffix}' (use .html, .gif or .mp4)")
-    folder = output.parent if str(output.parent) else Path(".")
-    if not folder.is_dir():
-        raise PendcError(f"{output}: folder {folder} does not exist")
     if not 1 <= fps <= 100:
         raise PendcError(f"--fps must be in 1..100, got {fps}")
     if suffix == ".html":
