@@ -190,6 +190,25 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
     return "\n".join(lines).replace("pendc.ir.compiled_source", "pendc.golden.resumable_source"), state_idx
 
 
+def register_integers(graph: Graph, registers: dict) -> dict:
+    """{register name: integer} for real start values (name -> value) of registers of ``graph``.
+
+    The integers the golden stepper starts from and the RTL plants deposit into the core's
+    state registers; a name that is not a register, or a value outside the register's
+    format, raises :class:`PendcError`."""
+    from .ir.nodes import Kind
+
+    out = {}
+    for name, value in registers.items():
+        node = next((n for n in graph.nodes if n.name == name and n.kind is Kind.REGISTER), None)
+        if node is None:
+            raise PendcError(f"no register named '{name}' in the core")
+        if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
+            raise PendcError(f"initial {name} = {value} does not fit its format {node.qformat}")
+        out[name] = node.qformat.from_float(float(value))
+    return out
+
+
 class GoldenStepper:
     """The compiled golden kernel, continued from its saved state call after call.
 
@@ -230,13 +249,7 @@ class GoldenStepper:
         """Back to reset; ``registers`` (name -> real value) start some registers elsewhere."""
         self.state = self._reset_state.copy()
         names = [self.graph.nodes[i].name for i in self.state_idx]
-        for name, value in (registers or {}).items():
-            if name not in names:
-                raise PendcError(f"no register named '{name}' in the core")
-            node = self.graph[name]
-            q = node.qformat.from_float(float(value))
-            if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
-                raise PendcError(f"initial {name} = {value} does not fit its format {node.qformat}")
+        for name, q in register_integers(self.graph, registers or {}).items():
             self.state[names.index(name)] = q
         self.k = 0
         self.overflows: dict = {}

@@ -75,11 +75,19 @@ def _check_ports(ports: dict) -> None:
             raise ValueError(f"port {p} is {ports[p]['width']} bits; LO/HI register pairs hold at most 64")
 
 
-def register_map(ports: dict) -> list[dict]:
+def status_words(status_nodes) -> list:
+    """``(register name, low bit, high bit)`` of the debug build's OVERFLOW_STATUS words."""
+    n = len(status_nodes)
+    return [(f"OVERFLOW_STATUS_{k}", 32 * k, min(n, 32 * k + 32) - 1) for k in range((n + 31) // 32)]
+
+
+def register_map(ports: dict, status_nodes=()) -> list[dict]:
     """The wrappers' registers: name, byte offset, access, implemented bits, description.
 
     Offsets do not depend on ``ports`` (only widths and descriptions do), so host
-    software sees one map for every model.
+    software sees one map for every model. A debug build (``status_nodes``: the core's
+    ``overflow_status`` bit order) appends the OVERFLOW_STATUS_k words after the map, one
+    sticky bit per node.
     """
     _check_ports(ports)
     u = ports["u"]
@@ -119,6 +127,14 @@ def register_map(ports: dict) -> list[dict]:
                      f"bits 31..0 of the {ext}-extended {what}; reading it latches {p.upper()}_HI"))
         regs.append((f"{p.upper()}_HI", "ro", max(0, f["width"] - 32),
                      f"bits 63..32 of the {ext}-extended {p} as latched by the last {p.upper()}_LO read"))
+    for name, lo, hi in status_words(status_nodes):
+        bits = "; ".join(f"bit {i - lo} {status_nodes[i]}" for i in range(lo, hi + 1))
+        regs.append((name, "ro", hi - lo + 1, f"debug build: sticky overflow bits of nodes {lo}..{hi} of the "
+                                              f"core's overflow_status, set at the end of the step in which the "
+                                              f"node left its Q-format range, cleared by a (soft) reset: {bits}"))
+    if len(regs) > 1 << WORD_BITS:
+        raise ValueError(f"{len(regs)} registers do not fit the {1 << WORD_BITS} words of the address space "
+                         f"({len(status_nodes)} overflow status bits)")
     return [{"name": n, "offset": 4 * i, "access": a, "width": w, "description": d}
             for i, (n, a, w, d) in enumerate(regs)]
 
@@ -145,7 +161,7 @@ def _check_view(view, ports: dict) -> dict:
     return core
 
 
-def _regs_context(view, ports: dict, ident: int, registers: list, header: str) -> dict:
+def _regs_context(view, ports: dict, ident: int, registers: list, header: str, status_nodes=()) -> dict:
     core = _check_view(view, ports)
     u = ports["u"]
     uw = u["width"]
@@ -167,6 +183,9 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str) -
         "ENC_X_COUNT": "enc_x_count", "ENC_THETA_COUNT": "enc_theta_count",
         "STEP_COUNT_LO": "step_count[31:0]", "STEP_COUNT_HI": "step_count_hi",
     }
+    for name, lo, hi in status_words(status_nodes):
+        w = hi - lo + 1
+        values[name] = f"core_status[{hi}:{lo}]" if w == 32 else f"{{{32 - w}'d0, core_status[{hi}:{lo}]}}"
     pairs = {"STEP_COUNT": "step_count"}
     for p in STATE_PORTS:
         values[f"{p.upper()}_LO"] = f"st_{p}_ext[31:0]"
@@ -183,6 +202,11 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str) -
     conns = [".clk(clk)", ".rst(core_rst)", ".step(core_step)", ".ready(core_ready)", ".u(core_u)"]
     conns += [f".{p}(st_{p})" for p in STATE_PORTS]
     conns += [f".{p}({p})" for p in ENCODER_PORTS if p in core]
+    if status_nodes:
+        from .emit import status_nodes as core_status_nodes
+        if list(status_nodes) != core_status_nodes(view):
+            raise ValueError(f"the overflow status nodes are not those of core {view.module}'s debug build")
+        conns.append(".overflow_status(core_status)")
     conns.append(".overflow(core_overflow)")
     return {
         "header": header, "module": REGS_MODULE, "core": view.module, "qdec": QDEC_MODULE, "ii": view.ii,
@@ -195,18 +219,22 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str) -
         "core_conns": [{"text": c, "sep": "," if i < len(conns) - 1 else ""} for i, c in enumerate(conns)],
         "enc_ties": [p for p in ENCODER_PORTS if p not in core],
         "encoders": list(ENCODER_PORTS),
+        "status_msb": len(status_nodes) - 1,
     }
 
 
-def render_wrapper(view, ports: dict, build_id: int, bus: str) -> tuple[dict, dict]:
-    """The wrapper's files for ``bus`` as ``{filename: text}`` and ``{"module", "registers"}``."""
+def render_wrapper(view, ports: dict, build_id: int, bus: str, status_nodes=()) -> tuple[dict, dict]:
+    """The wrapper's files for ``bus`` as ``{filename: text}`` and ``{"module", "registers"}``;
+    ``status_nodes`` (a debug build's :func:`pendc.backend.emit.status_nodes`): the core's
+    ``overflow_status`` is readable as OVERFLOW_STATUS_k words on both buses."""
     if bus not in FRONT_ENDS:
         raise ValueError(f"unknown bus {bus!r}; choose one of {', '.join(BUSES)}")
-    registers = register_map(ports)
+    status_nodes = list(status_nodes)
+    registers = register_map(ports, status_nodes)
     top, template = FRONT_ENDS[bus]
     header = f"Generated by {GENERATOR} (build 0x{build_id & 0xFFFFFFFF:08x}); do not edit."
     env = _env()
-    regs = _regs_context(view, ports, build_id, registers, header)
+    regs = _regs_context(view, ports, build_id, registers, header, status_nodes)
     common = {"header": header, "regs": REGS_MODULE, "addr_msb": ADDR_WIDTH - 1, "word_msb": WORD_BITS - 1,
               "word_zero": f"{WORD_BITS}'d0", "core": view.module, "encoders": list(ENCODER_PORTS)}
     files = {

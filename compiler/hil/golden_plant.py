@@ -59,6 +59,23 @@ class GoldenPlant:
         """{node: first step since reset} of every node that left its range."""
         return dict(self.stepper.overflows)
 
+    def registers(self) -> tuple:
+        """The integers of every state node now (registers, then FSM states): what
+        :meth:`load` and the RTL plants' ``load`` continue from."""
+        return tuple(int(v) for v in self.stepper.state)
+
+    def load(self, registers) -> PlantState:
+        """Reset, then continue from ``registers`` (as :meth:`registers` returns them); time and
+        encoder counts restart at zero."""
+        values = np.asarray([int(v) for v in registers], dtype=np.int64)
+        if values.shape != self.stepper.state.shape:
+            raise PendcError(f"a core state has {self.stepper.state.size} registers, got {values.size}")
+        self.stepper.reset()
+        self.stepper.state = values
+        self._counts = [0, 0]
+        self._state = self._from_row(self._outputs_now())
+        return self._state
+
     def quantize_input(self, u: float) -> int:
         """The input port's integer for ``u`` volts (nearest, saturating), as the bus writes it."""
         return self._u_format.from_float(u)

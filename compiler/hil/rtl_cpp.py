@@ -9,6 +9,8 @@ harness, whose clock schedule it reproduces edge for edge:
 * ``0 u n``: ``u`` applied and ``step`` held high (it stays high until the next reset) for
   ``n * ii`` clock cycles; after every falling edge the four channel lines are decoded like
   :func:`pendc.hil.plant.x4_count_delta` (Gray index difference mod 4: +1, -1, or 2 = lost);
+* ``2 i v``: ``step`` low, the integer ``v`` written into state register ``i`` (made public
+  through a Verilator configuration file, so the core's text is unchanged), one idle cycle;
 * each answer: ``x dx theta dtheta enc_x enc_theta enc_x_a enc_x_b enc_theta_a enc_theta_b
   overflow lost``, flushed at once.
 
@@ -19,17 +21,16 @@ built once and cached under its hash, next to the Verilog harnesses.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
-from .golden_plant import STATE_PORTS, build_for
+from .golden_plant import STATE_PORTS
 from .rtl_plant import VERILATOR_MAKE_VARS, RtlPlant, _tool, build_cached
 
 CORE = "pendulum_core"
 EXECUTABLE = "pendc_hil_cpp"
-MAIN_FORMAT = 2          # bump when the C++ main changes shape
+MAIN_FORMAT = 3          # bump when the C++ main changes shape
 MAX_PORT_WIDTH = 64      # every port must fit one C++ integer (Verilator's QData)
 # -O2 rather than verilated.mk's -Os: about 15 % more steps per second on this core, where
 # the core's own clocked logic takes over 80 % of the time
@@ -41,17 +42,30 @@ def _cpp_int_type(width: int) -> str:
     return "CData" if width <= 8 else "SData" if width <= 16 else "IData" if width <= 32 else "QData"
 
 
-def main_source(ports: dict, ii: int) -> str:
-    """The C++ ``main`` around Verilator's ``V{CORE}`` model (ports: report.json's "ports")."""
+def config_source(deposit: tuple) -> str:
+    """Verilator configuration making the deposit registers writable from C++ (and only them)."""
+    return "`verilator_config\n" + "".join(f'public_flat_rw -module "{CORE}" -var "{reg}"\n' for reg, _ in deposit)
+
+
+def main_source(ports: dict, ii: int, deposit: tuple = ()) -> str:
+    """The C++ ``main`` around Verilator's ``V{CORE}`` model (ports: report.json's "ports");
+    ``deposit``: ``(core register, width)`` pairs a ``2 i v`` request writes."""
     too_wide = [p for p in ("u",) + STATE_PORTS if ports[p]["width"] > MAX_PORT_WIDTH]
     if too_wide:
         raise PendcError(f"the C++ Verilator plant handles ports of up to {MAX_PORT_WIDTH} bits; "
                          f"{', '.join(too_wide)} is wider (use --plant golden)")
     uw = ports["u"]["width"]
+    wide = [reg for reg, w in deposit if w > MAX_PORT_WIDTH]
+    if wide:
+        raise PendcError(f"the C++ Verilator plant deposits registers of up to {MAX_PORT_WIDTH} bits; "
+                         f"{', '.join(wide)} is wider")
+    loads = "".join(f"        case {i}: core->rootp->{CORE}__DOT__{reg} = ({_cpp_int_type(w)})((uint64_t)v & "
+                    f"{hex((1 << w) - 1)}ULL); break;\n" for i, (reg, w) in enumerate(deposit))
     value = {p: (f"sext(core->{p}, {ports[p]['width']})" if ports[p]["signed"]
                  else f"(long long)(uint64_t)core->{p}") for p in STATE_PORTS}
     return f"""// pendc HIL plant (pendc.hil.rtl_cpp, format {MAIN_FORMAT}): lockstep over stdin/stdout.
 #include "V{CORE}.h"
+#include "V{CORE}___024root.h"
 #include "verilated.h"
 #include <cstdint>
 #include <cstdio>
@@ -121,6 +135,18 @@ struct Harness {{
         }}
     }}
 
+    // as a testbench deposits a state: step low, the register written between edges, one idle cycle
+    void deposit(long long i, long long v) {{
+        core->step = 0;
+        switch (i) {{
+{loads}        default: break;
+        }}
+        core->eval();
+        cycle();
+        px = gray(core->enc_x_a, core->enc_x_b);   // a deposited encoder phase is no movement
+        pt = gray(core->enc_theta_a, core->enc_theta_b);
+    }}
+
     void answer() {{
         std::printf("%lld %lld %lld %lld %lld %lld %d %d %d %d %d %d\\n", {", ".join(value[p] for p in STATE_PORTS)},
                     cnt_x, cnt_t, (int)core->enc_x_a, (int)core->enc_x_b, (int)core->enc_theta_a,
@@ -138,12 +164,14 @@ int main(int argc, char** argv) {{
         long long kind = -1, u = 0, n = 0;
         const int got = std::scanf("%lld %lld %lld", &kind, &u, &n);
         if (got < 1) break;                    // end of input: the host closed the pipe
-        if (got != 3 || kind < 0 || kind > 1 || (kind == 0 && (n < 1 || n > 0x7fffffffLL))) {{
+        if (got != 3 || kind < 0 || kind > 2 || (kind == 0 && (n < 1 || n > 0x7fffffffLL))
+                || (kind == 2 && (u < 0 || u >= {len(deposit)}))) {{
             std::printf("ERROR bad request\\n");
             std::fflush(stdout);
             return 1;
         }}
         if (kind == 1) h.reset();
+        else if (kind == 2) h.deposit(u, n);
         else h.run(u, n);
         h.answer();
     }}
@@ -159,35 +187,44 @@ def _build_command(work: Path, sources: list) -> list:
             "--noassert", "-Wno-fatal", "-Wno-lint", "-MAKEFLAGS", MAKE_VARS] + [str(s) for s in sources]
 
 
-def build_cpp_harness(files: dict, ports: dict, ii: int) -> Path:
+def build_cpp_harness(files: dict, ports: dict, ii: int, deposit: tuple = ()) -> Path:
     """The Verilator C++ plant executable for these HDL files, built once per design hash and cached."""
     def commands_for(folder: Path, sources: list):
         return [_build_command(folder, sources)], folder / "obj_dir" / EXECUTABLE
-    return build_cached("verilator-cpp", files, {"main.cpp": main_source(ports, ii)}, MAKE_VARS, commands_for,
-                        "C++ Verilator plant")
+    return build_cached("verilator-cpp", files, {"deposit.vlt": config_source(deposit),
+                                                 "main.cpp": main_source(ports, ii, deposit)},
+                        MAKE_VARS, commands_for, "C++ Verilator plant")
+
+
+# the fastest bit-exact schedule under Verilator: one clock cycle per step evaluates the datapath
+# once, where a pipelined schedule re-evaluates it every cycle (bench/bench_rtl_cpp.py measures both)
+FASTEST_SCHEDULE = {"preset": "comb"}
 
 
 class VerilatorCppPlant(RtlPlant):
     """The generated core under a plain C++ Verilator harness, stepped in lockstep.
 
     Behaves exactly like ``RtlPlant(model, "verilator")`` (same integers, same overflow and
-    lost-count errors, :meth:`raw`, :meth:`close`, ``with``); only the executable differs."""
+    lost-count errors, ``initial``, :meth:`raw`, :meth:`close`, ``with``); only the executable
+    differs. ``loadable``: build the harness with every state register writable, for
+    :meth:`load` (``initial`` implies it; the default harness is faster). ``schedule`` defaults to :data:`FASTEST_SCHEDULE` (every schedule is bit-exact with
+    the same golden model, so the fastest to simulate is the same plant)."""
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
-                 bus: str = "raptor"):
-        from ..backend.hdl import build_hdl, port_formats
-
-        if on_overflow not in ("error", "mark"):
-            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
-        self.build = build_for(model, dt, build)
+                 bus: str = "raptor", initial: tuple | None = None, schedule: dict | None = None,
+                 loadable: bool = False):
         # "verilator": RtlPlant runs the executable itself and names the simulator in its errors
-        self.model, self.dt, self.simulator, self.on_overflow = model, float(dt), "verilator", on_overflow
-        files = build_hdl(self.build.graph, self.build.resources.to_json(), source=model.source, bus=bus)
-        report = json.loads(files["report.json"])
-        self.ports = port_formats(self.build.graph)
-        self._lsb = {p: 2.0 ** -report["ports"][p]["frac"] for p in STATE_PORTS}
-        self._u_format = self.build.graph["u"].qformat
-        self.executable = build_cpp_harness(files, report["ports"], int(report["ii"]))
+        self.simulator = "verilator"
+        files, report = self._prepare(model, dt, build, on_overflow, bus, initial,
+                                      FASTEST_SCHEDULE if schedule is None else schedule)
+        # registers made writable from C++ cost speed: only when a state is to be loaded
+        self._deposit_ok = loadable or initial is not None
+        self.executable = build_cpp_harness(files, report["ports"], self.ii,
+                                            self._deposit if self._deposit_ok else ())
         self._proc = None
         self.overflow_at = None
         self.reset()
+
+    def describe(self) -> dict:
+        """As :meth:`RtlPlant.describe`, with the harness named."""
+        return dict(super().describe(), harness="C++ (verilator --cc, eval() loop)")

