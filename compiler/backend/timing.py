@@ -75,7 +75,7 @@ class Datapath:
             unit = None     # an unsigned operand as wide as the unit: the unit's signed operand cannot hold it
         if unit is None:
             ops = [f"$signed({literal(c, width) if c is not None else extend(e, w, s, width)})" for e, w, c, s in (a, b)]
-            return self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}"), width
+            return self._product_reg(node, self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}")), width
         wa, wb = unit.widths
         names = self._unit_wires[unit.name]
         (e1, w1, c1, s1), (e2, w2, c2, s2) = big[0], small[0]
@@ -84,6 +84,15 @@ class Datapath:
         self.unit_ops.setdefault(unit.name, []).append((self.schedule.stage[node], ea, eb))
         p = names["p"]
         return self.net.wire(f"{base}_x", width, p if width == wa + wb else f"{p}[{width - 1}:0]"), width
+
+    def _product_reg(self, node: str, wire: str) -> str:
+        """``wire``, or its pipeline register when the schedule registers ``node``'s product
+        before rounding it (``Schedule.product_reg``: the cycle whose end loads it)."""
+        cycle = getattr(self.schedule, "product_reg", {}).get(node)
+        if cycle is None:
+            return wire
+        self._piped[wire] = (self.net.fresh(f"{wire}_p"), cycle)
+        return self._piped[wire][0]
 
     def emit_units(self) -> None:  # called by finish()
         """Declare every shared unit: phase-selected operands and one product."""

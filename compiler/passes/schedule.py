@@ -17,27 +17,29 @@ products (GAIN, MUL and table interpolations) also wait for a cycle with a free 
 products in different cycles share a unit, whose operands a phase-selected mux
 chooses, so the core never needs more than ``dsp`` blocks. The states, FSMs and overflow flag update at the end of the last cycle.
 
-The delay model (ns, ECP5 speed 6 including typical routing) is deliberately simple;
-`pendc report synth` measures the real Fmax.
+The delay model (pendc.passes.delays) is calibrated against nextpnr-ecp5's routed timing
+(routing included, flip-flop clock-to-out and setup charged to every cycle). The ``fast``
+preset tries clock goals up to 10 ns and keeps the schedule whose *estimated* step
+(``ii`` x the estimated period of its slowest cycle) is shortest; `pendc report synth`
+measures the real Fmax.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
-from ..ir.qformat import QFormat
+from .delays import ECP5_SPEED6, DelayModel, model_for
 from .resources import dsp_for, product_widths
 
-T_MULT = 5.0          # one MULT18X18D, combinational, with its routing
-T_TILE_SUM = 1.5      # adding the partial products of a multi-block product
-T_ROM = 4.0           # DP16KD clock-to-out and routing
-T_MUX = 0.8
-T_SETUP = 0.5
 SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
+# nodes that may carry an overflow term (pendc.backend.timing): a LUT level detects it after the
+# node, into a pipeline register; in the step's last cycle the OR of the terms into the sticky
+# flag (two more levels) must fit too
+NO_OVERFLOW_TERM = SOURCES + (Kind.COMPARE, Kind.SLICE)
 PRESETS = {
     # name: (clock goal ns, DSP budget, description)
     "fast": (10.0, None, "shortest step: 100 MHz clock goal, a multiplier per product"),
@@ -46,11 +48,6 @@ PRESETS = {
     "comb": (math.inf, None, "no pipelining: one combinational step between table reads (the thesis' structure)"),
 }
 DEFAULT_PRESET = "default"
-
-
-def t_add(width: int) -> float:
-    """A ripple-carry adder of ``width`` bits (CCU2C chain)."""
-    return 1.0 + 0.045 * width
 
 
 @dataclass(frozen=True)
@@ -80,43 +77,53 @@ class Schedule:
     units: tuple
     preset: str = ""
     target: str = "ecp5-85k"
+    estimated_period_ns: float = 0.0     # the slowest cycle under the delay model (pendc.passes.delays)
+    product_reg: dict = field(default_factory=dict)   # product -> the cycle whose end registers it (rounded next)
+
+    @property
+    def estimated_step_ns(self) -> float:
+        """``ii`` x the estimated period: the model's prediction of a step's duration."""
+        return round(self.ii * self.estimated_period_ns, 2)
 
     def to_json(self) -> dict:
         return {"ii": self.ii, "preset": self.preset, "target": self.target,
                 "clock_goal_ns": None if math.isinf(self.clock_ns) else self.clock_ns,
+                "estimated_period_ns": self.estimated_period_ns, "estimated_step_ns": self.estimated_step_ns,
                 "dsp_budget": self.dsp_budget, "rom_registered": list(self.rom_reg),
+                "products_registered": dict(sorted(self.product_reg.items())),
                 "units": [u.to_json() for u in self.units],
                 "cycles": {str(c): sorted(n for n, s in self.stage.items() if s == c) for c in range(self.ii)}}
 
 
-def node_delay(graph: Graph, n) -> float:
-    """Estimated combinational delay of a node's own logic (ns); tables: the address part."""
+def node_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)) -> float:
+    """Estimated routed delay of a node's own logic (ns); tables: the address part."""
     k = n.kind
-    w = n.qformat.width
     ins = [graph[i].qformat for i in n.inputs]
     rounds = any(q.frac > n.qformat.frac for q in ins) if ins else False
-    requant = t_add(w) if rounds else 0.0
+    in_width = max((q.width for q in ins), default=n.qformat.width)
     if k in (Kind.GAIN, Kind.MUL):
         wa, wb = product_widths(graph, n)
-        tiles = dsp_for(wa, wb, (18, 18))
-        return T_MULT + (T_TILE_SUM + t_add(wa + wb) if tiles > 1 else 0.0) + requant
+        # the rounding constant is added to the full product before it is cut to the output format
+        return model.product(wa, wb, dsp_for(wa, wb, shape)) + (model.add(wa + wb) if rounds else 0.0)
+    requant = model.add(in_width) if rounds else 0.0
     if k in (Kind.ADD, Kind.SUB, Kind.NEG, Kind.COMPARE):
-        return t_add(max(q.width for q in ins) + 1) + requant
+        return model.add(in_width + 1) + requant
     if k is Kind.CAST:
         return requant
     if k is Kind.MUX:
-        return T_MUX * max(1, math.ceil(math.log2(max(2, len(n.inputs) - 1)))) + requant
-    if k is Kind.LUT:
-        return t_add(ins[0].width + 1) + (0.0 if n.param("periodic") else T_MUX)
+        return model.mux(len(n.inputs) - 1) + requant
+    if k is Kind.LUT:       # address: offset subtraction, then a clamp unless the table wraps
+        return model.add(ins[0].width + 1) + (0.0 if n.param("periodic") else model.mux(3))
     return 0.0
 
 
-def interp_delay(graph: Graph, n) -> float:
-    """A table's slope x fraction product and the sum with the entry."""
+def interp_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)) -> float:
+    """A table's slope x fraction product, its rounding and the sum with the entry."""
     widths = product_widths(graph, n)
     if widths is None:
         return 0.0
-    return T_MULT + 2 * t_add(n.qformat.width + 1)
+    wa, wb = widths
+    return model.product(wa, wb, dsp_for(wa, wb, shape)) + model.add(wa + wb) + model.add(n.qformat.width + 1)
 
 
 def _is_product(graph: Graph, n) -> bool:
@@ -126,8 +133,12 @@ def _is_product(graph: Graph, n) -> bool:
 def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = None,
                    shape: tuple = (18, 18), preset: str = "", target: str = "ecp5-85k") -> Schedule:
     """List-schedule ``graph`` (typed) for a clock goal and an optional DSP budget (see module doc)."""
-    period = clock_ns
-    stage, finish, lut_addr, rom_reg = {}, {}, {}, []
+    model = model_for(target)
+    # offsets are logic time after the launching flip-flop's clock-to-out; a cycle holds
+    # ``budget`` of it before the capturing flip-flop's setup
+    budget_ns = model.logic_budget(clock_ns)
+    stage, finish, lut_addr, rom_reg, split_at = {}, {}, {}, [], {}
+    longest: dict = {}     # cycle -> the longest logic path ending in it (ns)
     usage: dict = {}
     budget = dsp
 
@@ -143,10 +154,12 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
         slots = dsp // max(costs)
         if slots < 1:
             raise PendcError(f"the widest product needs {max(costs)} DSP blocks, more than the budget --dsp {dsp}")
+    # a shared unit's operands come through a phase-selected mux in front of it
+    share_mux = model.mux(4) if slots is not None else 0.0
 
     def place(c: int, offset: float, d: float, n=None) -> tuple[int, float]:
         """First (cycle, start) at or after (c, offset) where ``d`` fits and, for a product, DSPs are free."""
-        if offset > 0 and offset + d > period:
+        if offset > 0 and offset + d > budget_ns:
             c, offset = c + 1, 0.0
         if n is not None and slots is not None:
             while usage.get(c, 0) >= slots:
@@ -154,41 +167,100 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
             usage[c] = usage.get(c, 0) + 1
         return c, offset
 
+    def done(name: str, c: int, end: float) -> None:
+        stage[name], finish[name] = c, end
+        longest[c] = max(longest.get(c, 0.0), end)
+
     def ready(inputs) -> tuple[int, float]:
         c = max((stage[i] for i in inputs), default=0)
         return c, max((finish[i] for i in inputs if stage[i] == c), default=0.0)
 
+    rom_offset = model.rom_clk_to_out - model.clk_to_q   # the ROM word arrives this much later than a register's
     for n in graph.nodes:
         if n.kind in SOURCES:
             stage[n.name], finish[n.name] = 0, 0.0
             continue
         c, o = ready(n.inputs)
-        d = node_delay(graph, n)
+        product = _is_product(graph, n)
+        d = node_delay(graph, n, model, shape)
         if n.kind is Kind.LUT:
-            c, o = place(c, o, d + T_SETUP)
+            c, o = place(c, o, d)
             lut_addr[n.name] = c
-            di = interp_delay(graph, n)
-            c, o = c + 1, T_ROM
-            if o + di > period:
+            longest[c] = max(longest.get(c, 0.0), o + d)
+            di = interp_delay(graph, n, model, shape) + (share_mux if product else 0.0)
+            c, o = c + 1, rom_offset
+            if di and o + di > budget_ns:
                 rom_reg.append(n.name)
+                longest[c] = max(longest.get(c, 0.0), o)
                 c, o = c + 1, 0.0
+            if di and slots is None and di + model.lut_level > budget_ns:
+                wa, wb = product_widths(graph, n)
+                dm = model.product(wa, wb, dsp_for(wa, wb, shape))
+                if dm <= budget_ns:       # slope x fraction from registers; rounded and summed a cycle later
+                    split_at[n.name] = c
+                    longest[c] = max(longest.get(c, 0.0), dm)
+                    done(n.name, c + 1, di - dm)
+                    longest[c + 1] = max(longest[c + 1], di - dm + model.lut_level)
+                    continue
             if di:
                 c, o = place(c, o, di, n)
-            stage[n.name], finish[n.name] = c, o + di
+            done(n.name, c, o + di)
             continue
-        c, o = place(c, o, d, n if _is_product(graph, n) else None)
-        stage[n.name], finish[n.name] = c, o + d
+        d += share_mux if product else 0.0
+        tail = 0.0 if n.kind in NO_OVERFLOW_TERM else model.lut_level
+        if product and slots is None:
+            split = _split_product(graph, n, model, shape, stage, c, o, d, tail, budget_ns)
+            if split is not None:
+                p, rest = split
+                split_at[n.name] = p
+                longest[p] = max(longest.get(p, 0.0), d - rest)
+                done(n.name, p + 1, rest)
+                longest[p + 1] = max(longest[p + 1], rest + tail)
+                continue
+        c, o = place(c, o, d + tail, n if product else None)
+        done(n.name, c, o + d)
+        longest[c] = max(longest[c], o + d + tail)
     last = 0
     for n in graph.of_kind(Kind.REGISTER, Kind.FSM):
         i = n.inputs[0]
-        tail = T_SETUP + (t_add(graph[i].qformat.width + 1) if n.kind is Kind.FSM else 0.0)
-        c = stage[i] + (1 if finish[i] > 0 and finish[i] + tail > period else 0)
+        tail = model.add(graph[i].qformat.width + 1) if n.kind is Kind.FSM else 0.0
+        c = stage[i] + (1 if finish[i] > 0 and finish[i] + tail > budget_ns else 0)
+        longest[c] = max(longest.get(c, 0.0), (finish[i] if c == stage[i] else 0.0) + tail)
         last = max(last, c)
     last = max([last] + list(stage.values()))
-    ii = last + 1
+    flag_tail = 3 * model.lut_level
+    late_flag = [n.name for n in graph.nodes if n.kind not in NO_OVERFLOW_TERM and stage[n.name] == last
+                 and finish[n.name] + flag_tail > budget_ns]
+    # the last cycle's overflow terms reach the flag directly: if they cannot, a cycle that only
+    # loads the state follows, and they are registered like every other cycle's
+    ii = last + (2 if late_flag else 1)
+    if not late_flag:
+        for n in graph.nodes:
+            if n.kind not in NO_OVERFLOW_TERM and stage[n.name] == last:
+                longest[last] = max(longest[last], finish[n.name] + flag_tail)
     units = _share(graph, stage, shape, cost) if dsp is not None and ii > 1 else ()
+    period = round(model.overhead() + max(longest.values(), default=0.0), 3)
     return Schedule(ii=ii, clock_ns=clock_ns, dsp_budget=budget, stage=stage, lut_addr=lut_addr,
-                    rom_reg=tuple(rom_reg), units=units, preset=preset, target=target)
+                    rom_reg=tuple(rom_reg), units=units, preset=preset, target=target, estimated_period_ns=period,
+                    product_reg=split_at)
+
+
+def _split_product(graph: Graph, n, model: DelayModel, shape: tuple, stage: dict, c: int, o: float, d: float,
+                   tail: float, budget_ns: float):
+    """``(product cycle, delay after its register)`` when registering a product before its
+    rounding (and the partial-product sum's carry-out) finishes it earlier than chaining it
+    after its operands, else None. The product's operands must all be registers by then:
+    it starts at offset 0 of the cycle after the last of them."""
+    wa, wb = product_widths(graph, n)
+    rest = d - model.product(wa, wb, dsp_for(wa, wb, shape))
+    if d - rest > budget_ns:
+        return None
+    computed = [stage[i] for i in n.inputs if graph[i].kind not in SOURCES]
+    p = max(computed) + 1 if computed else 0
+    if d + tail > budget_ns:
+        return p, rest            # too long for any cycle unless registered
+    chained = (c, o + d) if o + d + tail <= budget_ns else (c + 1, d)
+    return (p, rest) if (p + 1, rest) < chained else None
 
 
 def _share(graph: Graph, stage: dict, shape: tuple, cost) -> tuple:
@@ -212,6 +284,24 @@ def _share(graph: Graph, stage: dict, shape: tuple, cost) -> tuple:
     return tuple(units)
 
 
+FAST_GOALS = tuple(round(10.0 - 0.1 * i, 1) for i in range(51))     # 10 ns down to 5 ns
+
+
+def fastest(graph: Graph, shape: tuple, goals=FAST_GOALS, dsp: int | None = None, preset: str = "fast",
+            target: str = "ecp5-85k") -> Schedule:
+    """Of the schedules for every clock goal in ``goals``, the one with the shortest estimated step
+    (``ii`` x estimated period; ties: the higher clock). A tighter goal is not always faster: a
+    product or table read that no longer fits a cycle's remainder starts the next one, so the
+    step is searched, not derived."""
+    best = None
+    for goal in goals:
+        s = schedule_graph(graph, goal, dsp, shape, preset, target)
+        if best is None or (s.estimated_step_ns, s.estimated_period_ns) < (best.estimated_step_ns,
+                                                                            best.estimated_period_ns):
+            best = s
+    return best
+
+
 def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | None = None,
                  preset: str | None = None, target: str = "ecp5-85k") -> Schedule:
     """The schedule a build asks for: a preset, or ``--ii``/``--dsp``. With ``ii`` the clock goal
@@ -220,6 +310,8 @@ def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | N
         if preset not in PRESETS:
             raise PendcError(f"unknown preset '{preset}' (known: {', '.join(PRESETS)})")
         clock, budget, _ = PRESETS[preset]
+        if preset == "fast":
+            return fastest(graph, shape, tuple(g for g in FAST_GOALS if g <= clock), dsp, preset, target)
         return schedule_graph(graph, clock, dsp if dsp is not None else budget, shape, preset, target)
     if ii is None:
         return schedule_for(graph, shape, dsp=dsp, preset=DEFAULT_PRESET, target=target)
@@ -241,10 +333,5 @@ def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | N
     if best is None or best.ii > ii:
         best = slowest
     if best.ii < ii:        # fill to exactly ii cycles: the last cycle(s) only update the state
-        best = Schedule(ii=ii, clock_ns=best.clock_ns, dsp_budget=dsp, stage=best.stage, lut_addr=best.lut_addr,
-                        rom_reg=best.rom_reg, units=best.units, preset="", target=target)
+        best = replace(best, ii=ii, dsp_budget=dsp, preset="")
     return best
-
-
-def width_of(fmt: QFormat) -> int:
-    return fmt.width
