@@ -68,6 +68,29 @@ def emit_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | N
     return json.loads(files["report.json"])
 
 
+def emit_debug_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | None = None) -> dict:
+    """Write the debug build (core with ``overflow_status``, OVERFLOW_STATUS_k registers) of
+    ``model`` for ``bus`` into ``out_dir``; returns its report.json (``overflow_status_nodes``:
+    the bit order). Composed from the backend's parts as ``pendc.backend.hdl.build_hdl`` composes
+    the normal build (which does not take the debug option yet)."""
+    from pendc.backend.emit import build_id, dumps_json, render_core, status_nodes, write_tree
+    from pendc.backend.hdl import schedule_of
+    from pendc.backend.wrapper import render_wrapper
+    schedule = schedule_of(build.graph, request)
+    view, files = render_core(build.graph, source_name(model), schedule=schedule, debug_status=True)
+    ident = build_id(files)
+    nodes = status_nodes(view)
+    wrapper_files, regmap = render_wrapper(view, port_formats(build.graph), ident, bus, status_nodes=nodes)
+    files.update(wrapper_files)
+    report = {"top": view.module, "wrapper": regmap["module"], "bus": bus, "ii": view.ii, "dt": build.options.dt,
+              "build_id": f"0x{ident:08x}", "ports": port_formats(build.graph), "debug_status": True,
+              "overflow_status_nodes": nodes, "registers": regmap["registers"],
+              "files": sorted(files) + ["report.json"]}
+    files["report.json"] = dumps_json(report)
+    write_tree(out_dir, files)
+    return report
+
+
 def repo_hdl_current(model=None, build=None) -> bool:
     """True if the repository's hdl_out/ is what ``pendc build`` emits now (the check of
     ``pendc build --check``, done in-process on an already compiled model)."""

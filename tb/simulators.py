@@ -110,11 +110,18 @@ SUITES = {
 }
 
 
+# a debug build's per-node overflow status over each bus (tests/test_sim_debug_status.py)
+DEBUG_SUITES = {
+    "debug_raptor": (None, "test_debug_status", "raptor"),
+    "debug_axil": (None, "test_debug_status", "axi-lite"),
+}
+
+
 def run_suite(prep: Prepared, sim: str, suite: str, build_root: Path, profile: str | None = None,
               testcase: str | None = None, waves: bool = False) -> SuiteResult:
     """Build and run one cocotb suite on one simulator; never raises on test failures."""
     use_venv_tools()
-    top, module, bus = SUITES[suite]
+    top, module, bus = {**SUITES, **DEBUG_SUITES}[suite]
     hdl_dir = prep.hdl[bus]
     report = prep.report[bus]
     sources = verilog_files(hdl_dir)
