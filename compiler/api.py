@@ -149,15 +149,16 @@ def _names(value) -> list:
 
 
 def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, segment: float = 0.5,
-             **reading):
+             effects=None, **reading):
     """Which catalogue effect is missing from ``model``, judged on ``data`` (``pendc diagnose``).
 
     ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
     path or Measurement, or a list of them (each simulated under its own experiment).
     ``outputs``: ``("theta",)`` to judge on theta only; ``workers`` > 1 tests candidates in
-    parallel processes. Returns a :class:`~pendc.ident.diagnose.Diagnosis`: ``candidates``
-    best first (``effect``, ``params``, ``score``, ``evidence``), ``unexplained``,
-    ``at_noise_level``, ``correlations`` and ``notes``.
+    parallel processes; ``effects`` (``"a,b"`` or a list) tests only those catalogue effects.
+    Returns a :class:`~pendc.ident.diagnose.Diagnosis`: ``candidates`` best first (``effect``,
+    ``params``, ``score``, ``evidence``), ``unexplained``, ``at_noise_level``, ``correlations``,
+    ``notes`` and ``tie`` (the best candidates the data cannot separate, or None).
     """
     import numpy as np
 
@@ -167,7 +168,8 @@ def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, s
     datasets = _datasets(data, reading)
     with np.errstate(all="ignore"):
         return run(m, datasets, dt=dt, segment=segment, workers=workers,
-                   outputs=None if outputs is None else tuple(_as_list(outputs)))
+                   outputs=None if outputs is None else tuple(_as_list(outputs)),
+                   effects=None if effects is None else _names(effects))
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,9 @@ def cmd_diagnose(args) -> int:
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs)
     before = horizon_figures(model, datasets, outputs=outputs)
-    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json), outputs=outputs)
+    only = [e.strip() for e in (args.effects or "").split(",") if e.strip()] or None
+    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json), outputs=outputs,
+                 effects=only)
     _notes(d.notes)
     out = d.to_json()
     out["fit_now"] = before
@@ -102,6 +104,14 @@ def cmd_diagnose(args) -> int:
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
                          f"--model {args.model or 'models/sct_thesis_final.toml'} --free {hint[0]} -o NEW.toml")
+    elif d.tie:
+        lines.append(f"Ambiguous: {d.tie['message']}")
+        for name in d.tie["effects"]:
+            c = next(c for c in d.candidates if c.effect == name)
+            lines.append(f"  {name}: {c.evidence}")
+        lines.append(f"Next: run the separating experiment, then pendc diagnose both files together; or fit each: "
+                     f"pendc fit {_data_words(args)} --model {args.model or 'models/sct_thesis_final.toml'} "
+                     f"--add {d.tie['effects'][0]} -o NEW.toml")
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
@@ -228,6 +238,8 @@ def add_parsers(sub) -> None:
     add_data_options(p)
     _add_ident_options(p)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.add_argument("--effects", metavar="A,B", help="test only these catalogue effects, comma-separated "
+                                                    "(default: every effect the model lacks and the data could show)")
     p.set_defaults(func=cmd_diagnose)
 
     p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file",

@@ -372,3 +372,31 @@ def test_sensor_offset_is_part_of_the_output_map(model):
     for k in ("x", "theta"):
         assert c.fit[k] == pytest.approx(100.0, abs=1e-6) and c.fit_horizon[k] == pytest.approx(100.0, abs=1e-6)
     assert compare(model, d).fit_horizon["theta"] < 90.0       # without the offset the model is visibly off
+
+
+def test_missing_or_constant_input_is_not_called_independent(model, monkeypatch):
+    """A free swing whose file had no u column (filled with V_off) or whose u never changes:
+    the residual cannot be tested against the input, and no report may say it is independent."""
+    from pendc.ident import report_html
+    from pendc.ident.whiteness import INPUT_UNTESTED
+
+    monkeypatch.setattr(report_html, "_png", lambda fig: "AAAA")   # the text matters here, not the pixels
+    swing = model.with_effect("coulomb_pendulum", {"tau_c": 0.004}).for_experiment("cart_held")
+    t = np.arange(2001) * 1e-3
+    u = np.full_like(t, 5.264616)
+    r = Simulator(swing, dt=1e-4, method="rk4")(t, u, x0=(0.0, 0.0, 0.8, 0.0))
+    cols = {"t": t, "u": u, "x": np.zeros_like(t), "theta": r["theta"]}
+    for missing, status in ((("u",), "missing"), ((), "constant")):
+        data = Measurement(t=t, u=u, columns=cols, meta={}, source="swing", experiment="cart_held", missing=missing)
+        c = compare(model, data)
+        x = c.whiteness["xcorr"]["theta"]
+        assert x["tested"] is False and x["independent"] is None and x["input"] == status
+        text = format_comparison(c)
+        assert f"theta residual against the input: not tested: {INPUT_UNTESTED[status]}" in text
+        assert "no significant correlation with the input" not in text
+        assert json.loads(json.dumps(c.to_json()))["whiteness"]["xcorr"]["theta"]["independent"] is None
+    page = report_html.render_html(c)
+    assert "independent of u" not in page and "not tested: " + INPUT_UNTESTED["constant"] in page
+    # a varying, measured input is still tested
+    t2, u2 = stimuli.chirp(duration=2)
+    assert compare(model, measured(model, t2, u2)).whiteness["xcorr"]["x"]["tested"] is True

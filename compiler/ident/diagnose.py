@@ -17,7 +17,11 @@ effect, the residual is compared with what the measurement chain alone would lea
 is above it and no candidate removes most of it, the diagnosis says so and lists what
 the residual correlates with (x-dependent signals included: a rail ripple shows there).
 Only candidates that a compared output can see are tested (an effect on the cart is
-invisible in a held-cart swing).
+invisible in a held-cart swing), and a sensor offset only where something in the model
+depends on the absolute position it shifts (without end stops or a spring on the track,
+an offset of x changes no residual: the note says so rather than guessing). When the best
+candidates' scores differ by less than the noise of the score, the diagnosis says that the
+data cannot separate them and which experiment would (:mod:`.ties`).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PendcError
 from ..model.effects import CATALOGUE, CONFLICTS
 from ..model.plant import PlantModel
 from .evidence import describe_candidate, residual_correlations
@@ -36,6 +41,7 @@ from .fit import fit_parameters
 from .noise import NOISE_FACTOR, noise_ratio
 from .outputs import experiment_of, plan_outputs
 from .shooting import ShootingProblem
+from .ties import find_tie
 
 EXPLAINED = 0.5     # a candidate that removes at least half the held-out error explains it
 NEAR_END = 0.8      # end stops are tested only when the cart comes this close to x_end
@@ -52,9 +58,13 @@ class Candidate:
     cost_heldout: tuple   # (before, after) on the held-out half
     evidence: str
     seconds: float = 0.0  # time spent testing this candidate
+    heldout_before: tuple = ()   # per held-out segment: cost without the candidate
+    heldout_after: tuple = ()    # per held-out segment: cost with it (what ties are judged on)
 
     def to_json(self) -> dict:
-        return dict(self.__dict__, cost_fit=list(self.cost_fit), cost_heldout=list(self.cost_heldout))
+        """A JSON-ready dict (the per-segment costs are left out: they serve the tie test)."""
+        out = {k: v for k, v in self.__dict__.items() if k not in ("heldout_before", "heldout_after")}
+        return dict(out, cost_fit=list(self.cost_fit), cost_heldout=list(self.cost_heldout))
 
 
 @dataclass(frozen=True)
@@ -68,12 +78,14 @@ class Diagnosis:
     noise_ratio: dict = None     # output -> residual / noise-only residual (mean squares)
     at_noise_level: bool = False  # nothing systematic left for an effect to explain
     notes: tuple = ()
+    tie: dict | None = None       # the best candidates the data cannot separate (see :mod:`.ties`)
 
     def to_json(self) -> dict:
         """A JSON-ready dict of the whole diagnosis."""
         return {"candidates": [c.to_json() for c in self.candidates], "unexplained": self.unexplained,
                 "at_noise_level": self.at_noise_level, "noise_ratio": self.noise_ratio,
-                "correlations": self.correlations, "baseline_cost": self.baseline_cost, "notes": list(self.notes)}
+                "correlations": self.correlations, "baseline_cost": self.baseline_cost, "notes": list(self.notes),
+                "tie": self.tie}
 
 
 def visible_parts(datasets: list, outputs=None) -> set:
@@ -92,9 +104,14 @@ def visible_parts(datasets: list, outputs=None) -> set:
 def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=None) -> list:
     """Catalogue effects the model lacks and could take (no conflict, requirements met) and,
     given data, that the data could show."""
+    return _candidates(model, datasets, outputs)[0]
+
+
+def _candidates(model: PlantModel, datasets, outputs) -> tuple[list, list]:
+    """(candidate effects, notes on the ones left out for a reason the user should hear)."""
     seen = visible_parts(datasets, outputs) if datasets else None
     reach = max((float(np.max(np.abs(d.column("x")))) for d in datasets), default=0.0) if datasets else None
-    out = []
+    out, notes = [], []
     for name, cls in CATALOGUE.items():
         if name in model.effects:
             continue
@@ -106,8 +123,46 @@ def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=N
             continue
         if any(not any(r in model.effects for r in alts) for alts in cls.requires):
             continue
+        if cls.acts_on in ("x", "theta") and datasets:
+            blind = offset_blindness(model, datasets, cls.acts_on, reach)
+            if blind:
+                notes.append(f"{name} is not tested: {blind}")
+                continue
         out.append(name)
-    return out
+    return out, notes
+
+
+def _depends_on(model: PlantModel, experiment: str, state: int) -> bool:
+    """Whether the dynamics of ``model`` in ``experiment`` involve the absolute value of
+    state ``state`` (0: x, 2: theta)."""
+    eq = model.for_experiment(experiment).equations
+    used = set().union(*(e.free_symbols for _, e in eq.assignments), *(d.free_symbols for d in eq.derivatives))
+    return eq.states[state] in used
+
+
+def offset_blindness(model: PlantModel, datasets: list, output: str, reach: float | None = None) -> str:
+    """Why an offset of sensor ``output`` cannot show in ``datasets`` ('' when it can).
+
+    Shooting starts every segment from the measured state, so a constant offset of a
+    sensor changes the residual only through physics that depends on the absolute
+    position: gravity for theta, end stops or a spring for x."""
+    state = 0 if output == "x" else 2
+    experiments = {experiment_of(d) for d in datasets}
+    if any(_depends_on(model, e, state) for e in experiments):
+        if output == "x" and "end_stops" in model.effects and reach is not None and \
+                not any(_depends_on(model.without_effect("end_stops"), e, 0) for e in experiments):
+            x_end = model.effects["end_stops"].get("x_end", 0.375)
+            if reach < NEAR_END * x_end:
+                return (f"the cart never comes near the end stops (|x| <= {reach:.3g} m, stops at {x_end:g} m), "
+                        "the only place where the model depends on its absolute position; a run into the end "
+                        "stops would show an offset of the position sensor")
+        return ""
+    if output == "x":
+        return ("nothing in the model depends on where the cart is on the track (no end stops, no spring), so an "
+                "offset of the position sensor changes no residual: it is not identifiable from these data; a "
+                "run into the end stops with end_stops in the model would show it")
+    return ("nothing in the model depends on the absolute angle in these experiments, so an offset of the angle "
+            "sensor changes no residual; a swing of the pendulum would show it")
 
 
 def free_parameters(effect: str) -> list:
@@ -123,7 +178,11 @@ def _test_candidate(args) -> Candidate:
     fit = fit_parameters(trial, datasets, free, dt=dt, segment=segment, subset="even", outputs=outputs)
     held = ShootingProblem(fit.model, datasets, free, dt=dt, segment=segment, subset="odd", outputs=outputs)
     base = ShootingProblem(model, datasets, [], dt=dt, segment=segment, subset="odd", outputs=outputs)
-    before, after = base.cost(np.array([])), held.cost(held.start_values())
+    rb, ra = base.residual(np.array([])), held.residual(held.start_values())
+    blocks = base.segment_blocks()
+    seg_before = tuple(0.5 * float(rb[a:b] @ rb[a:b]) for a, b in blocks)
+    seg_after = tuple(0.5 * float(ra[a:b] @ ra[a:b]) for a, b in blocks)
+    before, after = 0.5 * float(rb @ rb), 0.5 * float(ra @ ra)
     n = held.size
     bic = lambda cost, k: n * math.log(max(2 * cost, 1e-300) / n) + k * math.log(n)
     score = 1.0 - after / before if before > 0 else 0.0
@@ -131,17 +190,41 @@ def _test_candidate(args) -> Candidate:
                      delta_bic=float(bic(before, 0) - bic(after, len(free))),
                      cost_fit=(fit.cost_before, fit.cost_after), cost_heldout=(before, after),
                      evidence=describe_candidate(model, fit.model, effect, datasets, score),
-                     seconds=time.perf_counter() - started)
+                     seconds=time.perf_counter() - started, heldout_before=seg_before, heldout_after=seg_after)
+
+
+def noise_share(model: PlantModel, datasets: list, ratio: dict, dt: float, segment: float, outputs) -> float:
+    """The share of the held-out error (odd segments) that the measurement chain alone leaves:
+    per output, its part of the cost divided by its noise ratio (capped at all of it)."""
+    problem = ShootingProblem(model, datasets, [], dt=dt, segment=segment, subset="odd", outputs=outputs)
+    cost = {}
+    for rec, segs in zip(problem.records, problem.errors(np.array([]))):
+        for (a, b), e in zip(rec.bounds, segs):
+            for o in rec.outputs:
+                r = np.full(b - a, 1e3) if e is None else e[o] / problem.scales[o]
+                cost[o] = cost.get(o, 0.0) + 0.5 * float(r @ r)
+    total = sum(cost.values())
+    if total <= 0:
+        return 0.0
+    noise = sum(c / max(ratio.get(o, math.inf), 1.0) for o, c in cost.items())
+    return float(noise / total)
 
 
 def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float = 0.5,
-             workers: int = 1, progress=None, outputs=None) -> Diagnosis:
+             workers: int = 1, progress=None, outputs=None, effects=None) -> Diagnosis:
     """Rank the missing-effect hypotheses for ``model`` on ``datasets`` (Measurements).
 
-    ``outputs`` restricts the compared outputs (e.g. ``("theta",)``); ``workers`` > 1 tests
-    candidates in parallel processes; ``progress(done, total, name)`` is called after each
-    candidate."""
-    names = candidate_effects(model, datasets, outputs)
+    ``outputs`` restricts the compared outputs (e.g. ``("theta",)``); ``effects`` restricts
+    the candidates to those named (each still subject to the checks of
+    :func:`candidate_effects`); ``workers`` > 1 tests candidates in parallel processes;
+    ``progress(done, total, name)`` is called after each candidate."""
+    names, skipped = _candidates(model, datasets, outputs)
+    if effects is not None:
+        unknown = [e for e in effects if e not in CATALOGUE]
+        if unknown:
+            raise PendcError(f"unknown effect(s) {', '.join(unknown)} (the catalogue has: {', '.join(CATALOGUE)})")
+        names = [n for n in names if n in effects]
+        skipped = [n for n in skipped if n.split(" ", 1)[0] in effects]
     jobs = [(model, datasets, name, dt, segment, outputs) for name in names]
     results = []
     if workers > 1 and len(jobs) > 1:
@@ -160,8 +243,10 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     base_cost = problem.cost(np.array([]))
     ratio = noise_ratio(model, datasets, dt=dt, segment=segment, outputs=outputs)
     explained = bool(results) and results[0].score >= EXPLAINED
+    floor = noise_share(model, datasets, ratio, dt, segment, outputs) if explained else 0.0
     quiet = not explained and all(r <= NOISE_FACTOR for r in ratio.values())
     unexplained = not explained and not quiet
     return Diagnosis(candidates=tuple(results), unexplained=unexplained,
                      correlations=residual_correlations(model, datasets) if unexplained else [],
-                     baseline_cost=base_cost, noise_ratio=ratio, at_noise_level=quiet, notes=problem.notes)
+                     baseline_cost=base_cost, noise_ratio=ratio, at_noise_level=quiet,
+                     notes=tuple(problem.notes) + tuple(skipped), tie=find_tie(results, floor) if explained else None)

@@ -50,24 +50,39 @@ def signals(data) -> dict:
 
 
 def _numeric(model: PlantModel, name: str):
-    """numpy function of (x, dx, theta, dtheta, u) for an assignment of the model (F_m -> F_in)."""
+    """numpy function of (x, dx, theta, dtheta, u) for an assignment of the model (a lag's
+    state takes the value of F_in: the force it would settle to).
+
+    The assignments are evaluated one after another, each lambdified on its own: inlined
+    into one expression, a force limit or dead zone ends up inside the sticking rule's
+    condition, and sympy's printer then simplifies that logic for seconds per call."""
     eq = model.equations
-    values = dict(zip(eq.params, model.parameter_vector()))
-    offsets = dict(eq.sensor_offsets)
-    sym = next((s for s, _ in eq.assignments if s.name == name), None)
-    if sym is None:
+    target = next((s for s, _ in eq.assignments if s.name == name), None)
+    if target is None:
         return lambda **kw: np.zeros_like(kw["x"])
-    expr = eq.inline(sym)
-    lag = [s for s in eq.states[4:]]
-    if lag:
-        expr = expr.subs({s: eq.inline(sp.Symbol("F_in", real=True)) for s in lag})
+    values = dict(zip(eq.params, (float(v) for v in model.parameter_vector())))
+    offsets = {n: float(sp.sympify(e).subs(values)) for n, e in eq.sensor_offsets}
     x, dx, theta, dtheta = eq.states[:4]
-    # the data are sensor readings: the true position is the reading minus the offset
-    expr = expr.subs({x: x - offsets.get("x", 0), theta: theta - offsets.get("theta", 0)}, simultaneous=True)
-    expr = expr.subs(values)
-    f = sp.lambdify((x, dx, theta, dtheta, eq.input), expr, "numpy")
-    return lambda **kw: np.broadcast_to(f(kw["x"], kw["dx"], kw["theta"], kw["dtheta"], kw["u"]),
-                                        kw["x"].shape).astype(float)
+    lag = eq.states[4:]
+    steps = []
+    for sym, expr in eq.assignments:
+        args = sorted(expr.free_symbols, key=lambda s: s.name)
+        steps.append((sym, args, sp.lambdify(args, expr, "numpy")))
+        if sym == target:
+            break
+
+    def evaluate(**kw):
+        shape = np.shape(kw["x"])
+        # the data are sensor readings: the true position is the reading minus the offset
+        env = {**values, x: kw["x"] - offsets.get("x", 0.0), dx: kw["dx"],
+               theta: kw["theta"] - offsets.get("theta", 0.0), dtheta: kw["dtheta"], eq.input: kw["u"]}
+        with np.errstate(all="ignore"):
+            for sym, args, fn in steps:
+                env[sym] = np.broadcast_to(np.asarray(fn(*(env[a] for a in args)), float), shape)
+                if sym.name == "F_in":
+                    env.update(dict.fromkeys(lag, env[sym]))
+        return np.array(env[target], dtype=float)
+    return evaluate
 
 
 def residuals(model: PlantModel, sig: dict) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,9 @@
 """``pendc compare --html``: one self-contained HTML page for one model or several side by side.
 
 Everything is inline (CSS in a ``<style>`` block, plots as base64 PNG data URIs), so
-the file can be mailed or archived alone and opens without a network. Figures are
-drawn with matplotlib's object API (:class:`~matplotlib.figure.Figure` on an Agg
-canvas), never through pyplot, so no global figure registry or backend choice
-leaks into the caller's process; matplotlib is imported only when a figure is
-drawn. The page is rendered completely in memory and then written with
-:func:`pendc.atomic.write_atomic`: a failure leaves no half-written file.
+the file can be mailed or archived alone and opens without a network. The plots are
+drawn by :mod:`pendc.ident.report_plots`. The page is rendered completely in memory and
+then written with :func:`pendc.atomic.write_atomic`: a failure leaves no half-written file.
 
 The page starts with the headline (as the text report does), then per data file: a
 table of every labelled figure per model with the change from the first, the free run
@@ -24,17 +21,17 @@ import numpy as np
 
 from ..atomic import write_atomic
 from . import headline as hl
-from .compare import WINDOW, Comparison, model_name, worst_windows, wrap_angle, wrap_difference
+from .compare import WINDOW, Comparison, model_name
+from .report_plots import RSCALE, ZOOM
+from .report_plots import figure_correlations as _figure_correlations
+from .report_plots import figure_free as _figure_free
+from .report_plots import figure_horizon as _figure_horizon
+from .report_plots import figure_scatter as _figure_scatter
+from .report_plots import zoom_span as _zoom_span  # noqa: F401 (the zoomed figure's span, for tests)
 from .report_text import concentrated, format_side_by_side, short, side_by_side_headline
 from .sidebyside import SideBySide, as_side_by_side
 
-MAX_SCATTER = 4000       # points per scatter panel: enough to see a trend, keeps the PNG small
 DPI = 80
-ZOOM = 2.5              # s of the zoomed horizon figure: about two pendulum periods
-MEASURED, RESID, BAND = "#1f4e9a", "#444444", "#2a9d8f"
-MODEL_COLOURS = ("#d1495b", "#2a9d8f", "#8d6cab", "#e9a23b", "#6b8e23")
-_SCALE = {"x": (1e3, "x (mm)"), "theta": (1.0, "theta (rad)")}
-_RSCALE = {"x": (1e3, "x residual (mm)"), "theta": (1e3, "theta residual (mrad)")}
 _UNIT = {"x": "mm", "theta": "mrad"}
 
 _CSS = """
@@ -131,24 +128,6 @@ def _model_section(label: str, c: Comparison) -> list:
         _img(_figure_correlations(c), "residual autocorrelation and cross-correlation"), _whiteness_table(c)]
 
 
-def _figure(width: float, height: float, rows: int = 1, cols: int = 1):
-    """A new Figure on its own Agg canvas, laid out for a ``rows`` x ``cols`` grid with fixed
-    margins in inches (room for titles, tick labels and axis labels). Fixed margins rather
-    than matplotlib's constrained layout: that costs 40 % of the rendering time here.
-    Imported here, not at module level, so the text report never loads matplotlib."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, height))
-    FigureCanvasAgg(fig)
-    left, right, top, bottom, vgap, hgap = 0.85, 0.2, 0.35, 0.55, 0.75, 0.75   # inches
-    axes_h = max(0.1, (height - top - bottom - (rows - 1) * vgap) / rows)
-    axes_w = max(0.1, (width - left - right - (cols - 1) * hgap) / cols)
-    fig.subplots_adjust(left=left / width, right=1 - right / width, top=1 - top / height, bottom=bottom / height,
-                        hspace=vgap / axes_h, wspace=hgap / axes_w)
-    return fig
-
-
 def _png(fig) -> str:
     """base64 PNG of ``fig``; the Software tag is dropped so equal figures give equal bytes."""
     buf = io.BytesIO()
@@ -160,172 +139,10 @@ def _img(fig, alt: str) -> str:
     return f'<p><img alt="{html.escape(alt)}" src="data:image/png;base64,{_png(fig)}"></p>'
 
 
-def _colour(j: int) -> str:
-    return MODEL_COLOURS[j % len(MODEL_COLOURS)]
-
-
-def _fits(values: list, labels: tuple) -> str:
-    return ", ".join(f"{short(lab)} {v:.2f} %" if np.isfinite(v) else f"{short(lab)} undefined"
-                     for lab, v in zip(labels, values)) if len(labels) > 1 else \
-        (f"{values[0]:.2f} %" if np.isfinite(values[0]) else "undefined")
-
-
-def _shade(ax, c: Comparison, output: str) -> None:
-    """Shade the worst windows of ``c``'s analysed residual of ``output``."""
-    for w in c.windows:
-        if w["output"] == output:
-            ax.axvspan(w["t0"], w["t1"], color="#f4a261", alpha=0.25, lw=0)
-
-
-def _figure_free(s: SideBySide, run):
-    """Per output: measured and every model's free run; then the residuals (theta wrapped)."""
-    c0 = run[0]
-    n = len(c0.outputs)
-    fig = _figure(12, 3.2 * n + 2.4 * n, rows=2 * n)
-    t = c0.simulated.t
-    for i, k in enumerate(c0.outputs):
-        ax = fig.add_subplot(2 * n, 1, i + 1)
-        sc, label = _SCALE[k]
-        if c0.residual_of == "free run":
-            _shade(ax, c0, k)
-        ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.0, label="measured")
-        for j, (lab, c) in enumerate(zip(s.labels, run)):
-            ax.plot(t, sc * c.simulated.states[k], color=_colour(j), lw=1.0, ls="--", label=f"free run {lab}")
-        ax.set_title(f"{k}: free-run fit {_fits([c.fit[k] for c in run], s.labels)}", fontsize=10)
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-    for i, k in enumerate(c0.outputs):
-        ax = fig.add_subplot(2 * n, 1, n + i + 1)
-        sc, label = _RSCALE[k]
-        for j, (lab, c) in enumerate(zip(s.labels, run)):
-            r = wrap_difference(c.free_residual[k]) if k == "theta" else c.free_residual[k]
-            ax.plot(t, sc * r, color=_colour(j), lw=0.8, label=lab)
-        ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(label + (" wrapped" if k == "theta" else ""))
-        if k == "theta":
-            ax.set_title("theta free-run residual, wrapped: fit "
-                         + _fits([c.fit_theta_wrapped for c in run], s.labels), fontsize=10)
-        ax.grid(alpha=0.3)
-        if len(run) > 1:
-            ax.legend(loc="upper right", fontsize=8)
-    ax.set_xlabel("t (s)")
-    return fig
-
-
-def _zoom_span(c: Comparison) -> tuple[float, float]:
-    """The ``ZOOM`` s stretch where ``c``'s horizon residual (first output, scaled by its spread) is largest."""
-    t = c.simulated.t
-    r = sum(np.nan_to_num(c.measured[k] - c.horizon_run.outputs[k]) / max(float(np.std(c.measured[k])), 1e-12)
-            for k in c.outputs)
-    w = worst_windows(t, r, "all", width=min(ZOOM, float(t[-1] - t[0])), count=1)[0]
-    return w["t0"], w["t1"]
-
-
-def _figure_horizon(s: SideBySide, run, zoom: bool = False):
-    """Per output: the data and every model's horizon segments; below, the horizon residuals
-    (``zoom``: only the stretch of :func:`_zoom_span`)."""
-    c0 = run[0]
-    n = len(c0.outputs)
-    fig = _figure(12, (4.4 if zoom else 5.6) * n, rows=2 * n)
-    t = c0.simulated.t
-    span = _zoom_span(c0) if zoom else None
-    for i, k in enumerate(c0.outputs):
-        ax = fig.add_subplot(2 * n, 1, 2 * i + 1)
-        sc, label = _SCALE[k]
-        if c0.residual_of != "free run" and not zoom:
-            _shade(ax, c0, k)
-        ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.6, alpha=0.6, label="measured")
-        for j, (lab, c) in enumerate(zip(s.labels, run)):
-            tt, yy = c.horizon_run.plot_lines(k)
-            ax.plot(tt, sc * yy, color=_colour(j), lw=1.0, ls="--", label=f"{c.horizon:g} s segments {lab}")
-        ax.set_title(f"{k}: {hl.horizon_label(c0.horizon)} {_fits([c.fit_horizon[k] for c in run], s.labels)}",
-                     fontsize=10)
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-        ax = fig.add_subplot(2 * n, 1, 2 * i + 2)
-        sr, rlabel = _RSCALE[k]
-        for j, (lab, c) in enumerate(zip(s.labels, run)):
-            ax.plot(t, sr * (c0.measured[k] - c.horizon_run.outputs[k]), color=_colour(j), lw=0.8, label=lab)
-        ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(rlabel)
-        ax.grid(alpha=0.3)
-        if len(run) > 1:
-            ax.legend(loc="upper right", fontsize=8)
-    if span is not None:
-        for ax in fig.axes:
-            _zoom(ax, *span)
-    ax.set_xlabel("t (s)")
-    return fig
-
-
-def _zoom(ax, t0: float, t1: float) -> None:
-    """Limit ``ax`` to [t0, t1] and its y range to what its lines show there (autoscale
-    would keep the whole run's range)."""
-    ax.set_xlim(t0, t1)
-    ys = []
-    for line in ax.get_lines():
-        x, y = (np.asarray(a, dtype=np.float64) for a in line.get_data())
-        if x.shape == y.shape and x.size > 2:
-            ys.append(y[(x >= t0) & (x <= t1) & np.isfinite(y)])
-    ys = np.concatenate(ys) if ys else np.array([])
-    if ys.size:
-        lo, hi = float(ys.min()), float(ys.max())
-        pad = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
-        ax.set_ylim(lo - pad, hi + pad)
-
-
-def _figure_scatter(c: Comparison):
-    """Rows: each output's residual; columns: against dx, wrapped theta, u - V_off, x (those
-    that vary in the run)."""
-    n = len(c.simulated.t)
-    pick = np.linspace(0, n - 1, min(n, MAX_SCATTER)).astype(int)   # even subsample keeps the time spread
-    theta = c.measured.get("theta", np.zeros(n))
-    x = c.measured.get("x", np.zeros(n))
-    against = [("dx (m/s)", c.measured["dx"]), ("theta wrapped to ±π (rad)", wrap_angle(theta)),
-               ("u - V_off (V)", c.simulated.u - c.v_off), ("x (m)", x)]
-    against = [(name, v) for name, v in against if np.ptp(v) > 0]   # a held or absent signal shows nothing
-    rows, cols = len(c.outputs), max(1, len(against))
-    fig = _figure(14 if cols > 2 else 3.5 * cols + 1, 3 * rows, rows=rows, cols=cols)
-    for i, k in enumerate(c.outputs):
-        sc, label = _RSCALE[k]
-        for j, (name, v) in enumerate(against):
-            ax = fig.add_subplot(rows, cols, cols * i + j + 1)
-            ax.scatter(np.asarray(v)[pick], sc * c.residual[k][pick], s=2, alpha=0.3, color=RESID, lw=0)
-            ax.axhline(0.0, color="k", lw=0.5)
-            ax.grid(alpha=0.3)
-            if i == rows - 1:
-                ax.set_xlabel(name)
-            if j == 0:
-                ax.set_ylabel(label)
-    return fig
-
-
-def _figure_correlations(c: Comparison):
-    rows = len(c.outputs)
-    fig = _figure(12, 3 * rows, rows=rows, cols=2)
-    for i, k in enumerate(c.outputs):
-        for j, (key, what) in enumerate((("acf", "autocorrelation"), ("ccf", "cross-corr. with u"))):
-            d = c.whiteness[k] if key == "acf" else c.whiteness["xcorr"][k]
-            ax = fig.add_subplot(rows, 2, 2 * i + j + 1)
-            lag_ms = np.asarray(d["lags"]) * d["lag_seconds"] * 1e3
-            ax.vlines(lag_ms, 0.0, d[key], color=RESID, lw=1.5)
-            ax.plot(lag_ms, d[key], "o", color=RESID, ms=3)
-            ax.axhspan(-d["band"], d["band"], color=BAND, alpha=0.2, lw=0)
-            ax.axhline(0.0, color="k", lw=0.5)
-            verdict = ("white" if d["white"] else "not white") if key == "acf" else \
-                ("independent" if d["independent"] else "correlated")
-            ax.set_title(f"{k} residual {what}: {verdict} (99 % band ±{d['band']:.3f})", fontsize=10)
-            ax.set_xlabel("lag (ms)" + ("; > 0: input earlier" if key == "ccf" else ""))
-            ax.grid(alpha=0.3)
-    return fig
-
-
 def _fmt(output: str, value, digits: int = 4) -> str:
     if value is None or not np.isfinite(value):
         return "–"
-    sc, _ = _RSCALE[output]
+    sc, _ = RSCALE[output]
     return f"{sc * value:.{digits}g}"
 
 
@@ -391,6 +208,10 @@ def _whiteness_table(c: Comparison) -> str:
         rows.append(f"<tr><td class=l>{k}</td><td class=l>autocorrelation, lags 1..{len(a['lags']) - 1}</td>"
                     f"<td>{a['band']:.3f}</td><td>{len(a['outside'])} (≤ {a['allowed']} allowed)</td>"
                     f"<td class=l>{'white' if a['white'] else 'not white'}</td></tr>")
+        if not x.get("tested", True):
+            rows.append(f"<tr><td class=l>{k}</td><td class=l>cross-correlation with u</td><td>–</td><td>–</td>"
+                        f"<td class=l>not tested: {html.escape(x['reason'])}</td></tr>")
+            continue
         rows.append(f"<tr><td class=l>{k}</td><td class=l>cross-correlation with u, lags "
                     f"{x['lags'][0]}..{x['lags'][-1]}</td><td>{x['band']:.3f}</td>"
                     f"<td>{len(x['outside'])} (≤ {x['allowed']} allowed)</td>"

@@ -143,6 +143,8 @@ def whiteness_words(k: str, a: dict, x: dict, rms: float) -> list:
         if counts < FEW_COUNTS:   # a whiteness test sees structure far below what matters
             out.append(f"        but it is only {counts:.1f} encoder counts rms: at this level the structure may be "
                        "the encoder's rounding or the integration step")
+    if not x.get("tested", True):
+        return out + [f"  {k:5s} residual against the input: not tested: {x['reason']}"]
     if x["independent"]:
         return out + [f"  {k:5s} residual shows no significant correlation with the input"]
     mid = len(x["lags"]) // 2

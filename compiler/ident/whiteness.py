@@ -101,7 +101,29 @@ def cross_correlation(e, v, lags: int = LAGS) -> dict:
     return {"lags": ks, "ccf": ccf.tolist(), **verdict, "independent": independent, "samples": n}
 
 
-def whiteness(t, residual: dict, u) -> dict:
+INPUT_UNTESTED = {
+    "missing": "the file has no u column (it was filled with a constant), so the residual cannot be tested "
+               "against the input",
+    "constant": "the input is constant over the run, so there is nothing to correlate the residual with",
+}
+
+
+def input_status(u, missing: bool = False) -> str:
+    """``measured``, or why a cross-correlation with ``u`` means nothing: ``missing`` (the file
+    had no u column) or ``constant`` (a held-cart swing at V_off, for instance)."""
+    if missing:
+        return "missing"
+    u = np.asarray(u, dtype=np.float64)
+    return "constant" if u.size == 0 or float(np.ptp(u)) == 0.0 else "measured"
+
+
+def untested(status: str) -> dict:
+    """The cross-correlation entry of an input that cannot be tested: ``independent`` is None."""
+    return {"input": status, "tested": False, "independent": None, "reason": INPUT_UNTESTED[status],
+            "lags": [], "ccf": [], "outside": [], "band": None, "limit": None, "allowed": None}
+
+
+def whiteness(t, residual: dict, u, input_missing: bool = False) -> dict:
     """Correlation tests of each residual, on a residual decimated to ~``WHITENESS_DT``.
 
     Why decimate: the data are sampled at ~1 kHz while the plant moves at ~1 Hz
@@ -110,16 +132,24 @@ def whiteness(t, residual: dict, u) -> dict:
     still resolves everything the stimuli excite (Nyquist 50 Hz) and 25 lags span
     0.25 s, about the cart's time constant. Short runs are decimated less, to keep at
     least ``MIN_WHITENESS_SAMPLES``. Returns ``{output: autocorrelation + lag_seconds,
-    ..., "xcorr": {output: cross-correlation with u + lag_seconds}}``.
+    ..., "xcorr": {output: cross-correlation with u + lag_seconds}}``. An input the file
+    lacked (``input_missing``) or that never changes is not tested: its entries say so
+    (``tested`` False, ``independent`` None, ``reason``) instead of calling the residual
+    independent of it.
     """
     t = np.asarray(t, dtype=np.float64)
     h = float(np.median(np.diff(t)))
     q = max(1, min(int(round(WHITENESS_DT / h)), len(t) // MIN_WHITENESS_SAMPLES))
+    status = input_status(u, input_missing)
     ud = decimate(u, q)
     out, xcorr = {}, {}
     for k, r in residual.items():
         rd = decimate(r, q)
         out[k] = {**autocorrelation(rd), "lag_seconds": q * h, "decimation": q}
-        xcorr[k] = {**cross_correlation(rd, ud), "lag_seconds": q * h, "decimation": q}
+        if status != "measured":
+            xcorr[k] = {**untested(status), "lag_seconds": q * h, "decimation": q}
+        else:
+            xcorr[k] = {**cross_correlation(rd, ud), "input": status, "tested": True, "lag_seconds": q * h,
+                        "decimation": q}
     out["xcorr"] = xcorr
     return out
