@@ -237,13 +237,15 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat) -> None:
     else:   # the exact difference, whatever the base
         dw = max(fin.width + 1, signed_width(fin.min_int - base, fin.max_int - base))
     d = net.wire(f"{name}_d", dw, f"{extend(inp, fin.width, fin.signed, dw)} - {literal(wrap_signed(base, dw), dw)}")
-    aw = ab + 1                                 # one more entry than segments when interpolating
+    interp = p["interpolate"]
+    aw = ab + 1 if interp else ab               # one more entry than segments when interpolating
+    pad = "1'b0, " if interp else ""
     fw = max(shift, 1)
     if p["periodic"]:
         top = dw - 1
         if top >= shift + ab:
             net.wire(f"{name}_d_unused", top - (shift + ab) + 1, f"{d}[{top}:{shift + ab}]", signed=False)
-        addr = net.wire(f"{name}_addr", aw, f"{{1'b0, {d}[{shift + ab - 1}:{shift}]}}", signed=False)
+        addr = net.wire(f"{name}_addr", aw, f"{{{pad}{d}[{shift + ab - 1}:{shift}]}}", signed=False)
         frac = net.wire(f"{name}_f", fw, f"{d}[{shift - 1}:0]" if shift else "1'b0", signed=False)
         outside = "1'b0"
     else:
@@ -263,10 +265,9 @@ def _emit_lut(view: CoreView, n, inp: str, fin: QFormat) -> None:
         low_idx = bits(idx, iw, ab - 1, 0) if iw > ab else extend(idx, iw, False, ab)
         if iw > ab:
             net.wire(f"{name}_idx_unused", iw - ab, bits(idx, iw, iw - 1, ab), signed=False)
-        addr = net.wire(f"{name}_addr", aw, f"{below} ? {ulit(0, aw)} : {above} ? {ulit(last, aw)} : {{1'b0, {low_idx}}}",
+        addr = net.wire(f"{name}_addr", aw, f"{below} ? {ulit(0, aw)} : {above} ? {ulit(last, aw)} : {{{pad}{low_idx}}}",
                         signed=False)
         frac = net.wire(f"{name}_f", fw, f"({below} | {above}) ? {fw}'d0 : {raw_f}", signed=False)
-    interp = p["interpolate"]
     dwid = slope_bits(table)          # the stored slope needs only the largest neighbour difference
     word_w = wo + (dwid if interp else 0)
     words = []
