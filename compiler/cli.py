@@ -84,7 +84,7 @@ def cmd_derive(args) -> int:
 def cmd_simulate(args) -> int:
     from .model.modelfile import load_model
     from .sim.measurements import format_csv, read_measurements
-    from .atomic import check_file_output, write_atomic
+    from .atomic import check_file_output
     from .sim.simulator import Simulator
 
     if args.output not in (None, "-"):
@@ -124,16 +124,21 @@ def cmd_simulate(args) -> int:
         method, dt = args.method, args.dt
     meta = {"generator": "pendc simulate", "model": model.source, "method": method,
             "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
-    text = format_csv(columns, meta)
-    if args.output in (None, "-"):
-        sys.stdout.write(text)
-    else:
-        write_atomic(args.output, text)
+    _write_output(args.output, format_csv(columns, meta))
     return 0
 
 
-def cmd_stimulus(args) -> int:
+def _write_output(output: str | None, text: str) -> None:
+    """``text`` to standard output (no ``-o``, or ``-o -``) or, atomically, to the file ``output``."""
     from .atomic import write_atomic
+
+    if output in (None, "-"):
+        sys.stdout.write(text)
+    else:
+        write_atomic(output, text)
+
+
+def cmd_stimulus(args) -> int:
     from .sim.measurements import format_csv
     from .sim.stimuli import named_stimuli
 
@@ -141,11 +146,7 @@ def cmd_stimulus(args) -> int:
     if args.name not in stimuli:
         raise PendcError(f"unknown stimulus '{args.name}' (known: {', '.join(stimuli)})")
     t, u = stimuli[args.name]
-    text = format_csv({"t": t, "u": u}, {"generator": "pendc stimulus", "stimulus": args.name})
-    if args.output in (None, "-"):
-        sys.stdout.write(text)
-    else:
-        write_atomic(args.output, text)
+    _write_output(args.output, format_csv({"t": t, "u": u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
 
 

@@ -125,6 +125,15 @@ def _unit(axis: str):
     return parse
 
 
+# --AXIS-unit options: axis, unit names, default, what a number means, an example number
+UNIT_OPTIONS = (
+    ("t", ("s", "ms", "us"), "s", "seconds", ""),
+    ("x", ("m", "cm", "mm"), "m", "metres", "2.5e-6 for encoder counts"),
+    ("u", ("V", "mV"), "V", "volts", ""),
+    ("theta", ("rad", "deg"), "rad", "radians", "3.14159e-4 = 2*pi/20000 for encoder counts"),
+)
+
+
 def add_data_options(p, many: bool = True) -> None:
     """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
     from .model.experiments import EXPERIMENTS
@@ -145,16 +154,10 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--encoding", default="utf-8", metavar="NAME",
                    help="text encoding of the header and comments (default utf-8; e.g. cp1252 for a "
                         "spreadsheet export with 'Winkel [°]')")
-    g.add_argument("--t-unit", type=_unit("t"), metavar="{s,ms,us,NUMBER}",
-                   help="unit of t in the file (default s; a number: seconds per file unit)")
-    g.add_argument("--x-unit", type=_unit("x"), metavar="{m,cm,mm,NUMBER}",
-                   help="unit of x in the file (default m; a number: metres per file unit, e.g. 2.5e-6 "
-                        "for encoder counts)")
-    g.add_argument("--u-unit", type=_unit("u"), metavar="{V,mV,NUMBER}",
-                   help="unit of u in the file (default V; a number: volts per file unit)")
-    g.add_argument("--theta-unit", type=_unit("theta"), metavar="{rad,deg,NUMBER}",
-                   help="unit of theta in the file (default rad; a number: radians per file unit, e.g. "
-                        "3.14159e-4 = 2*pi/20000 for encoder counts)")
+    for axis, names, default, per, example in UNIT_OPTIONS:
+        g.add_argument(f"--{axis}-unit", type=_unit(axis), metavar="{" + ",".join(names) + ",NUMBER}",
+                       help=f"unit of {axis} in the file (default {default}; a number: {per} per file unit"
+                            + (f", e.g. {example})" if example else ")"))
     g.add_argument("--theta-zero", choices=("hanging", "upright"), default="hanging",
                    help="where the file's theta is 0 (default hanging); upright: theta = theta_file + pi")
     g.add_argument("--theta-sign", type=int, choices=(1, -1), default=1,

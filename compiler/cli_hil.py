@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import sys
 
-from .cli_data import MODEL_HELP
+from .cli_data import MODEL_HELP, positive
 from .errors import PendcError
 
 
@@ -105,16 +105,6 @@ def cmd_animate(args) -> int:
     return 0
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise PendcError(f"hil: --seconds/--period/--timeout must be a number, got {text!r}") from None
-    if not (value > 0 and value < float("inf")):
-        raise PendcError(f"hil: --seconds/--period/--timeout must be positive, got {text!r}")
-    return value
-
-
 def add_parsers(sub) -> None:
     """Register ``hil`` and ``animate`` on the top-level subparsers."""
     p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
@@ -123,13 +113,13 @@ def add_parsers(sub) -> None:
     p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")
-    p.add_argument("--seconds", type=_seconds, default=12.0, help="simulated time (default 12)")
-    p.add_argument("--period", type=_seconds, default=1e-3, help="control period in s (default 0.001)")
+    p.add_argument("--seconds", type=positive, default=12.0, help="simulated time (default 12)")
+    p.add_argument("--period", type=positive, default=1e-3, help="control period in s (default 0.001)")
     p.add_argument("--out", help="folder for run.csv, summary.json and run.png")
     p.add_argument("--json", action="store_true", help="print summary.json")
     p.add_argument("--serve", metavar="127.0.0.1:PORT",
                    help="serve the loop to one external controller over TCP (loopback only; docs/hil.md)")
-    p.add_argument("--timeout", type=_seconds, default=10.0,
+    p.add_argument("--timeout", type=positive, default=10.0,
                    help="--serve: seconds to wait for the client to connect and for each answer (default 10)")
     p.set_defaults(func=cmd_hil)
 

@@ -78,7 +78,12 @@ ROWS = [
      ["build", "--model", "m.toml", "-o", "out"], r"\bL\b", None),
     ("model-missing-parameter", {"m.toml": model_with("M = 103.205\n", "")},
      ["build", "--model", "m.toml", "-o", "out"], r"\bM\b", None),
-    ("model-a-folder", {"m.toml/": None}, ["build", "--model", "m.toml", "-o", "out"], r"m\.toml", None),
+    ("model-a-folder", {"m.toml/": None}, ["build", "--model", "m.toml", "-o", "out"],
+     r"m\.toml: is a folder, not a model file", None),
+    ("model-not-utf8", {"m.toml": GOOD_MODEL.replace("[plant]", "# Masse in \xe4\n[plant]").encode("latin-1")},
+     ["build", "--model", "m.toml", "-o", "out"], r"m\.toml: line \d+: not UTF-8 text", None),
+    ("model-and-input-both-stdin", {}, ["simulate", "--model", "-", "--input", "-", "-o", "o.csv"],
+     r"standard input \('-'\) can be read only once; it is given to --model and --input", None),
     # --- simulate --input and its step
     ("simulate-input-missing", {}, ["simulate", "--input", "none.csv", "-o", "o.csv"], r"none\.csv", None),
     ("simulate-input-empty", {"in.csv": ""}, ["simulate", "--input", "in.csv", "-o", "o.csv"], r"in\.csv", None),
@@ -102,6 +107,10 @@ ROWS = [
      r"--x0", None),
     ("simulate-output-a-folder", {"in.csv": tu_csv(), "o/": None}, ["simulate", "--input", "in.csv", "-o", "o"],
      r"o: is a folder", None),
+    ("simulate-output-ends-in-slash", {"in.csv": tu_csv()}, ["simulate", "--input", "in.csv", "-o", "o.csv/"],
+     r"o\.csv/: ends in '/'", None),
+    ("simulate-output-under-a-file", {"in.csv": tu_csv(), "notes.txt": "mine"},
+     ["simulate", "--input", "in.csv", "-o", "notes.txt/o.csv"], r"notes\.txt/o\.csv: folder notes\.txt", None),
     # --- stimulus
     ("stimulus-unknown", {}, ["stimulus", "chirp_mid", "-o", "s.csv"], r"unknown stimulus 'chirp_mid'", None),
     ("stimulus-output-missing-folder", {}, ["stimulus", "steps", "-o", "no/s.csv"], r"no/s\.csv", None),
@@ -113,16 +122,24 @@ ROWS = [
     ("build-o-under-a-file", {"notes.txt": "my notes\n"}, ["build", "-o", "notes.txt/hdl"],
      r"notes\.txt/hdl: notes\.txt is not a folder", None),
     ("build-check-missing", {}, ["build", "--check", "-o", "nowhere"], r"nowhere: folder does not exist", None),
+    ("build-check-a-file", {"notes.txt": "my notes\n"}, ["build", "--check", "-o", "notes.txt"],
+     r"notes\.txt: is not a folder", None),
+    ("build-o-stdout", {}, ["build", "-o", "-"], r"build: -o names the output folder", None),
     ("build-ii-zero", {}, ["build", "--ii", "0", "-o", "out"], r"--ii", None),
     ("build-preset-and-ii", {}, ["build", "--preset", "fast", "--ii", "4", "-o", "out"], r"--preset", None),
     ("build-bus-unknown", {}, ["build", "--bus", "wishbone", "-o", "out"], r"wishbone", None),
     # --- report
     ("report-unknown-what", {}, ["report", "timing"], r"timing", None),
+    ("report-no-kind", {}, ["report"], r"report: .*required: KIND", None),
     ("report-bad-model", {"m.toml": "[plant]\n"}, ["report", "qformat", "--model", "m.toml"], r"m\.toml", None),
     ("report-synth-missing-build-dir", {}, ["report", "synth", "--build-dir", "nowhere"], r"nowhere", None),
     ("report-freq-negative", {}, ["report", "synth", "--freq", "-5"], r"--freq", None),
     ("report-drift-with-resources", {}, ["report", "resources", "--drift"],
      r"report resources: unrecognized arguments: --drift \(report resources takes --model", None),
+    ("report-synth-with-model", {"m.toml": GOOD_MODEL}, ["report", "synth", "--model", "m.toml"],
+     r"report synth: unrecognized arguments: --model m\.toml \(report synth takes --build-dir", None),
+    ("report-qformat-with-build-dir", {}, ["report", "qformat", "--build-dir", "hdl_out"],
+     r"report qformat: unrecognized arguments: --build-dir", None),
     # --- hil --controller
     ("hil-controller-no-module", {}, ["hil", "--controller", "no_such_module_xyz:Ctl", "--seconds", "0.01"],
      r"no_such_module_xyz", None),
@@ -133,7 +150,11 @@ ROWS = [
     ("hil-controller-file-broken", {"ctl.py": "def broken(:\n"},
      ["hil", "--controller", "ctl.py:Ctl", "--seconds", "0.01"], r"ctl\.py", None),
     ("hil-seconds-negative", {}, ["hil", "--seconds", "-1"], r"positive", None),
-    ("hil-out-is-a-file", {"run": "keep"}, ["hil", "--seconds", "0.01", "--out", "run"], r"\brun\b", None),
+    ("hil-out-is-a-file", {"run": "keep"}, ["hil", "--seconds", "0.01", "--out", "run"],
+     r"run: is a file; --out names a folder", None),
+    ("hil-out-under-a-file", {"notes.txt": "keep"}, ["hil", "--seconds", "0.01", "--out", "notes.txt/run"],
+     r"notes\.txt/run: notes\.txt is not a folder", None),
+    ("hil-out-stdout", {}, ["hil", "--seconds", "0.01", "--out", "-"], r"hil: --out names a folder", None),
     # --- animate
     ("animate-missing", {}, ["animate", "none.csv", "-o", "a.html"], r"none\.csv", None),
     ("animate-empty", {"run.csv": ""}, ["animate", "run.csv", "-o", "a.html"], r"run\.csv", None),
@@ -144,6 +165,21 @@ ROWS = [
     ("animate-fps-zero", {"run.csv": run_csv()}, ["animate", "run.csv", "-o", "a.gif", "--fps", "0"], r"fps", None),
     ("animate-output-a-folder", {"run.csv": run_csv(), "a.html/": None}, ["animate", "run.csv", "-o", "a.html"],
      r"a\.html: is a folder", None),
+    ("animate-input-a-folder", {"runs/": None}, ["animate", "runs", "-o", "a.html"],
+     r"runs: is a folder, not a run file", None),
+    ("animate-not-utf8", {"run.csv": b"t,x,theta\n0,0,\xff\n"}, ["animate", "run.csv", "-o", "a.html"],
+     r"run\.csv: cannot read", None),
+    ("animate-output-stdout", {"run.csv": run_csv()}, ["animate", "run.csv", "-o", "-"],
+     r"animate: -o names a file", None),
+    ("animate-output-ends-in-slash", {"run.csv": run_csv()}, ["animate", "run.csv", "-o", "a.gif/"],
+     r"a\.gif/: ends in '/'", None),
+    ("animate-output-missing-folder", {"run.csv": run_csv()}, ["animate", "run.csv", "-o", "no/a.gif"],
+     r"no/a\.gif: folder no does not exist", None),
+    # --- standard input named twice (read once, before anything else)
+    ("compare-data-and-model-stdin", {}, ["compare", "-", "--model", "-"],
+     r"can be read only once; it is given to --model and data file", None),
+    ("fit-data-and-validate-stdin", {}, ["fit", "-", "--validate", "-", "-o", "f.toml"],
+     r"can be read only once; it is given to data file and --validate", None),
 ]
 
 
@@ -164,7 +200,18 @@ def make(root: Path, files: dict) -> None:
             path.mkdir(parents=True)
         else:
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text)
+            if isinstance(text, bytes):
+                path.write_bytes(text)
+            else:
+                path.write_text(text)
+
+
+def test_every_row_is_listed_in_the_docs():
+    """docs/hostile_inputs.md lists the table: every row once, and no row that is not in it."""
+    text = (ROOT / "docs" / "hostile_inputs.md").read_text()
+    section = text[text.index("(`tests/test_hostile_commands.py`)"):text.index("## Measurement files")]
+    listed = [line.split("|")[1].strip() for line in section.splitlines() if line.startswith("| ")][1:]
+    assert sorted(listed) == sorted(rid for rid, *_ in ROWS)
 
 
 def params():
