@@ -198,8 +198,8 @@ def _arith(b: _Builder, name: str, kind: Kind) -> Node | None:
 
 def _slice(b: _Builder, name: str, src: str | None = None, max_bits: int = 8) -> Node:
     draw = b.draw
-    a = src or b.pick(lambda f: f.width == 1) if draw(st.integers(0, 3)) == 0 else src or b.pick()
-    a = a or b.pick()
+    one_bit = draw(st.integers(0, 3)) == 0      # a slice of a 1-bit value (a scalar wire)
+    a = src or (one_bit and b.pick(lambda f: f.width == 1)) or b.pick()
     w = b.fmt[a].width
     if draw(st.integers(0, 4)) == 0:
         return make(name, Kind.SLICE, (a,), qformat=QFormat(False, 1, 0), hi=-1, lo=-1)
