@@ -7,7 +7,9 @@
     the float simulator ``pendc.Simulator(load_model())`` (acceptance: 0.5 mm, 5 mrad),
     plus a bit-exact check against the golden model at every 1000th step;
 (b) under cocotb (tb/bench_cocotb.py): the same input with one ``Timer`` await per 1000
-    steps, and with one ``Timer`` await per step (reading the states every step).
+    steps, and with one ``Timer`` await per step (reading the states every step);
+(c) the core alone in the C++ harness of the HIL plant (bench/bench_rtl_cpp.py), comb and
+    default schedules: steps per wall and per CPU second, and issue 10's 1 M steps/s target.
 
     .venv/bin/python bench/bench_verilator.py [-o bench/out/verilator.json] [--seconds 2]
 
@@ -119,6 +121,13 @@ def main(argv=None) -> int:
     comb["ii"] = comb_report["ii"]
     print(f"(a') standalone, --preset comb (ii {comb_report['ii']}): {comb['steps_per_s']:.3g} steps/s, real-time "
           f"factor {comb['real_time_factor']:.3f}; bit-exact vs golden: {comb['bit_exact_vs_golden_every_1000']}")
+    # (c) the core alone in the C++ harness (the HIL plant): comb and default builds, per CPU second
+    sys.path.insert(0, str(REPO / "bench"))
+    import bench_rtl_cpp
+    cpp = bench_rtl_cpp.speed(argparse.Namespace(rounds=2, ms=100))
+    rates = cpp["rates"]["request_100000_steps"]
+    print(f"(c) C++ harness, steps per CPU second: comb {rates['cpp_comb']['steps_per_cpu_s']:.3g}, default "
+          f"{rates['cpp_default']['steps_per_cpu_s']:.3g} (target 1e6: {cpp['meets_1M_steps_per_s']})")
     cocotb_res = _cocotb(hdl, report, work, args.seconds, args.per_step_steps)
     for key in ("timer", "per_step"):
         r = cocotb_res[key]
@@ -130,6 +139,9 @@ def main(argv=None) -> int:
         "machine": {"platform": platform.platform(), "python": platform.python_version(), "cpus": os.cpu_count()},
         "standalone_binary": standalone,
         "standalone_binary_comb": comb,
+        "cpp_harness": cpp,
+        "steps_per_cpu_s_best": cpp["best_steps_per_cpu_s"],
+        "meets_1M_steps_per_s": cpp["meets_1M_steps_per_s"],
         "cocotb": cocotb_res,
         "accuracy_ok": standalone["max_abs_x_error_m"] <= 0.5e-3 and standalone["max_abs_theta_error_rad"] <= 5e-3,
     }

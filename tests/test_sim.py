@@ -20,9 +20,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tb"))
 import pendtb  # noqa: E402
 
 
+# Which build each simulator regresses: Icarus the default schedule (ii > 2; the small preset's
+# shared multipliers are test_run_py_on_another_model_with_shared_multipliers), Verilator, whose
+# full profile runs seconds of model time, the comb schedule (ii <= 2: the same golden integers,
+# several times fewer clock cycles to simulate).
+SCHEDULES = {"icarus": None, "verilator": {"preset": "comb"}}
+
+
 @pytest.fixture(scope="module")
 def hdl(tmp_path_factory):
     return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl"))
+
+
+@pytest.fixture(scope="module")
+def comb_hdl(tmp_path_factory):
+    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_comb"), request=SCHEDULES["verilator"])
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +42,18 @@ def prepared(hdl):
     return pendtb.add_vectors(hdl)
 
 
+@pytest.fixture(scope="module")
+def comb_prepared(comb_hdl):
+    return pendtb.add_vectors(comb_hdl)
+
+
 @pytest.mark.parametrize("sim", pendtb.SIMS)
-def test_cocotb_regression(sim, prepared, tmp_path):
+def test_cocotb_regression(sim, request, tmp_path):
     why = pendtb.simulator_missing(sim)
     if why:
         pytest.skip(why)
+    prepared = request.getfixturevalue("comb_prepared" if SCHEDULES[sim] else "prepared")
+    assert prepared.report["raptor"]["ii"] > 2 if SCHEDULES[sim] is None else prepared.report["raptor"]["ii"] <= 2
     lines = []
     results = pendtb.run_suites(prepared, [sim], list(pendtb.SUITES), tmp_path, log=lines.append)
     print("\n".join(lines))
@@ -47,14 +66,15 @@ def test_cocotb_regression(sim, prepared, tmp_path):
     assert not problems, "cocotb failures:\n" + "\n".join(problems)
 
 
-def test_chirp_accuracy_verilator_binary(hdl, tmp_path):
-    """The issue's chirp, 2 s, through `verilator --binary`: within 0.5 mm and 5 mrad of the
-    float simulator, and bit-exact with the golden model at every 1000th step."""
+def test_chirp_accuracy_verilator_binary(comb_hdl, tmp_path):
+    """The issue's chirp, 2 s, through `verilator --binary` (the comb build, as Verilator's cocotb
+    regression): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with the golden
+    model at every 1000th step."""
     why = pendtb.simulator_missing("verilator")
     if why:
         pytest.skip(why)
     import vbinary
-    r = vbinary.chirp_run(hdl.hdl["raptor"], hdl.report["raptor"], tmp_path, seconds=2.0)
+    r = vbinary.chirp_run(comb_hdl.hdl["raptor"], comb_hdl.report["raptor"], tmp_path, seconds=2.0)
     print(f"chirp 2 s: max |x - float| {r['max_abs_x_error_m']:.3g} m, max |theta - float| "
           f"{r['max_abs_theta_error_rad']:.3g} rad, {r['steps_per_s']:.3g} steps/s")
     assert r["bit_exact_vs_golden_every_1000"], f"harness differs from the golden model: {r['first_golden_difference']}"
