@@ -69,15 +69,49 @@ def test_without_absolute_position_physics_the_offset_is_not_guessed():
     assert "never comes near the end stops" in why
 
 
-def test_a_centring_spring_cannot_separate_offset_from_asymmetric_friction():
+SPRING = dict(k_c=300.0, x_0=0.0)
+
+
+@pytest.fixture(scope="module")
+def spring_tie():
     # with a spring centred on the track, an offset of the sensor is a constant force on the
     # cart, and so, while the cart moves, is friction that differs by direction
-    spring = dict(k_c=300.0, x_0=0.0)
-    runs = measured(cart_alone([0.6, 1.0, 1.5], x_off=0.03, **spring), "spring runs")
-    tool = BASE.with_effect("cart_spring", spring)
-    d = diagnose(tool, [runs], workers=2, effects=["x_offset", "asymmetric_cart"])
+    columns = cart_alone([0.6, 1.0, 1.5], x_off=0.03, **SPRING)
+    d = diagnose(BASE.with_effect("cart_spring", SPRING), [measured(columns, "spring runs")], workers=2,
+                 effects=["x_offset", "asymmetric_cart"])
+    return columns, d
+
+
+def test_a_centring_spring_cannot_separate_offset_from_asymmetric_friction(spring_tie):
+    _, d = spring_tie
     assert d.candidates[0].score >= EXPLAINED
     assert d.tie is not None, [(c.effect, c.score) for c in d.candidates]
     assert set(d.tie["effects"]) == {"x_offset", "asymmetric_cart"}
     assert "cannot separate" in d.tie["message"] and "into the end stops" in d.tie["separate_by"]
     assert d.to_json()["tie"] == d.tie
+
+
+def test_diagnose_prints_the_tie_in_text_and_json(spring_tie, tmp_path, capsys, monkeypatch):
+    """The command line shows a tie in place of "Most likely missing" (the diagnosis is the
+    fixture's, handed to the command instead of being computed again)."""
+    import json
+
+    from pendc.cli import main
+    from pendc.ident import diagnose as diagnose_module
+    from pendc.model.modelfile import save_model
+
+    columns, d = spring_tie
+    path = tmp_path / "spring_runs.csv"
+    path.write_text(format_csv(columns, meta={"experiment": "pendulum_removed"}))
+    save_model(BASE.with_effect("cart_spring", SPRING), tmp_path / "spring.toml")
+    asked = []
+    monkeypatch.setattr(diagnose_module, "diagnose", lambda *a, **k: (asked.append(k["effects"]), d)[1])
+    argv = ["diagnose", str(path), "--model", str(tmp_path / "spring.toml"), "--effects", "x_offset,asymmetric_cart"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "Most likely missing" not in out and asked == [["x_offset", "asymmetric_cart"]]
+    ambiguous = next(line for line in out.splitlines() if line.startswith("Ambiguous: "))
+    assert "x_offset and asymmetric_cart explain the error equally well" in ambiguous and "end stops" in ambiguous
+    assert main(argv + ["--json"]) == 0
+    tie = json.loads(capsys.readouterr().out)["tie"]
+    assert tie["effects"] == d.tie["effects"] and tie["message"] == d.tie["message"]

@@ -89,12 +89,12 @@ def separating_experiment(names: list) -> str:
     """What would separate the tied ``names``: the pair's own entry when there is one, else
     each effect's experiment."""
     if len(names) == 2 and frozenset(names) in PAIR_SEPARATED_BY:
-        return f"{PAIR_SEPARATED_BY[frozenset(names)]} would separate them"
+        return PAIR_SEPARATED_BY[frozenset(names)]
     how = {n: SEPARATED_BY.get(n, f"an experiment that excites {n} alone") for n in names}
     ways = list(dict.fromkeys(how.values()))
     if len(ways) == 1:
-        return f"{ways[0]} would separate them"
-    return "to separate them: " + "; ".join(f"for {n}, {how[n]}" for n in names)
+        return ways[0]
+    return "; ".join(f"for {n}, {how[n]}" for n in names)
 
 
 def segment_differences(best, other) -> np.ndarray:
@@ -145,8 +145,8 @@ def find_tie(candidates, floor: float = 0.0) -> dict | None:
 
 
 def tie_message(names: list, scores: list, margin: float, advice: str) -> str:
-    """``A and B explain the error equally well (0.913 vs 0.913, ...); <advice>.``"""
+    """``A and B explain the error equally well (0.913 vs 0.913, ...) ... To separate them: <advice>.``"""
     who = ", ".join(names[:-1]) + " and " + names[-1]
     values = " vs ".join(f"{s:.3f}" for s in scores)
     return (f"{who} explain the error equally well ({values}, a difference within the noise of the score, "
-            f"±{margin:.3f}): the data cannot separate them; {advice}.")
+            f"±{margin:.3f}): the data cannot separate them. To separate them: {advice}.")
