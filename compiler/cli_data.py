@@ -97,9 +97,9 @@ def finite(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
     return value
 
 
@@ -107,7 +107,7 @@ def positive(text: str) -> float:
     """An argparse type: a finite number above zero (a step, a rate, a time)."""
     value = finite(text)
     if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be a positive number: {text!r}")
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
     return value
 
 
