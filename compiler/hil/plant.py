@@ -212,8 +212,10 @@ def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **o
     """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
 
     ``options`` go to the plant's constructor: ``method`` for float; ``build`` (reuse a compiled
-    build), ``on_overflow`` ("error" or "mark") for golden and the RTL plants; ``initial``
-    (x, dx, theta, dtheta) for golden; ``bus`` for the RTL plants."""
+    build), ``on_overflow`` ("error" or "mark") and ``initial`` (x, dx, theta, dtheta) for golden
+    and the RTL plants; ``bus`` and ``schedule`` (the build request; verilator defaults to the
+    comb schedule, the fastest to simulate and bit-exact like every schedule) for the RTL plants;
+    ``loadable`` for verilator (a harness whose registers ``load`` can write)."""
     if kind not in PLANT_KINDS:
         raise PendcError(f"unknown plant '{kind}' (choose {', '.join(PLANT_KINDS)})")
     if model is None:
