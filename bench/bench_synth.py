@@ -1,10 +1,12 @@
 """Benchmark: synthesis of the default model's core per schedule preset, against the thesis.
 
-For each preset (``default`` and ``small``; ``fast`` on request) the default model's
+For each preset (``fast``, ``default`` and ``small``; ``comb`` on request) the default model's
 HDL is emitted into a temporary folder and ``pendc report synth`` (Yosys ``synth_ecp5`` +
 nextpnr-ecp5, LFE5U-85F speed 6, out of context) runs on it. Results are cached by
-design hash, so a second run costs nothing. Ratios: ours / thesis (spec §5: 24 MULT18,
-12.9 MHz, 77.5 ns per step, 431 logic levels on a Virtex-II Pro).
+design hash, so a second run costs nothing (a cold run of one preset takes 5-20 minutes on
+this 2-core machine, most of it nextpnr). Ratios: ours / thesis (spec §5: 24 MULT18,
+12.9 MHz, 77.5 ns per step, 431 logic levels on a Virtex-II Pro), and the scheduler's
+estimated period / step against the routed ones (its delay model, pendc.passes.delays).
 
     .venv/bin/python bench/bench_synth.py [-o bench/out/synth.json] [--presets fast,small]
 """
@@ -42,6 +44,13 @@ def synth_presets(presets, target: str = "ecp5-85k", log=print) -> dict:
                 "fmax": round(r["fmax_mhz"] / THESIS["fmax_mhz"], 3) if r["fmax_mhz"] else None,
                 "logic_depth": round(r["logic_depth"] / THESIS["logic_depth"], 3),
             }
+            est = r.get("estimate", {})
+            if r["fmax_mhz"] and est.get("estimated_period_ns"):
+                r["model_vs_routed"] = {"period": round(est["estimated_period_ns"] * r["fmax_mhz"] / 1e3, 3),
+                                        "step": round(est["estimated_step_ns"] / r["step_ns"], 3)}
+            if est.get("lut4_scheduled"):
+                r["estimate_vs_synthesis"] = {"lut": round(est["lut4_scheduled"] / r["lut"], 3),
+                                              "dsp": round(est.get("dsp_scheduled", est.get("dsp", 0)) / max(r["dsp"], 1), 3)}
             log(f"  {preset}: {r['dsp']} DSP, {r['lut']} LUT4, {r['ff']} FF, {r['bram']} BRAM, "
                 f"Fmax {r['fmax_mhz']} MHz, ii {r['ii']}, step {r['step_ns']} ns ({r['wall_s']} s)")
             out[preset] = r
@@ -51,7 +60,7 @@ def synth_presets(presets, target: str = "ecp5-85k", log=print) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
-    ap.add_argument("--presets", default="default,small", help="comma-separated (fast too: about 3 min more)")
+    ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb too)")
     ap.add_argument("--target", default="ecp5-85k")
     args = ap.parse_args(argv)
     result = {"target": args.target, "presets": synth_presets(args.presets.split(","), args.target)}

@@ -95,6 +95,7 @@ class SynthReport:
     seconds: dict = field(default_factory=dict)   # tool wall times of the run that filled the cache
     estimate: dict = field(default_factory=dict)  # `pendc report resources`' figures from report.json
     thesis: dict = field(default_factory=lambda: dict(THESIS))
+    routed_critical_path: list = field(default_factory=list)   # see routed_path(); empty without routing
 
     def to_json(self) -> dict:
         out = asdict(self)
@@ -190,6 +191,7 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
         counts = cell_counts(json.loads((work / "stat.json").read_text()), top)
         depth, path = logic_depth(netlist, top, tgt.sequential)
         fmax = routed = None
+        segments: list = []
         note = ("no open place-and-route for this family: synthesis counts only" if tgt.pnr is None
                 else "" if route else "not placed and routed (synthesis counts only)")
         if tgt.pnr is not None and route:
@@ -203,7 +205,7 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
                             work, module.replace("_", "-"))
             seconds["nextpnr"] = round(time.time() - t0, 1)
             if pnr.returncode == 0 and (work / "pnr.json").is_file():
-                fmax, routed, note = _pnr_timing(json.loads((work / "pnr.json").read_text()))
+                fmax, routed, note, segments = _pnr_timing(json.loads((work / "pnr.json").read_text()))
             else:
                 note = f"place-and-route failed: {_last_error(pnr)}"
     result = SynthReport(
@@ -216,7 +218,7 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
         logic_depth=depth, critical_path=tuple(path), fmax_mhz=fmax,
         step_ns=round(1e3 * ii / fmax, 2) if fmax else None, routed_logic_cells=routed,
         cells=dict(sorted(counts.items())), pnr_note=note, design_hash=key, seconds=seconds,
-        estimate=_estimate(report))
+        estimate=_estimate(report), routed_critical_path=segments)
     if use_cache:
         write_atomic(cached, json.dumps(result.to_json(), indent=1) + "\n")
     return result
@@ -224,9 +226,17 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
 
 def _estimate(report: dict) -> dict:
     res = report.get("resources") or {}
+    sched = report.get("schedule") or {}
     keep = ("dsp18", "dsp", "dsp_scheduled", "dsp_shape", "lut4_est", "carry_est", "brams", "bram16", "register_bits",
             "logic_depth")
-    return {k: res[k] for k in keep if k in res}
+    out = {k: res[k] for k in keep if k in res}
+    if "lut4_est" in out and sched:                            # the schedule's muxes and phase logic
+        from .passes.resources import schedule_lut4
+        out["lut4_scheduled"] = out["lut4_est"] + schedule_lut4(sched)["lut4"]
+    for k in ("estimated_period_ns", "estimated_step_ns"):     # the scheduler's delay model
+        if sched.get(k):
+            out[k] = sched[k]
+    return out
 
 
 def _pnr_timing(report: dict) -> tuple:
@@ -237,11 +247,33 @@ def _pnr_timing(report: dict) -> tuple:
         return None, None, "nextpnr found no register-to-register path on a clock"
     clock = "clk" if "clk" in clocks else sorted(clocks)[0]
     achieved = round(float(clocks[clock]["achieved"]), 2)
-    routed = None
+    routed, segments = None, []
     for cp in report.get("critical_paths", []):
         if cp.get("from") == clock or cp.get("to") == clock or routed is None:
             routed = sum(1 for seg in cp.get("path", []) if seg.get("type") == "logic")
-    return achieved, routed, ""
+            segments = routed_path(cp.get("path", []))
+    return achieved, routed, "", segments
+
+
+def routed_path(path: list) -> list:
+    """nextpnr's critical path by cell: ``[cell, cell type hint, logic ns, routing ns into it]``,
+    consecutive segments of one cell merged (a carry chain is one entry per CCU2C cell), the
+    launching flip-flop's clock-to-out first (what the delay model is checked against)."""
+    out: list = []
+    wire = 0.0
+    for seg in path:
+        kind, delay = seg.get("type"), float(seg.get("delay", 0.0))
+        cell = str((seg.get("to") or {}).get("cell", ""))
+        if kind == "routing":
+            wire += delay
+            continue
+        base = cell.split("$")[0]
+        if out and out[-1][0] == base and wire == 0.0:
+            out[-1][2] = round(out[-1][2] + delay, 3)
+            continue
+        out.append([base, kind, round(delay, 3), round(wire, 3)])
+        wire = 0.0
+    return out
 
 
 def _last_error(run: subprocess.CompletedProcess) -> str:
@@ -258,7 +290,7 @@ def format_synth_report(r: SynthReport) -> str:
     step = f"{r.step_ns:.1f} ns" if r.step_ns else "-"
     lines = [f"Synthesis of {r.top} for {tgt.description}", "",
              f"{'':28s} {'synthesis':>12s} {'estimate':>10s} {'thesis':>10s}",
-             f"{'LUTs':28s} {r.lut:>12d} {_s(est.get('lut4_est')):>10s} {th['lut']:>10d}",
+             f"{'LUTs':28s} {r.lut:>12d} {_s(est.get('lut4_scheduled', est.get('lut4_est'))):>10s} {th['lut']:>10d}",
              f"{'flip-flops':28s} {r.ff:>12d} {_s(est.get('register_bits')):>10s} {'':>10s}",
              f"{'carry cells':28s} {r.carry:>12d} {_s(est.get('carry_est')):>10s} {'':>10s}",
              f"{'DSP blocks':28s} {r.dsp:>12d} {_s(est.get('dsp_scheduled', est.get('dsp', est.get('dsp18')))):>10s} "
@@ -269,8 +301,14 @@ def format_synth_report(r: SynthReport) -> str:
              f"{'Fmax (routed)':28s} {fmax:>12s} {'':>10s} {th['fmax_mhz']:>7.1f} MHz",
              f"{'cycles per step (ii)':28s} {r.ii:>12d} {'':>10s} {th['ii']:>10d}",
              f"{'step time ii/Fmax':28s} {step:>12s} {'':>10s} {th['step_ns']:>8.1f} ns", ""]
+    if "estimated_period_ns" in est:
+        lines.append(f"scheduler's estimate: period {est['estimated_period_ns']:g} ns, step "
+                     f"{est.get('estimated_step_ns', 0):g} ns (delay model pendc.passes.delays)")
     if r.routed_logic_cells is not None:
         lines.append(f"routed critical path: {r.routed_logic_cells} logic cells")
+    if r.routed_critical_path:
+        worst = sorted(r.routed_critical_path, key=lambda seg: -(seg[2] + seg[3]))[:4]
+        lines.append("  slowest cells on it: " + ", ".join(f"{c[:40]} {lg:g}+{w:g} ns" for c, _, lg, w in worst))
     if r.critical_path:
         lines.append("longest netlist path: " + " -> ".join(r.critical_path))
     if r.pnr_note:

@@ -144,3 +144,14 @@ def test_default_build_estimate():
     assert end in dict(g.outputs).values() or any(g[c].kind in (Kind.REGISTER, Kind.FSM) for c in g.consumers[end])
     assert g[r.critical_path[0]].kind in (Kind.INPUT, Kind.REGISTER, Kind.FSM, Kind.CONST)
     assert r.logic_depth == longest_path(g)[0]
+
+
+def test_schedule_lut4_counts_shared_operand_muxes():
+    """A unit serving k products is a (k-1)-deep 2:1 mux per operand bit; no units, no muxes."""
+    from pendc.passes.resources import schedule_lut4
+    shared = {"ii": 8, "units": [{"name": "mul0", "widths": [32, 18], "uses": [["a", 1], ["b", 3], ["c", 5]]},
+                                 {"name": "mul1", "widths": [18, 18], "uses": [["d", 2]]}]}
+    r = schedule_lut4(shared)
+    assert r["unit_mux"] == 2 * 50 + 0
+    assert r["lut4"] == r["unit_mux"] + r["phase"] and 0 < r["phase"] < 50
+    assert schedule_lut4({"ii": 1, "units": []}) == {"unit_mux": 0, "phase": 0, "lut4": 0}

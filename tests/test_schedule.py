@@ -149,3 +149,40 @@ def test_schedules_are_bit_exact_in_icarus(plant, request_, tmp_path):
     assert gold.overflows and hw[:, 4].any()
     assert int(np.argmax(hw[:, 4])) == min(gold.overflows.values())
     assert math.isfinite(s.clock_ns) or preset == "comb"
+
+
+def test_fast_is_the_shortest_estimated_step(plant):
+    from pendc.passes.schedule import FAST_GOALS
+    s = schedule_for(plant, SHAPE, preset="fast")
+    assert s.estimated_period_ns <= s.clock_ns <= max(FAST_GOALS)
+    others = [schedule_graph(plant, g, None, SHAPE) for g in FAST_GOALS]
+    assert s.estimated_step_ns == min(o.estimated_step_ns for o in others)
+    assert s.estimated_step_ns == pytest.approx(s.ii * s.estimated_period_ns, abs=0.01)
+
+
+def test_registered_products_read_registered_operands(plant):
+    """A product registered before its rounding runs from registers: every computed operand is
+    ready a cycle before the product's, and the node completes the cycle after it."""
+    for goal in (6.0, 8.0, 10.0):
+        s = schedule_graph(plant, goal, None, SHAPE)
+        for node, cycle in s.product_reg.items():
+            assert s.stage[node] == cycle + 1
+            if plant[node].kind is not Kind.LUT:
+                for i in plant[node].inputs:
+                    if plant[i].kind not in (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM):
+                        assert s.stage[i] < cycle, (node, i)
+            else:
+                assert cycle > s.lut_addr[node]
+
+
+def test_delay_model_is_charged_per_cycle(plant):
+    """The estimated period covers flip-flop overhead, so no schedule promises more than its goal
+    once a product fits a cycle; a combinational schedule's period is its longest chain."""
+    from pendc.passes.delays import ECP5_SPEED6
+    assert ECP5_SPEED6.add(56) > ECP5_SPEED6.add(8)
+    assert ECP5_SPEED6.product(32, 18, 2) > ECP5_SPEED6.product(18, 18, 1)
+    for goal in (10.0, 15.0, 30.0):
+        s = schedule_graph(plant, goal, None, SHAPE)
+        assert ECP5_SPEED6.overhead() < s.estimated_period_ns <= goal
+    comb = schedule_graph(plant)
+    assert comb.estimated_period_ns > schedule_graph(plant, 10.0, None, SHAPE).estimated_period_ns

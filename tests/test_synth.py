@@ -52,6 +52,13 @@ def test_ecp5_counts_routes_and_caches(tmp_path, capsys):
     assert r["step_ns"] == pytest.approx(3e3 / r["fmax_mhz"], rel=1e-3)
     assert r["logic_depth"] >= 1
     assert r["estimate"] == {"dsp18": 99}
+    # nextpnr's critical path, cell by cell: the multiplier block is on it, and its parts add up
+    # to the routed period (what the scheduler's delay model is calibrated against)
+    path = r["routed_critical_path"]
+    assert any("MULT18X18D" in cell and logic > 1.0 for cell, _, logic, _ in path)
+    assert sum(lg + w for _, _, lg, w in path) == pytest.approx(1e3 / r["fmax_mhz"], rel=0.02)
+    from pendc.passes.delays import ECP5_SPEED6
+    assert ECP5_SPEED6.overhead() + ECP5_SPEED6.product(18, 18, 1) == pytest.approx(1e3 / r["fmax_mhz"], rel=0.2)
     assert r["thesis"]["dsp"] == 24 and r["thesis"]["step_ns"] == 77.5
     # second call: from the cache, the same figures
     again = synthesize(d, "ecp5-85k")

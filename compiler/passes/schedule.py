@@ -19,7 +19,7 @@ chooses, so the core never needs more than ``dsp`` blocks. The states, FSMs and 
 
 The delay model (pendc.passes.delays) is calibrated against nextpnr-ecp5's routed timing
 (routing included, flip-flop clock-to-out and setup charged to every cycle). The ``fast``
-preset tries clock goals up to 10 ns and keeps the schedule whose *estimated* step
+preset tries clock goals of 5-30 ns and keeps the schedule whose *estimated* step
 (``ii`` x the estimated period of its slowest cycle) is shortest; `pendc report synth`
 measures the real Fmax.
 """
@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
+from ..ir.qformat import QFormat
 from .delays import ECP5_SPEED6, DelayModel, model_for
 from .resources import dsp_for, product_widths
 
@@ -42,7 +43,8 @@ SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
 NO_OVERFLOW_TERM = SOURCES + (Kind.COMPARE, Kind.SLICE)
 PRESETS = {
     # name: (clock goal ns, DSP budget, description)
-    "fast": (10.0, None, "shortest step: 100 MHz clock goal, a multiplier per product"),
+    "fast": (30.0, None, "shortest estimated step (ii x estimated period) over clock goals of 5-30 ns, "
+                         "a multiplier per product"),
     "default": (10.0, 24, "100 MHz clock goal within the thesis' 24 multipliers (shared only if needed)"),
     "small": (10.0, 4, "fewest DSP blocks: 4, shared across cycles, 100 MHz clock goal (>= 1 MHz step rate)"),
     "comb": (math.inf, None, "no pipelining: one combinational step between table reads (the thesis' structure)"),
@@ -104,7 +106,8 @@ def node_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = 
     if k in (Kind.GAIN, Kind.MUL):
         wa, wb = product_widths(graph, n)
         # the rounding constant is added to the full product before it is cut to the output format
-        return model.product(wa, wb, dsp_for(wa, wb, shape)) + (model.add(wa + wb) if rounds else 0.0)
+        frac = ins[0].frac + (QFormat.parse(n.param("cfmt")).frac if k is Kind.GAIN else ins[1].frac)
+        return model.product(wa, wb, dsp_for(wa, wb, shape)) + (model.add(wa + wb) if frac > n.qformat.frac else 0.0)
     requant = model.add(in_width) if rounds else 0.0
     if k in (Kind.ADD, Kind.SUB, Kind.NEG, Kind.COMPARE):
         return model.add(in_width + 1) + requant
@@ -284,7 +287,7 @@ def _share(graph: Graph, stage: dict, shape: tuple, cost) -> tuple:
     return tuple(units)
 
 
-FAST_GOALS = tuple(round(10.0 - 0.1 * i, 1) for i in range(51))     # 10 ns down to 5 ns
+FAST_GOALS = tuple(round(5.0 + 0.5 * i, 1) for i in range(51))      # 5 ns to 30 ns
 
 
 def fastest(graph: Graph, shape: tuple, goals=FAST_GOALS, dsp: int | None = None, preset: str = "fast",
