@@ -91,6 +91,7 @@ def cmd_simulate(args) -> int:
         check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
     data = read_measurements(args.input, required=("t", "u"))
+    _check_input_volts(data)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
     if args.fixed:
@@ -126,6 +127,17 @@ def cmd_simulate(args) -> int:
             "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
     _write_output(args.output, format_csv(columns, meta))
     return 0
+
+
+def _check_input_volts(data) -> None:
+    """u beyond the rig's limit: millivolts (many rows) or an outlier (a few), named by line, before a
+    simulation of nonsense. Only u: the other columns of a file (a simulation's own output, say) are not read."""
+    from .sim import plausibility
+    from .sim.table import Table
+
+    table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
+    plausibility.check_bounded(table, "u", data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
+                               ("millivolts", "give u in volts"))
 
 
 def _write_output(output: str | None, text: str) -> None:

@@ -47,6 +47,8 @@ BAD_T = np.arange(2000) * 1e-3
 BAD_T[100] = BAD_T[50]
 NAN_U = np.full(2000, 5.0)
 NAN_U[7] = np.nan
+BIG_U = np.full(2000, 5.0)
+BIG_U[40] = 1e30
 
 # (id, files to create, argv, what the error line must say (a regex), xfail reason or None)
 # every argv runs in the scratch folder; paths are relative to it
@@ -95,6 +97,10 @@ ROWS = [
      r"(?i)time|\bt\b", None),
     ("simulate-input-text", {"in.csv": "t,u\n0,1\n0.001,volts\n"}, ["simulate", "--input", "in.csv", "-o", "o.csv"],
      r"volts|in\.csv", None),
+    ("simulate-input-millivolts", {"in.csv": tu_csv(u=np.full(2000, 5000.0))},
+     ["simulate", "--input", "in.csv", "-o", "o.csv"], r"in\.csv: column 'u' looks like millivolts", None),
+    ("simulate-input-outlier-u", {"in.csv": tu_csv(u=BIG_U)}, ["simulate", "--input", "in.csv", "-o", "o.csv"],
+     r"in\.csv: line \d+: u = 1e\+30 is an outlier", None),
     ("simulate-dt-zero", {"in.csv": tu_csv()}, ["simulate", "--input", "in.csv", "--dt", "0", "-o", "o.csv"],
      r"--dt", None),
     ("simulate-dt-negative", {"in.csv": tu_csv()}, ["simulate", "--input", "in.csv", "--dt", "-1e-6", "-o", "o.csv"],
