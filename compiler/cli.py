@@ -256,8 +256,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="float simulation of a model on an input file")
     p.add_argument("--model", help=MODEL_HELP)
-    p.add_argument("--input", required=True, help="CSV with columns t,u ('-': standard input)")
-    p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default stdout")
+    p.add_argument("--input", required=True, help="measurement file with columns t (s) and u (V): pendc's CSV "
+                   "(',' ';' tab or whitespace separated, '# key: value' comments) or MATLAB .mat; '-': standard "
+                   "input; other columns are ignored")
+    p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default (or '-'): standard output")
     p.add_argument("--dt", type=_positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
     p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0); "
@@ -271,12 +273,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("build", help="compile the model to Verilog (hdl_out/)")
+    p = sub.add_parser("build", help="compile the model to Verilog (hdl_out/)",
+                       description="Compile the model to Verilog. The files name the model by its fingerprint "
+                                   "(sha256 of its constants, effects and [hardware]) and the pendc version, never by "
+                                   "its path, and the build id hashes them: the same model builds byte-identical "
+                                   "files wherever it lies and wherever it is built from.")
     p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("-o", "--output", default="hdl_out", help="output folder (default hdl_out)")
     p.add_argument("--bus", choices=("raptor", "axi-lite"), default="raptor", help="bus wrapper (default raptor)")
     p.add_argument("--json", action="store_true", help="print report.json")
-    p.add_argument("--check", action="store_true", help="only check that the output folder is up to date")
+    p.add_argument("--check", action="store_true", help="write nothing: check that the output folder holds exactly "
+                   "what this build writes (exit 2 naming the files that differ)")
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7", "xcu"),
                    help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
@@ -298,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("stimulus", help="write one of the standard input signals as a t,u CSV")
     p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")
-    p.add_argument("-o", "--output", help="output CSV; default stdout")
+    p.add_argument("-o", "--output", help="output CSV; default (or '-'): standard output")
     p.set_defaults(func=cmd_stimulus)
     return parser
 
