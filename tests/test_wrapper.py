@@ -576,3 +576,29 @@ def test_other_formats_lint_and_run(uw, w, encoders, tmp_path):
     assert (got["X_LO"], got["X_HI"]) == (5, 0)
     assert got["ENC"] == (5 if encoders else 0)
     assert got["ENC_X_COUNT"] == (word(quad_count([0, 1, 0, 1, 0, 1], [0, 0, 1, 1, 0, 0])) if encoders else 0)
+
+
+# ---------------------------------------------------------------- debug build (overflow status)
+
+
+@pytest.mark.parametrize("bus", BUSES)
+def test_debug_build_lint_clean_and_normal_build_unchanged(bus, build, rendered, tmp_path):
+    """The debug build (per-node overflow_status, OVERFLOW_STATUS_k words) is -Wall clean; with
+    the option off the core and the wrapper are the normal build's files."""
+    from pendc.backend.emit import status_nodes
+    view, core = render_core(build["graph"], debug_status=True)
+    nodes = status_nodes(view)
+    assert len(nodes) == len(set(n for _, n in view.net.overflow)) > 32          # more than one word
+    files, meta = render_wrapper(view, build["ports"], build["ident"], bus, status_nodes=nodes)
+    words = [r for r in meta["registers"] if r["name"].startswith("OVERFLOW_STATUS_")]
+    assert [r["name"] for r in words] == [f"OVERFLOW_STATUS_{k}" for k in range((len(nodes) + 31) // 32)]
+    assert core["pendulum_core.v"] != build["core"]["pendulum_core.v"]
+    assert render_core(build["graph"])[1] == build["core"]
+    assert render_wrapper(build["view"], build["ports"], build["ident"], bus) == rendered[bus]
+    with pytest.raises(ValueError, match="overflow status nodes"):
+        render_wrapper(view, build["ports"], build["ident"], bus, status_nodes=nodes[1:])
+    verilator = tool("verilator")
+    names = write(tmp_path, core, files)
+    res = run([verilator, "--lint-only", "-Wall", "--default-language", "1364-2005",
+               "--top-module", TOPS[bus], *names], tmp_path)
+    assert res.returncode == 0 and "%Warning" not in res.stderr and "%Error" not in res.stderr, res.stderr
