@@ -241,3 +241,23 @@ def test_hostile_input_is_one_error_and_changes_nothing(tmp_path, monkeypatch, c
     assert re.search(pattern, errors[0]), f"{errors[0]!r} does not name {pattern!r}"
     assert code == 2
     assert snapshot(tmp_path) == before, "the command created or changed files"
+
+
+UNWRITABLE = Path("/proc/pendc-test")   # /proc takes no new files, even from root (a read-only folder does)
+
+
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux /proc for a place nobody can write")
+@pytest.mark.parametrize("argv", [
+    ["stimulus", "steps", "-o", f"{UNWRITABLE}.csv"],
+    ["simulate", "--input", "in.csv", "-o", f"{UNWRITABLE}.csv"],
+    ["animate", "run.csv", "-o", f"{UNWRITABLE}.html"],
+    ["hil", "--seconds", "0.01", "--out", str(UNWRITABLE)],
+], ids=["stimulus", "simulate", "animate", "hil"])
+def test_an_unwritable_output_is_one_error_naming_it(tmp_path, monkeypatch, capsys, argv):
+    make(tmp_path, {"in.csv": tu_csv(n=20), "run.csv": run_csv()})
+    monkeypatch.chdir(tmp_path)
+    before = snapshot(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pendc: error: {argv[-1]}: ") and "Traceback" not in err, err
+    assert snapshot(tmp_path) == before and not Path(argv[-1]).exists()
