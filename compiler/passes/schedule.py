@@ -42,11 +42,12 @@ SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
 # flag (two more levels) must fit too
 NO_OVERFLOW_TERM = SOURCES + (Kind.COMPARE, Kind.SLICE)
 PRESETS = {
-    # name: (clock goal ns, DSP budget, description)
+    # name: (longest clock goal searched ns, DSP budget, description); every preset but comb keeps the
+    # goal of FAST_GOALS (up to its longest) with the shortest estimated step
     "fast": (30.0, None, "shortest estimated step (ii x estimated period) over clock goals of 5-30 ns, "
                          "a multiplier per product"),
-    "default": (10.0, 24, "100 MHz clock goal within the thesis' 24 multipliers (shared only if needed)"),
-    "small": (10.0, 4, "fewest DSP blocks: 4, shared across cycles, 100 MHz clock goal (>= 1 MHz step rate)"),
+    "default": (30.0, 24, "shortest estimated step within the thesis' 24 multipliers (shared only if needed)"),
+    "small": (30.0, 4, "fewest DSP blocks: 4, shared across cycles, shortest estimated step (>= 1 MHz step rate)"),
     "comb": (math.inf, None, "no pipelining: one combinational step between table reads (the thesis' structure)"),
 }
 DEFAULT_PRESET = "default"
@@ -313,9 +314,10 @@ def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | N
         if preset not in PRESETS:
             raise PendcError(f"unknown preset '{preset}' (known: {', '.join(PRESETS)})")
         clock, budget, _ = PRESETS[preset]
-        if preset == "fast":
-            return fastest(graph, shape, tuple(g for g in FAST_GOALS if g <= clock), dsp, preset, target)
-        return schedule_graph(graph, clock, dsp if dsp is not None else budget, shape, preset, target)
+        budget = dsp if dsp is not None else budget
+        if math.isinf(clock):
+            return schedule_graph(graph, clock, budget, shape, preset, target)
+        return fastest(graph, shape, tuple(g for g in FAST_GOALS if g <= clock), budget, preset, target)
     if ii is None:
         return schedule_for(graph, shape, dsp=dsp, preset=DEFAULT_PRESET, target=target)
     if ii < 1:
