@@ -41,7 +41,7 @@ def typed_default(build, widen):
 def test_report_is_within_budget_when_met(build):
     rep = build.error
     assert rep is not None and rep.met
-    assert rep.budgets == {"x": OPTIONS.budget_x, "theta": OPTIONS.budget_theta}
+    assert rep.budgets == pendc.load_model().interface.budgets() == {"x": 2.5e-6 / 2, "theta": 3.14e-4 / 2}
     assert rep.seconds == pytest.approx(min(OPTIONS.check_seconds, 5.0 * OPTIONS.training_scale))
     assert set(rep.errors) == {"chirp", "swing_up"}
     for stim, errs in rep.errors.items():

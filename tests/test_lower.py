@@ -18,15 +18,15 @@ from pendc.ir.nodes import Kind, make
 from pendc.ir.verify import verify
 from pendc.model.effects import CATALOGUE
 from pendc.model.plant import PlantModel
-from pendc.passes.lower import TURN_CAPACITY, lower_model
-from pendc.passes.lower_encoders import CART_BAND, PEND_BAND
+from pendc.passes.lower import lower_model
 from pendc.passes.ranges import per_step
 from pendc.sim.stimuli import swing_up
 
 DT = 1e-6
 STATES = ("x", "dx", "theta", "dtheta")
-CART_COUNT = CART_BAND / 2          # x4 decoding: two counts per band, 2.5 um
-PEND_COUNT = PEND_BAND / 2          # 0.314 mrad
+# spec section 4: x4 decoding gives 2000 counts per 5 mm spindle revolution and 20000 per pendulum turn
+CART_COUNT = 5e-3 / 2000            # 2.5 um
+PEND_COUNT = 2 * math.pi / 20000    # 0.314 mrad
 PLANT = {"g": 9.80665, "M": 103.205, "m": 0.581, "L": 0.138867, "I": 6.21034e-3}
 DRIVE = {"alpha": 260.78841, "V_off": 5.264616}
 # non-default values, so that every effect really contributes a term
@@ -176,7 +176,7 @@ def test_text_is_identical_across_lowerings(graph, model):
 
 
 def test_text_is_identical_across_hash_seeds(graph):
-    code = ("import sys, pendc\nfrom pendc.passes.lower import TURN_CAPACITY, lower_model\n"
+    code = ("import sys, pendc\nfrom pendc.passes.lower import lower_model\n"
             "sys.stdout.write(lower_model(pendc.load_model(), dt=1e-6).text())\n")
     texts = []
     for seed in ("0", "4242"):
@@ -287,7 +287,7 @@ def test_encoder_channels_start_at_the_documented_levels(graph):
 def test_theta_stays_continuous_while_the_tables_read_its_phase(model):
     """Started spinning at 30 rad/s: theta runs over many turns in the graph (real arithmetic)
     exactly as in the float simulator, the turn counter follows and the phase stays within
-    one turn of zero; theta's declared range holds TURN_CAPACITY turns."""
+    one turn of zero; theta's declared range holds the interface's turns."""
     g = lower_model(model, dt=DT)
     spinning = g.map_nodes(lambda n: n.with_params(reset=30.0) if n.name == "dtheta" else n)
     u = np.full(600_000, DRIVE["V_off"])
@@ -299,7 +299,7 @@ def test_theta_stays_continuous_while_the_tables_read_its_phase(model):
     np.testing.assert_allclose(trace.outputs["theta_phase"] + 2 * math.pi * trace.outputs["theta_turn"],
                                trace.outputs["theta"], rtol=0, atol=1e-9)
     assert np.all(np.abs(trace.outputs["theta_phase"]) <= math.pi + 30 * DT)
-    assert g["theta"].param("max_abs") == pytest.approx(2 * math.pi * TURN_CAPACITY)
+    assert g["theta"].param("max_abs") == pytest.approx(2 * math.pi * model.interface.state("theta").turns)
 
 
 def test_end_stops_lower_to_compare_and_mux_and_match_the_simulator():

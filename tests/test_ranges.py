@@ -9,8 +9,7 @@ from pendc.ir.nodes import Kind, make
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
-from pendc.passes.lower import TURN_CAPACITY
-from pendc.passes.ranges import SPIN_RATE, full_scale_switching, Ranges, analyze_ranges, per_step
+from pendc.passes.ranges import envelope_runs, full_scale_switching, Ranges, analyze_ranges, per_step
 from pendc.sim.stimuli import steps as step_stimulus
 from pendc.sim.stimuli import swing_up
 
@@ -127,7 +126,7 @@ def ranges(untyped, stimuli):
 
 def test_state_ranges_are_the_simulated_maxima(model, stimuli, ranges):
     """Each state's range is its largest |value| in the float simulator over the same inputs,
-    except theta, whose declared capacity (TURN_CAPACITY turns) is larger."""
+    except theta, whose declared capacity (the plant interface's turns) is larger."""
     sim = pendc.Simulator(model, dt=DT)
     for s in ("x", "dx", "theta", "dtheta"):
         peak = 0.0
@@ -137,7 +136,8 @@ def test_state_ranges_are_the_simulated_maxima(model, stimuli, ranges):
             peak = max(peak, float(np.max(np.abs(res[s]))))
         assert peak > 0
         if s == "theta":
-            assert ranges[s] == pytest.approx(2 * np.pi * TURN_CAPACITY) and peak < ranges[s]
+            turns = model.interface.state("theta").turns
+            assert turns >= 100 and ranges[s] == pytest.approx(2 * np.pi * turns) and peak < ranges[s]
         else:
             assert ranges[s] == pytest.approx(peak, rel=1e-9), s
 
@@ -178,9 +178,28 @@ def test_envelope_covers_full_scale_input_track_ends_and_a_spinning_pendulum(unt
         "envelope:full_scale_switching", "envelope:track_ends", "envelope:spin"]
     assert wide["u"] == 10.0
     assert wide["dx"] == pytest.approx(0.55, rel=1e-6)          # clamped, driven into the ends
-    assert wide["dtheta"] >= SPIN_RATE > 10 * ranges["dtheta"]
+    # above the encoders' design limit, 8*pi rad/s (spec section 4), and far above the stimuli
+    spin = untyped_model_interface(untyped).state("dtheta").training_rate
+    assert wide["dtheta"] >= spin > 8 * np.pi and spin > 10 * ranges["dtheta"]
     for name in ranges.max_abs:
         assert wide[name] >= ranges[name], name
+
+
+def untyped_model_interface(graph):
+    """The plant interface the graph carries from lowering (through folding and CSE)."""
+    from pendc.model.interface import require_interface
+    return require_interface(graph)
+
+
+def test_without_an_interface_there_is_no_spin_run(untyped, stimuli):
+    """A graph that lost its plant interface has no state to spin: only the two input runs."""
+    import dataclasses
+    bare = dataclasses.replace(untyped, info=tuple(kv for kv in untyped.info if kv[0] != "interface"))
+    assert [name for name, _, _ in envelope_runs(bare)] == ["envelope:full_scale_switching",
+                                                            "envelope:track_ends"]
+    spun = [g for name, g, _ in envelope_runs(untyped) if name == "envelope:spin"]
+    assert len(spun) == 1 and spun[0]["dtheta"].param("reset") == untyped_model_interface(untyped).state(
+        "dtheta").training_rate
 
 
 def test_full_scale_switching_is_zero_or_ten_volts_at_one_to_fifty_ms():

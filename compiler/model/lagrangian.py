@@ -33,6 +33,27 @@ class RigidBody:
     k: sp.Expr               # determinant of the mass matrix
     num_x: sp.Expr
     num_theta: sp.Expr
+    periods: tuple = ()      # (coordinate name, period or None): derived from the Lagrangian
+
+
+# What each generalized coordinate and its rate are, in words and units (the plant interface's
+# states read this): (coordinate, body, (quantity, unit, meaning) of the position, then of the rate)
+COORDINATES = (
+    ("x", "cart", ("position", "m", "cart position (m)"), ("velocity", "m/s", "cart velocity (m/s)")),
+    ("theta", "pendulum", ("angle", "rad", "pendulum angle from hanging down (rad)"),
+     ("angular velocity", "rad/s", "pendulum angular velocity (rad/s)")),
+)
+
+
+def period_of(lagrangian: sp.Expr, q: sp.Symbol):
+    """2*pi if the Lagrangian depends on ``q`` and does not change when ``q`` turns once (an
+    angle), else None. Periodicity is a property of the physics, so it is read off the
+    energies, never declared; a coordinate the Lagrangian does not contain (the cart's x: the
+    track is the same everywhere) is a translation, not an angle."""
+    if q not in lagrangian.free_symbols:
+        return None
+    turned = lagrangian.subs(q, q + 2 * sp.pi)
+    return 2 * sp.pi if sp.simplify(sp.expand_trig(turned - lagrangian)) == 0 else None
 
 
 @lru_cache(maxsize=1)
@@ -70,13 +91,15 @@ def derive_rigid_body() -> RigidBody:
     k = sp.factor_terms(sp.expand(A.det()))
     adj = A.adjugate()
     num = [sp.expand(sum(adj[i, j] * b[j] for j in range(2))) for i in range(2)]
+    plain_lag = lag.subs(plain)
     return RigidBody(
         constants={"g": g, "M": M, "m": m, "L": L, "I": I},
         state=(x, dx, theta, dtheta),
         forces=(Xi_x, Xi_theta),
-        lagrangian=lag.subs(plain),
+        lagrangian=plain_lag,
         euler_lagrange=tuple(eqs),
         k=k,
         num_x=num[0],
         num_theta=num[1],
+        periods=tuple((q.name, period_of(plain_lag, q)) for q in (x, theta)),
     )

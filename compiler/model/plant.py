@@ -19,7 +19,8 @@ import sympy as sp
 from ..errors import PendcError
 from .effects import CATALOGUE, CONFLICTS, Symbols
 from .experiments import DEFAULT_EXPERIMENT, EXPERIMENTS
-from .lagrangian import derive_rigid_body
+from .interface import InputSpec, PlantInterface, QuantitySpec, SensorSpec, StateSpec
+from .lagrangian import COORDINATES, derive_rigid_body
 
 PLANT_CONSTANTS = {
     "g": ("m/s^2", "gravitational acceleration"),
@@ -152,6 +153,12 @@ class PlantModel:
     @cached_property
     def equations(self) -> Equations:
         return build_equations(self)
+
+    @cached_property
+    def interface(self) -> PlantInterface:
+        """What the compiler, golden model and testbench know of this plant (states, input,
+        encoders, tolerances); see :mod:`pendc.model.interface`."""
+        return build_interface(self)
 
     def parameter_vector(self):
         """Values in the order of ``self.equations.params``."""
@@ -321,3 +328,64 @@ def build_equations(model: PlantModel) -> Equations:
         sensor_offsets=offsets,
         experiment=model.experiment,
     )
+
+
+# -- the plant interface -----------------------------------------------------------------------
+
+INPUT = ("u", "V", "driver input voltage (V)", 10.0)      # name, unit, meaning, full scale (±10 V)
+# Named intermediates of build_equations (and the lag state of motor_lag), as the IR prints them
+QUANTITIES = {
+    "F_m": ("N", "drive force after the motor lag (N)"), "F_in": ("N", "drive force on the cart (N)"),
+    "F_fric": ("N", "cart friction without the viscous part (N)"),
+    "F_cart": ("N", "generalized force on the cart (N)"), "tau_pend": ("N*m", "torque at the pivot (N*m)"),
+    "ddx": ("m/s^2", "cart acceleration (m/s^2)"), "ddtheta": ("rad/s^2", "pendulum angular acceleration (rad/s^2)"),
+}
+FEED = 5e-3                           # m per spindle revolution
+# The rig's encoders (spec section 4): state, body, band (state units), lines, bands per revolution
+ENCODERS = (("x", "cart", FEED / 1000, 500, 1000),                 # 1000 bands/rev of the spindle (II.49)
+            ("theta", "pendulum", 2 * math.pi / 10000, 5000, 10000))  # Heidenhain ROD 420 (II.50)
+# Error budget: half an encoder count over the check horizon, the count as the thesis prints it
+# (2.5 um, 0.314 mrad)
+BUDGETS = {"x": 2.5e-6 / 2, "theta": 3.14e-4 / 2}
+# Whole turns either way that theta holds. The angle stays continuous (the encoders count
+# turns, measurements are unwrapped), so its register needs integer bits for every turn it
+# may make: 256 turns is over a minute at the encoders' 8*pi rad/s limit and costs 8 bits over
+# one turn. Tables only read the fraction of theta/2pi, which wraps for free. A pendulum
+# spun further stops the run with theta's overflow flag, never a silent wrap.
+TURN_CAPACITY = 256
+# A spinning pendulum's rate for range analysis to train on: above the encoders' design limit
+# (spec section 4, 8*pi rad/s) and above the 29 rad/s that a minute of full-scale switching
+# reaches on the rig model, where the cart's hits on the end stops spin the pendulum.
+SPIN_RATE = 10 * math.pi
+
+
+def build_interface(model: PlantModel) -> PlantInterface:
+    """The cart-pendulum's :class:`PlantInterface`: the rigid body's coordinates and rates
+    (periodicity read off the Lagrangian), the velocity clamp of the model's effects, any lag
+    states, the driver input and the two encoders."""
+    eq = model.equations
+    rb = derive_rigid_body()
+    periods = dict(rb.periods)
+    values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
+    bound = None if eq.velocity_bound is None else float(eq.velocity_bound.subs(values))
+    states = []
+    for q, body, (pq, punit, pmeaning), (rq, runit, rmeaning) in COORDINATES:
+        period = periods[q]
+        states.append(StateSpec(q, punit, pmeaning, body, pq, period=None if period is None else float(period),
+                                turns=TURN_CAPACITY if period is not None else None, budget=BUDGETS.get(q)))
+        states.append(StateSpec(f"d{q}", runit, rmeaning, body, rq, derivative_of=q,
+                                velocity_bound=bound if period is None else None,   # the cart's clamp
+                                training_rate=SPIN_RATE if period is not None else None))
+    if [s.name for s in states] != [sym.name for sym in eq.states[:len(states)]]:
+        raise PendcError("internal error: the equations' states are not the rigid body's coordinates and rates")
+    for sym in eq.states[len(states):]:       # lag states (motor_lag's F_m): internal, not reported
+        unit, meaning = QUANTITIES.get(sym.name, ("", sym.name))
+        states.append(StateSpec(sym.name, unit, meaning, output=False))
+    state_names = {s.name for s in states}
+    return PlantInterface(
+        name="cart_pendulum", core="pendulum_core", states=tuple(states),
+        inputs=(InputSpec(*INPUT),),
+        sensors=tuple(SensorSpec(f"enc_{state}", state, body, band, lines, bands)
+                      for state, body, band, lines, bands in ENCODERS),
+        quantities=tuple(QuantitySpec(name, unit, meaning) for name, (unit, meaning) in QUANTITIES.items()
+                         if name not in state_names))

@@ -26,10 +26,10 @@ import numpy as np
 from ..ir import lut as lut_sem
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
+from ..model.interface import graph_interface
 from ..sim.stimuli import chirp, swing_up
-from .ranges import per_step
+from .ranges import input_port, per_step
 
-STATES = ("x", "dx", "theta", "dtheta")
 WIDEN_STEP = 8
 MAX_WIDEN = 24
 MAX_ADDR_BITS = 13
@@ -69,6 +69,15 @@ def check_stimuli(seconds: float) -> dict:
     return out
 
 
+def budget_states(graph: Graph) -> tuple:
+    """The states whose error is measured and whose accumulators the budget widens: the states
+    the plant interface reports (for a graph built by hand, its outputs that are registers)."""
+    iface = graph_interface(graph)
+    if iface is not None:
+        return iface.outputs
+    return tuple(port for port, node in graph.outputs if graph[node].kind is Kind.REGISTER)
+
+
 def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "compiled",
                         every: int = 1000) -> tuple[dict, dict]:
     """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|."""
@@ -76,18 +85,19 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
     nodes = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
     fixed, flt = CompiledGraph(graph, "fixed"), CompiledGraph(graph, "float")
     errors, node_errors = {}, {n: 0.0 for n in nodes}
+    states, port = budget_states(graph), input_port(graph)
     for name, (t, u) in stimuli.items():
-        steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
-        a = fixed.run({"u": steps})
+        steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
+        a = fixed.run(steps)
         if a.overflows:
             node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
             raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
                               f"training ranges do not cover it (raise margin_bits or override its range)")
-        b = flt.run({"u": steps})
+        b = flt.run(steps)
         errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
-                        for s in STATES}
-        sa = fixed.run({"u": steps}, every=every, record=nodes)
-        sb = flt.run({"u": steps}, every=every, record=nodes)
+                        for s in states}
+        sa = fixed.run(steps, every=every, record=nodes)
+        sb = flt.run(steps, every=every, record=nodes)
         for n in nodes:
             lsb = graph[n].qformat.lsb
             diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb - np.asarray(sb.outputs[n], np.float64))
@@ -123,9 +133,9 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         over = [s for s in budgets if worst[s] > budgets[s]]
         if not over:
             break
-        current = widen.get("x", 0)
+        current = max(widen.values(), default=0)       # every state accumulator is widened alike
         if current < MAX_WIDEN:
-            for s in STATES:
+            for s in budget_states(graph):
                 widen[s] = current + WIDEN_STEP
             actions.append(f"{', '.join(over)} over budget: state accumulators +{WIDEN_STEP} fraction bits")
             continue

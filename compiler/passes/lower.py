@@ -13,12 +13,17 @@ integration. Everything else follows from the structure of the equations:
 * Non-smooth operations are structural: ``Abs`` and multiply-by-``sign`` become
   sign-bit slice + negate + mux (IV.2-IV.8), ``Piecewise``/``Min``/``Max`` become
   compare + mux chains.
-* The angle is kept continuous (unwrapped), as measurements and the float model
-  have it, with integer bits for ``TURN_CAPACITY`` turns either way (a declared range
-  that range analysis honours). A turn counter keeps ``theta_phase`` = theta less its
-  whole turns within about [-pi, pi], and tables of theta are periodic and addressed by theta in *turns*
-  (theta_phase / 2pi), whose fraction bits are the position within one revolution, so
+* A periodic state (an angle; see :mod:`pendc.model.interface`) is kept continuous
+  (unwrapped), as measurements and the float model have it, with integer bits for the
+  interface's ``turns`` periods either way (a declared range that range analysis honours).
+  A turn counter keeps ``<state>_phase`` = the state less its whole turns within about half a
+  period either side of zero, and tables of that state are periodic and addressed by the state
+  in *turns* (phase / period), whose fraction bits are the position within one revolution, so
   wrapping costs nothing and the state never jumps.
+
+Every plant-specific fact (state and input names, meanings, periods, the velocity clamp, the
+encoders, the core's name) comes from the model's :class:`~pendc.model.interface.PlantInterface`,
+which the graph carries in its ``info`` for the passes after this one.
 """
 
 from __future__ import annotations
@@ -30,40 +35,30 @@ import sympy as sp
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind, make
+from ..model.interface import INFO_KEY, PlantInterface, StateSpec
 from ..model.plant import PlantModel
-from .lower_encoders import CART_BAND, PEND_BAND, lower_encoder
+from .lower_encoders import lower_encoder
 
 _NONSMOOTH = (sp.Abs, sp.sign, sp.Piecewise, sp.Min, sp.Max)
-MEANING = {
-    "u": "driver input voltage (V)", "x": "cart position (m)", "dx": "cart velocity (m/s)",
-    "theta": "pendulum angle from hanging down (rad)", "dtheta": "pendulum angular velocity (rad/s)",
-    "F_m": "drive force after the motor lag (N)", "F_in": "drive force on the cart (N)",
-    "F_fric": "cart friction without the viscous part (N)", "F_cart": "generalized force on the cart (N)",
-    "tau_pend": "torque at the pivot (N*m)", "ddx": "cart acceleration (m/s^2)",
-    "ddtheta": "pendulum angular acceleration (rad/s^2)", "theta_turns": "pendulum angle in turns",
-    "theta_turn": "whole turns of the pendulum (counter)", "theta_whole_turns": "angle of the whole turns (rad)",
-    "theta_phase": "pendulum angle less its whole turns (rad)",
-}
-TURN_COUNTER = "theta_turn"
-# Whole turns either way that theta holds. The angle stays continuous (the encoders count
-# turns, measurements are unwrapped), so its register needs integer bits for every turn it
-# may make: 256 turns is over a minute at the encoders' 8*pi rad/s limit and costs 8 bits over
-# one turn. Tables only read the fraction of theta/2pi, which wraps for free. A pendulum
-# spun further stops the run with theta's overflow flag, never a silent wrap.
-TURN_CAPACITY = 256
+
+
+def turn_counter(state: str) -> str:
+    """Name of the whole-turns register of a periodic state."""
+    return f"{state}_turn"
 
 
 class _Lowerer:
     """Turns sympy expressions into nodes, sharing structurally equal subexpressions."""
 
-    def __init__(self, variables: dict):
+    def __init__(self, variables: dict, interface: PlantInterface):
         self.variables = dict(variables)      # sympy Symbol -> node name
         self.nodes: list = []
         self.memo: dict = {}                  # expression -> node name
         self.placeholders: dict = {}          # Dummy -> non-smooth expression it stands for
         self.opaque_of: dict = {}
         self.used_names: set = set(variables.values())
-        self.theta = next((s for s in variables if s.name == "theta"), None)
+        # periodic states: sympy Symbol -> StateSpec (tables of them are addressed by phase)
+        self.periodic = {sym: spec for spec in interface.periodic for sym in variables if sym.name == spec.name}
 
     def fresh(self, hint: str) -> str:
         base = "".join(c if c.isalnum() or c == "_" else "_" for c in hint).strip("_") or "n"
@@ -185,38 +180,47 @@ class _Lowerer:
         sel = self.condition(cond)
         return self.emit(Kind.MUX, [sel, otherwise, self.value(expr, f"{hint}_then")], hint, meaning)
 
-    def theta_phase(self) -> str:
-        """theta minus its whole turns, in [-pi, pi] give or take one step: what periodic tables
-        read. A turn counter follows theta (one step late, which only widens the interval by one
-        increment); the phase is computed from the continuous register, so it never drifts from
-        it, and its few integer bits leave a narrow multiplier operand all the precision."""
+    def phase(self, var) -> str:
+        """A periodic state less its whole turns, within half a period of zero give or take one
+        step: what periodic tables read. A turn counter follows the state (one step late, which
+        only widens the interval by one increment); the phase is computed from the continuous
+        register, so it never drifts from it, and its few integer bits leave a narrow multiplier
+        operand all the precision."""
+        spec: StateSpec = self.periodic[var]
+        name, period, half = spec.name, spec.period, spec.period / 2
+        counter = turn_counter(name)
+
         def build():
-            theta = self.variables[self.theta]
-            whole = self.emit(Kind.GAIN, [TURN_COUNTER], "theta_whole_turns", MEANING["theta_whole_turns"],
-                              value=2 * math.pi, max_abs=2 * math.pi * (TURN_CAPACITY + 1))
-            phase = self.emit(Kind.SUB, [theta, whole], "theta_phase", MEANING["theta_phase"])
-            over = self.emit(Kind.COMPARE, [phase, self.const(math.pi)], "theta_phase_over", op="ge")
-            under = self.emit(Kind.COMPARE, [phase, self.const(-math.pi)], "theta_phase_under", op="lt")
-            down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], "theta_turn_down")
-            step = self.emit(Kind.MUX, [over, down, self.const(1.0)], "theta_turn_step", "whole turns gained")
-            self.nodes.append(make(f"{TURN_COUNTER}_next", Kind.ADD, [TURN_COUNTER, step],
-                                   max_abs=float(TURN_CAPACITY + 1)))
-            self.nodes.append(make(TURN_COUNTER, Kind.REGISTER, [f"{TURN_COUNTER}_next"], reset=0.0,
-                                   max_abs=float(TURN_CAPACITY + 1), meaning=MEANING[TURN_COUNTER]))
-            self.used_names |= {TURN_COUNTER, f"{TURN_COUNTER}_next"}
+            state = self.variables[var]
+            whole = self.emit(Kind.GAIN, [counter], f"{name}_whole_turns",
+                              f"{spec.quantity} of the whole turns ({spec.unit})",
+                              value=period, max_abs=period * (spec.turns + 1))
+            phase = self.emit(Kind.SUB, [state, whole], f"{name}_phase",
+                              f"{spec.label} less its whole turns ({spec.unit})")
+            over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{name}_phase_over", op="ge")
+            under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{name}_phase_under", op="lt")
+            down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
+            step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
+            self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step],
+                                   max_abs=float(spec.turns + 1)))
+            self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=0.0,
+                                   max_abs=float(spec.turns + 1), meaning=f"whole turns of the {spec.body} (counter)"))
+            self.used_names |= {counter, f"{counter}_next"}
             return phase
-        return self.value_key("theta_phase", build)
+        return self.value_key(("phase", name), build)
 
     def table(self, expr, var, hint: str) -> str:
         """A LUT node for ``expr`` (a smooth function of ``var``)."""
         v = sp.Symbol("v", real=True)
-        if var == self.theta and _periodic(expr, var):
-            source = self.value_key("theta_turns", lambda: self.emit(
-                Kind.GAIN, [self.theta_phase()], "theta_turns", MEANING["theta_turns"], value=1.0 / (2 * math.pi)))
-            text = sp.sstr(expr.subs(var, 2 * sp.pi * v))
+        spec = self.periodic.get(var)
+        if spec is not None and _periodic(expr, var, spec.period):
+            source = self.value_key(("turns", spec.name), lambda: self.emit(
+                Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
+                value=1.0 / spec.period))
+            text = sp.sstr(expr.subs(var, sp.nsimplify(spec.period, [sp.pi]) * v))
             key = ("lut", source, text)
             return self.value_key(key, lambda: self.emit(
-                Kind.LUT, [source], f"{hint}_lut", f"{sp.sstr(expr)} by theta", expr=text, lo=0.0, hi=1.0,
+                Kind.LUT, [source], f"{hint}_lut", f"{sp.sstr(expr)} by {spec.name}", expr=text, lo=0.0, hi=1.0,
                 periodic=True, addr_bits=10, interpolate=True))
         source = self.value(self.placeholders.get(var, var))
         text = sp.sstr(expr.subs(var, v))
@@ -299,11 +303,11 @@ class _Lowerer:
         return acc
 
 
-def _periodic(expr, var) -> bool:
+def _periodic(expr, var, period: float) -> bool:
     f = sp.lambdify(var, expr, "math")
     points = [0.1 + 0.77 * i for i in range(9)]
     try:
-        return all(math.isclose(f(p), f(p + 2 * math.pi), rel_tol=1e-9, abs_tol=1e-12) for p in points)
+        return all(math.isclose(f(p), f(p + period), rel_tol=1e-9, abs_tol=1e-12) for p in points)
     except (ValueError, ZeroDivisionError, OverflowError):
         return False
 
@@ -315,60 +319,63 @@ def _slug(expr) -> str:
 def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> Graph:
     """The untyped IR graph of one model step of ``dt`` seconds (forward Euler, IV.4-IV.7).
 
-    Outputs: the four states and, with ``encoders``, the four encoder channel levels.
+    Outputs: the states the plant interface reports and, with ``encoders``, the two channel
+    levels of each of its encoders. The interface rides along in the graph's ``info``.
     """
     eq = model.equations
+    iface = model.interface
     if eq.delay is not None:
         raise PendcError("effect 'input_delay' has no hardware form yet (it needs a delay-line memory)")
     values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
-    u = eq.input
-    variables = {u: "u", **{s: s.name for s in eq.states}}
-    low = _Lowerer(variables)
-    low.nodes.append(make("u", Kind.INPUT, port="u", max_abs=10.0, meaning=MEANING["u"]))
+    port = iface.input
+    variables = {eq.input: port.name, **{s: s.name for s in eq.states}}
+    low = _Lowerer(variables, iface)
+    low.nodes.append(make(port.name, Kind.INPUT, port=port.name, max_abs=port.full_scale, meaning=port.meaning))
 
     inlined: dict = {}
     for sym, expr in eq.assignments:
         expr = expr.subs(values).subs(inlined)
         free = expr.free_symbols
-        if not free or free == {low.theta}:
-            inlined[sym] = expr          # constants and functions of theta alone go into tables
+        if not free or (len(free) == 1 and free <= set(low.periodic)):
+            inlined[sym] = expr          # constants and functions of one angle alone go into tables
             continue
-        node = low.value(expr, sym.name, MEANING.get(sym.name, ""))
+        node = low.value(expr, sym.name, iface.meaning(sym.name))
         if node != sym.name and sym.name not in low.used_names:
-            node = low.emit(Kind.CAST, [node], sym.name, MEANING.get(sym.name, ""))
+            node = low.emit(Kind.CAST, [node], sym.name, iface.meaning(sym.name))
         low.variables[sym] = node
         low.memo[sym] = node
 
     nxt = {}
     increments = {}
     for state, deriv in zip(eq.states, eq.derivatives):
+        spec = iface.state(state.name)
         d = low.value(deriv.subs(values).subs(inlined), f"d_{state.name}")
         inc = low.emit(Kind.GAIN, [d], f"{state.name}_inc", f"{state.name} increment per step", value=float(dt))
         increments[state.name] = inc
         total = low.emit(Kind.ADD, [state.name, inc], f"{state.name}_sum")
-        if state.name == "dx" and eq.velocity_bound is not None:
-            vmax = float(eq.velocity_bound.subs(values))
-            total = _clamp(low, total, vmax)
+        if spec.velocity_bound is not None:
+            total = _clamp(low, total, spec)
         nxt[state.name] = total
     initial = {s.name: 0.0 for s in eq.states}
-    declared = {"theta": 2 * math.pi * TURN_CAPACITY}
-    regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=MEANING.get(s.name, s.name),
+    declared = {s.name: s.capacity for s in iface.periodic if s.capacity is not None}
+    regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=iface.meaning(s.name, s.name),
                  **({"max_abs": declared[s.name]} if s.name in declared else {}))
             for s in eq.states]
-    outputs = [(s, s) for s in ("x", "dx", "theta", "dtheta")]
+    outputs = [(s, s) for s in iface.outputs]
     nodes = regs + low.nodes
     if encoders:
-        for prefix, state, band, what in (("enc_x", "x", CART_BAND, "cart"), ("enc_theta", "theta", PEND_BAND, "pendulum")):
-            enc_nodes, levels = lower_encoder(prefix, increments[state], band, what)
+        for sensor in iface.sensors:
+            enc_nodes, levels = lower_encoder(sensor.name, increments[sensor.state], sensor.band, sensor.body)
             nodes += enc_nodes
-            outputs += [(f"{prefix}_a", levels["a"]), (f"{prefix}_b", levels["b"])]
-    return Graph.build("pendulum_core", nodes, outputs, info=(("dt", float(dt)), ("model", model.source)))
+            outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
+    return Graph.build(iface.core, nodes, outputs,
+                       info=(("dt", float(dt)), ("model", model.source), (INFO_KEY, iface)))
 
 
-def _clamp(low: _Lowerer, value: str, bound: float) -> str:
+def _clamp(low: _Lowerer, value: str, spec: StateSpec) -> str:
     """Velocity saturation after integration (thesis Fig. III.2): two compares, two muxes."""
-    hi, lo = low.const(bound), low.const(-bound)
-    over = low.emit(Kind.COMPARE, [value, hi], "dx_over", op="gt")
-    under = low.emit(Kind.COMPARE, [value, lo], "dx_under", op="lt")
-    upper = low.emit(Kind.MUX, [over, value, hi], "dx_upper")
-    return low.emit(Kind.MUX, [under, upper, lo], "dx_next", "cart velocity after the clamp (m/s)")
+    hi, lo = low.const(spec.velocity_bound), low.const(-spec.velocity_bound)
+    over = low.emit(Kind.COMPARE, [value, hi], f"{spec.name}_over", op="gt")
+    under = low.emit(Kind.COMPARE, [value, lo], f"{spec.name}_under", op="lt")
+    upper = low.emit(Kind.MUX, [over, value, hi], f"{spec.name}_upper")
+    return low.emit(Kind.MUX, [under, upper, lo], f"{spec.name}_next", f"{spec.label} after the clamp ({spec.unit})")

@@ -7,21 +7,16 @@ left the window, and in those two states the next step folds the phase back by t
 bands. Channel B's window is channel A's shifted by half a band, so B lags A by a
 quarter period (A leads when the position grows).
 
-The disk increment is the integrator's own increment scaled to bands,
-Δφ = (2π/k)·Δx for the cart (II.55) and Δθ for the pendulum, so the encoder sees
-exactly the motion the state registers see.
+The disk increment is the integrator's own increment of the state the encoder reads,
+scaled to bands (the band width, in the state's unit, is the plant interface's
+:class:`~pendc.model.interface.SensorSpec`; for the thesis' cart, Δφ = (2π/k)·Δx, II.55), so the
+encoder sees exactly the motion the state registers see.
 """
 
 from __future__ import annotations
 
-import math
-
 from ..ir import fsm as fsm_sem
 from ..ir.nodes import Kind, make
-
-FEED = 5e-3                           # m per spindle revolution
-CART_BAND = FEED / 1000               # m of cart travel per band (1000 bands/rev, II.49)
-PEND_BAND = 2 * math.pi / 10000       # rad per band (10000 bands/rev, II.50)
 
 STATES = ("LIGHTNESS", "DARKNESS", "OVER_UPPER_LIMIT", "LOWER_LOWER_LIMIT")
 # Moore output word: bit 0 = channel level, bits 2..1 = fold code (0 none, 1 minus two bands, 2 plus two bands)

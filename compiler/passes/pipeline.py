@@ -4,7 +4,9 @@
           -> tabulate LUTs -> Q-formats -> fill tables -> error budget -> resources
 
 The verifier runs between passes. Options come from :class:`BuildOptions`, which a
-model file's ``[hardware]`` table can set (see :func:`options_from_model`).
+model file's ``[hardware]`` table can set (see :func:`options_from_model`). What the passes
+know of the plant (states, input, encoders, error tolerances) is the model's plant interface
+(:mod:`pendc.model.interface`), carried in the graph's ``info``; no pass names a state.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from ..errors import PendcError
 from ..ir.graph import Graph, GraphError
 from ..ir.qformat import QFormat
 from ..ir.verify import verify
+from ..model.interface import PlantInterface
 from ..model.plant import PlantModel
 from ..sim.stimuli import named_stimuli
 from .eliminate_common import eliminate_common_subexpressions
@@ -25,6 +28,10 @@ from .qformats import MAX_LEVEL, MULT_SHAPES, assign_qformats, product_kinds
 from .ranges import Ranges, analyze_ranges
 from .resources import Resources, estimate_resources
 from .tabulate import fill_lut_tables, tabulate_luts
+
+# The model file spells a state's tolerance ``budget_<state> = ...`` in [hardware] (the older
+# form), or ``[hardware.budget] <state> = ...``; both end in BuildOptions.budget.
+BUDGET_ALIAS = "budget_"
 
 
 @dataclass(frozen=True)
@@ -39,14 +46,37 @@ class BuildOptions:
     lut_margin: float = 0.125
     training_scale: float = 1.0
     check_seconds: float = 2.0
-    budget_x: float = 2.5e-6 / 2      # half an encoder count over the check horizon
-    budget_theta: float = 3.14e-4 / 2
+    budget: dict = field(default_factory=dict)   # state -> allowed |fixed - float|; others: the interface's
     error_budget: bool = True
     target: str = "ecp5-85k"          # whose DSP shape the products are fitted to (qformats.MULT_SHAPES)
     fit_multipliers: bool = True      # False: the thesis' 32-bit rule for every product
     ranges: dict = field(default_factory=dict)
     qformats: dict = field(default_factory=dict)
     engine: str = "compiled"
+
+    def __getattr__(self, name: str):
+        # Transitional, read-only: ``options.budget_<state>`` as before the plant interface (the
+        # tolerance set in ``budget``, else the default model's). The file key is mapped by
+        # :func:`options_from_model`; new code reads ``budgets_for``.
+        if name.startswith(BUDGET_ALIAS) and "budget" in self.__dict__:
+            state = name[len(BUDGET_ALIAS):]
+            if state in self.budget:
+                return self.budget[state]
+            from ..model.modelfile import load_model
+            default = load_model().interface.budgets()
+            if state in default:
+                return default[state]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def budgets_for(self, interface: PlantInterface) -> dict:
+        """State -> error tolerance for a plant: the interface's, overridden by ``budget``.
+        A state the plant does not report is a one-line PendcError."""
+        reported = interface.outputs
+        unknown = sorted(set(self.budget) - set(reported))
+        if unknown:
+            raise PendcError(f"[hardware] error budget for unknown state(s) {', '.join(unknown)} "
+                             f"(the plant reports: {', '.join(reported)})")
+        return {**interface.budgets(), **{k: float(v) for k, v in self.budget.items()}}
 
 
 @dataclass(frozen=True)
@@ -74,21 +104,44 @@ def training_stimuli(scale: float = 1.0) -> dict:
 def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
     """Build options from the model file's ``[hardware]`` table, then keyword overrides."""
     known = {f.name for f in fields(BuildOptions)}
-    table = dict(getattr(model, "hardware", {}) or {})
+    table = _budget_aliases(dict(getattr(model, "hardware", {}) or {}))
     unknown = set(table) - known
     if unknown:
         raise PendcError(f"[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
                          f"(known: {', '.join(sorted(known))})")
-    table.update({k: v for k, v in overrides.items() if v is not None})
+    extra = _budget_aliases({k: v for k, v in overrides.items() if v is not None})
+    if isinstance(extra.get("budget"), dict) and isinstance(table.get("budget"), dict):
+        extra["budget"] = {**table["budget"], **extra["budget"]}     # an override adds to the file's
+    table.update(extra)
     unknown = set(table) - known
     if unknown:
         raise PendcError(f"bad [hardware] option(s) {', '.join(sorted(unknown))}")
-    return validate_options(table)
+    options = validate_options(table)
+    options.budgets_for(model.interface)          # names only states the plant reports
+    return options
+
+
+def _budget_aliases(table: dict) -> dict:
+    """``table`` with every ``budget_<state>`` key moved into its ``budget`` table; a state
+    given both ways is a one-line PendcError."""
+    aliased = {k[len(BUDGET_ALIAS):]: v for k, v in table.items() if k.startswith(BUDGET_ALIAS)}
+    if not aliased:
+        return table
+    out = {k: v for k, v in table.items() if not k.startswith(BUDGET_ALIAS)}
+    given = out.get("budget", {})
+    if not isinstance(given, dict):
+        raise PendcError(f"[hardware] budget must be a table of state = tolerance, got {given!r}")
+    twice = sorted(set(aliased) & set(given))
+    if twice:
+        raise PendcError(f"[hardware] error budget of {', '.join(twice)} given twice "
+                         f"({BUDGET_ALIAS}<state> and [hardware.budget])")
+    out["budget"] = {**given, **aliased}
+    return out
 
 
 def validate_options(values) -> BuildOptions:
     """Check option types and override values; one-line PendcError on the first bad one."""
-    table = dict(values.__dict__) if isinstance(values, BuildOptions) else dict(values)
+    table = dict(values.__dict__) if isinstance(values, BuildOptions) else _budget_aliases(dict(values))
     defaults = BuildOptions()
     for key, value in table.items():
         expected = type(getattr(defaults, key))
@@ -99,6 +152,10 @@ def validate_options(values) -> BuildOptions:
             raise PendcError(f"[hardware] {key} must be a {expected.__name__}, got {value!r}")
     if table.get("target", defaults.target) not in MULT_SHAPES:
         raise PendcError(f"[hardware] target must be one of {', '.join(MULT_SHAPES)}, got {table['target']!r}")
+    for state, value in table.get("budget", {}).items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise PendcError(f"[hardware.budget] {state} must be a positive number (allowed |fixed - float|), "
+                             f"got {value!r}")
     for node, value in table.get("ranges", {}).items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
             raise PendcError(f"[hardware.ranges] {node} must be a positive number (max |value|), got {value!r}")
@@ -122,6 +179,7 @@ def _checked(graph: Graph, stage: str, typed: bool = False) -> Graph:
 def compile_model(model: PlantModel, options: BuildOptions | None = None) -> BuildResult:
     """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
     opt = validate_options(options) if options is not None else options_from_model(model)
+    budgets = opt.budgets_for(model.interface)
     graph = _checked(lower_model(model, dt=opt.dt), "lower_model")
     graph = _checked(fold_constants(graph), "fold_constants")
     graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
@@ -148,8 +206,7 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     if opt.error_budget:
         seconds = min(opt.check_seconds, 5.0 * opt.training_scale)  # never check beyond what trained the ranges
         try:
-            final, error = meet_error_budget(typed, {"x": opt.budget_x, "theta": opt.budget_theta},
-                                             opt.dt, seconds, engine=opt.engine, products=products,
+            final, error = meet_error_budget(typed, budgets, opt.dt, seconds, engine=opt.engine, products=products,
                                              max_level=MAX_LEVEL)
         except BudgetError as exc:
             raise PendcError(str(exc)) from None

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
+from ..model.interface import graph_interface
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,14 @@ class Ranges:
 
     def __getitem__(self, name: str) -> float:
         return self.max_abs[name]
+
+
+def input_port(graph: Graph) -> str:
+    """The port name of the graph's one input (a plant step takes one input signal)."""
+    ports = [n.param("port", n.name) for n in graph.of_kind(Kind.INPUT)]
+    if len(ports) != 1:
+        raise ValueError(f"graph '{graph.name}' has {len(ports)} input ports; a plant step takes one")
+    return ports[0]
 
 
 def per_step(u: np.ndarray, t: np.ndarray, dt: float) -> np.ndarray:
@@ -56,21 +65,21 @@ def drive_to_both_ends(hold: float = 1.5, fs: float = 1000.0) -> tuple:
     return t, np.where(t < hold, 10.0, 0.0)
 
 
-# A spinning pendulum's rate to train on: above the encoders' design limit (spec section 4,
-# 8*pi rad/s) and above the 29 rad/s that a minute of full-scale switching reaches on the rig
-# model, where the cart's hits on the end stops spin the pendulum.
-SPIN_RATE = 10 * np.pi
-
-
 def envelope_runs(graph: Graph) -> list:
     """Training runs at the corners a controller can reach, beyond the identification stimuli:
-    full-scale switching, driving into both track ends, and the pendulum spinning at the encoder
-    limit from the start (a graph whose dtheta register resets to SPIN_RATE). (graph, (t, u)) pairs."""
-    runs = [(graph, full_scale_switching()), (graph, drive_to_both_ends())]
-    reg = graph.by_name.get("dtheta")
-    if reg is not None and reg.kind is Kind.REGISTER:
-        spinning = graph.map_nodes(lambda n: n.with_params(reset=float(SPIN_RATE)) if n.name == "dtheta" else n)
-        runs.append((spinning, full_scale_switching(3.0, seed=10)))
+    full-scale switching, driving into both track ends, and, for each state whose plant interface
+    gives a ``training_rate`` (a pendulum spinning beyond its encoder's limit), a run with that
+    register reset to the rate. (name, graph, (t, u)) triples."""
+    runs = [("envelope:full_scale_switching", graph, full_scale_switching()),
+            ("envelope:track_ends", graph, drive_to_both_ends())]
+    iface = graph_interface(graph)
+    spun = [s for s in (iface.states if iface else ()) if s.training_rate is not None
+            and s.name in graph.by_name and graph[s.name].kind is Kind.REGISTER]
+    for spec in spun:
+        spinning = graph.map_nodes(lambda n, s=spec: n.with_params(reset=float(s.training_rate))
+                                   if n.name == s.name else n)
+        name = "envelope:spin" if len(spun) == 1 else f"envelope:spin:{spec.name}"
+        runs.append((name, spinning, full_scale_switching(3.0, seed=10)))
     return runs
 
 
@@ -93,11 +102,11 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     hi = {name: -np.inf for name in lut_inputs}
     runs = [(name, graph, tu) for name, tu in stimuli.items()]
     if envelope:
-        names = ("envelope:full_scale_switching", "envelope:track_ends", "envelope:spin")
-        runs += [(name, g, tu) for name, (g, tu) in zip(names, envelope_runs(graph))]
+        runs += envelope_runs(graph)
+    port = input_port(graph)
     for name, g, (t, u) in runs:
         steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
-        trace = _runner(g, engine).run({"u": steps}, track_max=True, record=tuple(lut_inputs), every=1)
+        trace = _runner(g, engine).run({port: steps}, track_max=True, record=tuple(lut_inputs), every=1)
         for node, value in trace.max_abs.items():
             max_abs[node] = max(max_abs[node], float(value))
         for node in lut_inputs:

@@ -1,0 +1,204 @@
+"""The plant interface: what the compiler, the golden model and the testbench need to know of a plant.
+
+A plant model (:class:`~pendc.model.plant.PlantModel`) derives its equations from physics;
+everything *around* the equations that a generic compiler pass would otherwise have to spell
+out by name lives here instead, in one frozen value:
+
+* the **states** with unit, meaning, periodicity (a position that wraps, e.g. an angle with
+  period 2π rad, whose tables the hardware addresses by the phase within one period), the
+  capacity of a periodic register (whole periods either way), a velocity clamp, the error
+  tolerance the error budget holds a position to, and the rate the range analysis trains on
+  from reset (a spinning pendulum);
+* the **inputs** with unit, meaning and full scale;
+* the **sensors** (quadrature encoders: which state each reads, its band width, lines and
+  bands per revolution, hence its counts per unit);
+* the **named intermediate quantities** of the equations (their meanings for the IR);
+* the name of the hardware core.
+
+:attr:`PlantModel.interface <pendc.model.plant.PlantModel.interface>` builds it from the model;
+the lowering pass stores it in the graph's ``info`` (key ``"interface"``), where every later
+pass, the backend and the golden model find it with :func:`graph_interface`. A second plant
+is a second instance of this value, never a second code path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+INFO_KEY = "interface"
+
+
+@dataclass(frozen=True)
+class StateSpec:
+    """One state of the plant.
+
+    ``period`` (in ``unit``) marks a periodic position: the hardware keeps the register
+    continuous with room for ``turns`` whole periods either way and addresses its tables by the
+    phase. ``derivative_of`` names the state this one is the rate of. ``velocity_bound`` clamps
+    |value| after every integration step. ``budget`` is the largest |fixed - float| the error
+    budget allows this state over the check horizon (positions that a sensor measures: half a
+    count). ``training_rate`` is a value the range analysis also starts this register at (a rate
+    beyond what the stimuli reach, e.g. a pendulum spinning at its encoder's limit). ``output``
+    says whether the hardware reports the state every step. ``body`` and ``quantity`` word the
+    meanings of derived signals ("pendulum" + "angle").
+    """
+
+    name: str
+    unit: str
+    meaning: str
+    body: str = ""
+    quantity: str = ""
+    derivative_of: str | None = None
+    period: float | None = None
+    turns: int | None = None
+    velocity_bound: float | None = None
+    budget: float | None = None
+    training_rate: float | None = None
+    output: bool = True
+
+    @property
+    def label(self) -> str:
+        """Short noun phrase for derived signals: "pendulum angle"."""
+        return f"{self.body} {self.quantity}".strip() or self.name
+
+    @property
+    def periodic(self) -> bool:
+        """Whether the state is a position that wraps every ``period``."""
+        return self.period is not None
+
+    @property
+    def capacity(self) -> float | None:
+        """Largest |value| the register of a periodic state must hold (``turns`` periods)."""
+        return None if self.period is None or self.turns is None else self.period * self.turns
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """One input of the plant: its port name, unit, meaning and full scale (largest |value|)."""
+
+    name: str
+    unit: str
+    meaning: str
+    full_scale: float
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """A quadrature encoder reading state ``state``.
+
+    ``band`` is the motion (in the state's unit) of one light or dark band of the disk;
+    ``lines`` and ``bands_per_rev`` are the disk's, for the record. ×4 quadrature decoding of
+    the two channels gives two counts per band, so :attr:`resolution` is ``band / 2``.
+    """
+
+    name: str
+    state: str
+    body: str
+    band: float
+    lines: int
+    bands_per_rev: int
+    kind: str = "quadrature_encoder"
+
+    @property
+    def resolution(self) -> float:
+        """Motion of one count after ×4 decoding (state units)."""
+        return self.band / 2.0
+
+    @property
+    def counts_per_unit(self) -> float:
+        """Counts per unit of the state after ×4 decoding."""
+        return 2.0 / self.band
+
+    @property
+    def channels(self) -> tuple:
+        """Names of the channel-level outputs of the hardware (A leads when the state grows)."""
+        return (f"{self.name}_a", f"{self.name}_b")
+
+
+@dataclass(frozen=True)
+class QuantitySpec:
+    """A named intermediate of the equations (a force, an acceleration) and its meaning."""
+
+    name: str
+    unit: str
+    meaning: str
+
+
+@dataclass(frozen=True)
+class PlantInterface:
+    """Everything a generic pass needs to know of one plant (see the module docstring)."""
+
+    name: str
+    core: str
+    states: tuple
+    inputs: tuple
+    sensors: tuple = ()
+    quantities: tuple = ()
+
+    def __post_init__(self):
+        names = [s.name for s in self.states] + [i.name for i in self.inputs] + [q.name for q in self.quantities]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"plant interface '{self.name}' names {', '.join(dup)} twice")
+        known = {s.name for s in self.states}
+        for s in self.states:
+            if s.derivative_of is not None and s.derivative_of not in known:
+                raise ValueError(f"state '{s.name}' is the derivative of unknown state '{s.derivative_of}'")
+            if s.period is not None and not (math.isfinite(s.period) and s.period > 0):
+                raise ValueError(f"state '{s.name}' has a bad period {s.period!r}")
+        for sensor in self.sensors:
+            if sensor.state not in known:
+                raise ValueError(f"sensor '{sensor.name}' reads unknown state '{sensor.state}'")
+
+    def state(self, name: str) -> StateSpec:
+        """The state called ``name`` (KeyError if none)."""
+        for s in self.states:
+            if s.name == name:
+                return s
+        raise KeyError(name)
+
+    @property
+    def input(self) -> InputSpec:
+        """The plant's one input (the compiler's graphs have one input port)."""
+        if len(self.inputs) != 1:
+            raise ValueError(f"plant '{self.name}' has {len(self.inputs)} inputs; the hardware step takes one")
+        return self.inputs[0]
+
+    @property
+    def outputs(self) -> tuple:
+        """Names of the states the hardware reports every step, in order."""
+        return tuple(s.name for s in self.states if s.output)
+
+    @property
+    def periodic(self) -> tuple:
+        """The periodic states."""
+        return tuple(s for s in self.states if s.periodic)
+
+    def budgets(self) -> dict:
+        """State -> error tolerance, for the states that have one."""
+        return {s.name: s.budget for s in self.states if s.budget is not None}
+
+    def sensor_of(self, state: str) -> SensorSpec | None:
+        """The sensor that reads ``state``, or None."""
+        return next((s for s in self.sensors if s.state == state), None)
+
+    def meaning(self, name: str, default: str = "") -> str:
+        """The meaning of a state, input or named quantity (``default`` for any other name)."""
+        for spec in (*self.states, *self.inputs, *self.quantities):
+            if spec.name == name:
+                return spec.meaning
+        return default
+
+
+def graph_interface(graph) -> PlantInterface | None:
+    """The plant interface a graph was lowered from (None for a graph built by hand)."""
+    return dict(graph.info).get(INFO_KEY)
+
+
+def require_interface(graph) -> PlantInterface:
+    """The plant interface of ``graph``; ValueError for a graph without one."""
+    iface = graph_interface(graph)
+    if iface is None:
+        raise ValueError(f"graph '{graph.name}' carries no plant interface (lower it from a plant model)")
+    return iface
