@@ -74,3 +74,22 @@ def test_every_name_of_the_core_is_declared_once(clock_ns):
     for n in graph.nodes:       # every node's value is exactly n_<name>
         assert f"n_{n.name}" in declared
     assert "n_m_state" in declared and view.fsms[0]["state"] != "n_m_state"
+
+
+def test_a_pipelined_overflow_flag_does_not_take_a_node_name():
+    """The pipeline register of node s's overflow term (n_s_ovf_p) beside a node named s_ovf_p."""
+    f8 = QFormat(True, 8, 0)
+    nodes = [make("u", Kind.INPUT, qformat=f8, port="u"),
+             make("s", Kind.ADD, ("u", "u"), qformat=f8),
+             make("s_ovf_p", Kind.MUL, ("s", "s"), qformat=QFormat(True, 16, 0)),
+             make("m", Kind.MUL, ("s_ovf_p", "s_ovf_p"), qformat=QFormat(True, 32, 0)),
+             make("m2", Kind.MUL, ("m", "s"), qformat=QFormat(True, 40, 0))]
+    outputs = []
+    for port in ("x", "dx", "theta", "dtheta"):
+        nodes.append(make(f"r_{port}", Kind.REGISTER, ("m2",), qformat=QFormat(True, 40, 0), reset=0.0))
+        outputs.append((port, f"r_{port}"))
+    graph = Graph.build("ovf", nodes, outputs)
+    view = build_view(graph, "core", schedule_graph(graph, clock_ns=4.0))
+    assert view.ii > 1 and view.dp.pipe_regs
+    names = [d[0] for d in view.net.decls] + [r[0] for r in view.registers] + [r[0] for r in view.dp.pipe_regs]
+    assert [n for n, c in Counter(names).items() if c > 1] == []

@@ -105,6 +105,18 @@ def test_node_names_that_extend_each_other(tmp_path):
     assert mismatches(case(QFormat(True, 8, 0), nodes, "p", u=(100, -3, 1, 0)), tmp_path) == []
 
 
+def test_a_pipelined_overflow_term_beside_a_node_named_after_it(tmp_path):
+    """Under a 4 ns clock the overflow term of 's' is counted from a register named n_s_ovf_p,
+    which was also the value of the node 's_ovf_p' (timing.finish named it without the netlist)."""
+    f8 = QFormat(True, 8, 0)
+    nodes = [make("s", Kind.ADD, ("u", "u"), qformat=f8),
+             make("s_ovf_p", Kind.MUL, ("s", "s"), qformat=QFormat(True, 16, 0)),
+             make("m", Kind.MUL, ("s_ovf_p", "s_ovf_p"), qformat=QFormat(True, 32, 0)),
+             make("m2", Kind.MUL, ("m", "s"), qformat=QFormat(True, 40, 0))]
+    c = case(f8, nodes, "m2", u=(100, -3, 1, 0, 127, -128), schedule=(4.0, None))
+    assert mismatches(c, tmp_path) == []
+
+
 def test_slice_of_a_one_bit_value(tmp_path):
     """SLICE 0..0 of a 1-bit flag printed n_f[0], a bit select of a scalar
     wire (Icarus: 'can not select part of scalar')."""

@@ -55,7 +55,8 @@ class Datapath:
         self.emit_units()
         decls = {name: (width, signed) for name, width, signed in self.net.decls}
         for wire, stage in self._piped_overflow(decls):
-            self._piped.setdefault(wire, (f"{wire}_p", stage))
+            if wire not in self._piped:     # a fresh name: n_<node>_ovf_p may be another node's value
+                self._piped[wire] = (self.net.fresh(f"{wire}_p"), stage)
         self.pipe_regs = [(reg, *decls[wire], wire, stage) for wire, (reg, stage) in self._piped.items()]
 
     def __post_init__(self):
