@@ -91,6 +91,18 @@ def test_encoders_have_the_thesis_resolution(iface):
     assert iface.sensor_of("dx") is None
 
 
+def test_register_names_are_the_wrappers(iface):
+    """The bus register map (built by the backend, which does not read the interface yet) has a
+    register of each name the interface gives."""
+    from pendc.backend.wrapper import register_map
+    ports = {p: {"width": 32, "signed": True, "frac": 20} for p in (iface.input.name, *iface.outputs)}
+    names = {r["name"] for r in register_map(ports)}
+    regs = iface.register_names()
+    assert regs["u"] == ("U",) and regs["theta"] == ("THETA_LO", "THETA_HI") and regs["enc_x"] == ("ENC_X_COUNT",)
+    assert set(regs) == {"u", *iface.outputs, "enc_x", "enc_theta"}
+    assert {r for pair in regs.values() for r in pair} <= names
+
+
 def test_budgets_are_half_an_encoder_count(iface):
     budgets = iface.budgets()
     assert set(budgets) == {"x", "theta"}

@@ -183,6 +183,15 @@ class PlantInterface:
         """The sensor that reads ``state``, or None."""
         return next((s for s in self.sensors if s.state == state), None)
 
+    def register_names(self) -> dict:
+        """Signal -> its bus register name(s): the input's word (``U``), each reported state's
+        LO/HI pair (``X_LO``, ``X_HI``), each encoder's count word (``ENC_X_COUNT``). The
+        wrappers' register map (``backend/wrapper.py``) lays these out."""
+        regs = {i.name: (i.name.upper(),) for i in self.inputs}
+        regs.update({s: (f"{s.upper()}_LO", f"{s.upper()}_HI") for s in self.outputs})
+        regs.update({e.name: (f"{e.name.upper()}_COUNT",) for e in self.sensors})
+        return regs
+
     def meaning(self, name: str, default: str = "") -> str:
         """The meaning of a state, input or named quantity (``default`` for any other name)."""
         for spec in (*self.states, *self.inputs, *self.quantities):
