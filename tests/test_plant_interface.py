@@ -20,7 +20,7 @@ from pendc.model.lagrangian import period_of
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
-from pendc.passes.pipeline import BuildOptions, options_from_model, validate_options
+from pendc.passes.pipeline import BuildOptions, compile_model, options_from_model, validate_options
 
 PASSES = Path(pendc.__file__).resolve().parent / "passes"
 # Passes another engineer is converting: they may still name states. The list only shrinks:
@@ -167,8 +167,9 @@ def test_budget_file_keys(model):
     ({"budget": 3}, "budget must be a"),
 ])
 def test_bad_budget_keys_are_one_line_errors(model, hardware, message):
+    """Refused before any pass runs (an unknown state by compile_model, the rest when read)."""
     with pytest.raises(PendcError, match=message):
-        options_from_model(dataclasses.replace(model, hardware=hardware))
+        compile_model(dataclasses.replace(model, hardware=hardware))
 
 
 # -- no pass names the plant ------------------------------------------------------------------

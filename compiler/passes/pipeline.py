@@ -116,9 +116,9 @@ def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
     unknown = set(table) - known
     if unknown:
         raise PendcError(f"bad [hardware] option(s) {', '.join(sorted(unknown))}")
-    options = validate_options(table)
-    options.budgets_for(model.interface)          # names only states the plant reports
-    return options
+    # the budget's state names are checked against the plant by compile_model (budgets_for): here
+    # they would cost the equations' derivation on every build-cache hit
+    return validate_options(table)
 
 
 def _budget_aliases(table: dict) -> dict:
