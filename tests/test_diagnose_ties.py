@@ -40,7 +40,7 @@ def test_segments_that_disagree_are_a_tie():
     tie = find_tie([best, other])
     assert tie["effects"] == ["viscous_pendulum", "quadratic_pendulum"]
     assert tie["noise"] == pytest.approx(noise_of_difference(best, other)) and tie["noise"] > best.score - other.score
-    assert "cannot separate" in tie["message"] and "large angle" in tie["separate_by"]
+    assert "cannot separate" in tie["message"] and "falls several-fold" in tie["separate_by"]
 
 
 def test_differences_below_the_measurement_noise_are_a_tie():

@@ -74,12 +74,15 @@ PAIR_SEPARATED_BY = {
                                                 "friction does not move",
     frozenset({"x_offset", "cart_spring"}): "a run of the cart into the end stops (with end_stops in the model): "
                                             "where it meets them reads the sensor's zero",
-    frozenset({"viscous_pendulum", "quadratic_pendulum"}): "a long free swing with the cart held, from a large "
-                                                           "angle: air drag takes the amplitude down fastest while "
-                                                           "it is large, viscous damping at a constant rate",
-    frozenset({"viscous_pendulum", "coulomb_pendulum"}): "a long free swing with the cart held, from a large "
-                                                         "angle: the amplitude decays exponentially with viscous "
-                                                         "damping, linearly to a stop with dry friction",
+    frozenset({"viscous_pendulum", "quadratic_pendulum"}): "a free swing with the cart held in which the "
+                                                           "amplitude falls several-fold, fitted with the period "
+                                                           "right (free I or L as well): air drag takes the "
+                                                           "amplitude down fastest while it is large, viscous "
+                                                           "damping at a constant rate",
+    frozenset({"viscous_pendulum", "coulomb_pendulum"}): "a free swing with the cart held in which the amplitude "
+                                                         "falls several-fold, fitted with the period right (free I "
+                                                         "or L as well): the amplitude decays exponentially with "
+                                                         "viscous damping, linearly to a stop with dry friction",
     frozenset({"input_delay", "motor_lag"}): "fast voltage steps sampled at 1 kHz or faster: a delay is a dead "
                                              "time before any motion, a lag a smooth rise",
 }

@@ -309,7 +309,9 @@ class ThetaOffset(Effect):
 
 class XOffset(Effect):
     """No hardware form by nature: the encoders count from power-on, so an offset of the
-    zero exists only in a recording, never in the plant the FPGA models."""
+    zero exists only in a recording, never in the plant the FPGA models. Data show it only
+    through physics that depends on where the cart is (end stops, a spring): identification
+    starts every segment from the measured state, and nothing else moves with the offset."""
 
     name = "x_offset"
     summary = "the position sensor reads x + x_off: its zero is not the track centre"
