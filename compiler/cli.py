@@ -191,7 +191,8 @@ def cmd_build(args) -> int:
     source = build_source(model)
     request = {"target": build.options.target, "preset": args.preset, "ii": args.ii, "dsp": args.dsp}
     files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus,
-                      request={k: v for k, v in request.items() if v is not None})
+                      request={k: v for k, v in request.items() if v is not None},
+                      debug_status=args.debug_status)
     if args.check:
         diff = differences(args.output, files)
         if diff:
@@ -294,6 +295,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "exactly N cycles with the shortest clock it can")
     p.add_argument("--dsp", type=int, help="DSP-block budget: if a multiplier per product exceeds it, products "
                    "share K // (blocks of the widest product) multipliers across cycles")
+    p.add_argument("--debug-status", action="store_true", help="debug build: a sticky overflow bit per node, "
+                   "readable on both buses as OVERFLOW_STATUS_k (report.json lists the node of every bit)")
     p.set_defaults(func=cmd_build)
 
     from .cli_ident import add_parsers as add_identification_parsers

@@ -94,3 +94,21 @@ def test_voltage_warning_is_not_an_error(tmp_path, capsys):
     stim.write_text("t,u\n0,11\n0.001,11\n")
     rc, out, err = run(capsys, "simulate", "--input", str(stim), "--dt", "1e-5")
     assert rc == 0 and "warning" in err and "0-10 V" in err
+
+
+def test_build_debug_status_lists_the_node_of_every_status_bit(tmp_path, capsys):
+    plain, debug = tmp_path / "plain", tmp_path / "debug"
+    assert main(["build", "-o", str(plain)]) == 0
+    assert main(["build", "-o", str(debug), "--debug-status"]) == 0
+    capsys.readouterr()
+    report = json.loads((debug / "report.json").read_text())
+    nodes = report["overflow_status_nodes"]
+    assert report["debug_status"] is True and nodes == report["overflow_nodes"]
+    words = [r for r in report["registers"] if r["name"].startswith("OVERFLOW_STATUS_")]
+    assert len(words) == (len(nodes) + 31) // 32
+    assert "overflow_status" in (debug / "pendulum_core.v").read_text()
+    assert "overflow_status" not in (plain / "pendulum_core.v").read_text()
+    assert "debug_status" not in json.loads((plain / "report.json").read_text())
+    # a plain folder is not what the debug build writes, and --check says so
+    assert main(["build", "-o", str(plain), "--debug-status", "--check"]) == 2
+    assert "differs" in capsys.readouterr().err

@@ -7,7 +7,7 @@ from pathlib import Path
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
-from .emit import build_id, dumps_json, render_core, write_tree
+from .emit import build_id, dumps_json, render_core, status_nodes, write_tree
 from .wrapper import BUSES, render_wrapper
 
 
@@ -33,18 +33,20 @@ def schedule_of(graph: Graph, request: dict | None = None):
 
 
 def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "raptor",
-              request: dict | None = None) -> dict:
+              request: dict | None = None, debug_status: bool = False) -> dict:
     """All output files, ``report.json`` included, as ``{filename: text}``; ``request``: the
-    schedule options (see :func:`schedule_of`)."""
+    schedule options (see :func:`schedule_of`). ``debug_status``: the debug build, with a
+    sticky overflow bit per node readable over the bus (OVERFLOW_STATUS_k registers)."""
     schedule = schedule_of(graph, request)
-    view, files = render_core(graph, source, schedule=schedule)
+    view, files = render_core(graph, source, schedule=schedule, debug_status=debug_status)
     if schedule.units:      # shared multipliers: the blocks the units need, not one set per product
         from ..passes.qformats import MULT_SHAPES
         from ..passes.resources import dsp_for
         shape = MULT_SHAPES[schedule.target]
         resources = dict(resources, dsp_scheduled=sum(dsp_for(*u.widths, shape) for u in schedule.units))
     ident = build_id(files)
-    wrapper_files, regmap = render_wrapper(view, port_formats(graph), ident, bus)
+    status = status_nodes(view) if debug_status else ()
+    wrapper_files, regmap = render_wrapper(view, port_formats(graph), ident, bus, status_nodes=status)
     files.update(wrapper_files)
     report = {
         "top": view.module,
@@ -62,6 +64,8 @@ def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "rapto
         "schedule": dict(schedule.to_json(), request=dict(request or {})),
         "registers": regmap["registers"],
     }
+    if debug_status:
+        report.update(debug_status=True, overflow_status_nodes=list(status))
     files["report.json"] = dumps_json(report)
     return files
 
