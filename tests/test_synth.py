@@ -58,7 +58,9 @@ def test_ecp5_counts_routes_and_caches(tmp_path, capsys):
     assert any("MULT18X18D" in cell and logic > 1.0 for cell, _, logic, _ in path)
     assert sum(lg + w for _, _, lg, w in path) == pytest.approx(1e3 / r["fmax_mhz"], rel=0.02)
     from pendc.passes.delays import ECP5_SPEED6
-    assert ECP5_SPEED6.overhead() + ECP5_SPEED6.product(18, 18, 1) == pytest.approx(1e3 / r["fmax_mhz"], rel=0.2)
+    # the model's product is the full core's (1.8 ns more routing than this lone probe): not below the probe
+    model = ECP5_SPEED6.overhead() + ECP5_SPEED6.product(18, 18, 1)
+    assert 1e3 / r["fmax_mhz"] - 0.5 <= model <= 1e3 / r["fmax_mhz"] + 2.5
     assert r["thesis"]["dsp"] == 24 and r["thesis"]["step_ns"] == 77.5
     # second call: from the cache, the same figures
     again = synthesize(d, "ecp5-85k")
