@@ -37,11 +37,10 @@ def model_and_build(model_path=None):
 
 
 def source_name(model) -> str:
-    """The model's path relative to the project, as ``pendc build`` names it."""
-    try:
-        return str(Path(model.source).resolve().relative_to(REPO))
-    except ValueError:
-        return str(model.source)
+    """The model's name in the files, as ``pendc build`` writes it: its fingerprint and the
+    pendc version, never its path."""
+    from pendc.model.modelfile import build_source
+    return build_source(model)
 
 
 
@@ -70,25 +69,14 @@ def emit_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | N
 
 def emit_debug_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | None = None) -> dict:
     """Write the debug build (core with ``overflow_status``, OVERFLOW_STATUS_k registers) of
-    ``model`` for ``bus`` into ``out_dir``; returns its report.json (``overflow_status_nodes``:
-    the bit order). Composed from the backend's parts as ``pendc.backend.hdl.build_hdl`` composes
-    the normal build (which does not take the debug option yet)."""
-    from pendc.backend.emit import build_id, dumps_json, render_core, status_nodes, write_tree
-    from pendc.backend.hdl import schedule_of
-    from pendc.backend.wrapper import render_wrapper
-    schedule = schedule_of(build.graph, request)
-    view, files = render_core(build.graph, source_name(model), schedule=schedule, debug_status=True)
-    ident = build_id(files)
-    nodes = status_nodes(view)
-    wrapper_files, regmap = render_wrapper(view, port_formats(build.graph), ident, bus, status_nodes=nodes)
-    files.update(wrapper_files)
-    report = {"top": view.module, "wrapper": regmap["module"], "bus": bus, "ii": view.ii, "dt": build.options.dt,
-              "build_id": f"0x{ident:08x}", "ports": port_formats(build.graph), "debug_status": True,
-              "overflow_status_nodes": nodes, "registers": regmap["registers"],
-              "files": sorted(files) + ["report.json"]}
-    files["report.json"] = dumps_json(report)
+    ``model`` for ``bus`` into ``out_dir``, as ``pendc build --debug-status`` does; returns its
+    report.json (``overflow_status_nodes``: the bit order)."""
+    from pendc.backend.emit import write_tree
+    from pendc.backend.hdl import build_hdl
+    files = build_hdl(build.graph, build.resources.to_json(), source=source_name(model), bus=bus,
+                      request=request, debug_status=True)
     write_tree(out_dir, files)
-    return report
+    return json.loads(files["report.json"])
 
 
 def repo_hdl_current(model=None, build=None) -> bool:
