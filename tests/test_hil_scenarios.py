@@ -79,3 +79,5 @@ def test_golden_and_verilator_runs_are_identical(model, golden_builtin):
     res = swing_up_and_balance(make_plant("verilator", model), model, 12.0, plant_name="verilator")
     assert res.passed, res.failures
     assert run_csv_text(res.run) == run_csv_text(golden_builtin.run)
+    build = res.run.summary()["plant_build"]     # summary.json says which Verilog ran
+    assert build["simulator"] == "verilator" and build["ii"] >= 1 and build["build_id"]

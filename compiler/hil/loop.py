@@ -133,4 +133,5 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     rows = len(modes)
     return HilRun(t=t[:rows].copy(), u=u[:rows].copy(), x=x[:rows].copy(), theta=theta[:rows].copy(),
                   mode=tuple(modes), plant=plant_name, wall_s=time.perf_counter() - start,
-                  seconds=float(seconds), stopped=stopped)
+                  seconds=float(seconds), stopped=stopped,
+                  extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {})
