@@ -103,15 +103,11 @@ def visible_parts(datasets: list, outputs=None) -> set:
 
 def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=None) -> list:
     """Catalogue effects the model lacks and could take (no conflict, requirements met) and,
-    given data, that the data could show."""
-    return _candidates(model, datasets, outputs)[0]
-
-
-def _candidates(model: PlantModel, datasets, outputs) -> tuple[list, list]:
-    """(candidate effects, notes on the ones left out for a reason the user should hear)."""
+    given data, that the data could show (a sensor offset only where :func:`offset_blindness`
+    finds physics that reveals it)."""
     seen = visible_parts(datasets, outputs) if datasets else None
-    reach = max((float(np.max(np.abs(d.column("x")))) for d in datasets), default=0.0) if datasets else None
-    out, notes = [], []
+    reach = _reach(datasets)
+    out = []
     for name, cls in CATALOGUE.items():
         if name in model.effects:
             continue
@@ -123,13 +119,27 @@ def _candidates(model: PlantModel, datasets, outputs) -> tuple[list, list]:
             continue
         if any(not any(r in model.effects for r in alts) for alts in cls.requires):
             continue
-        if cls.acts_on in ("x", "theta") and datasets:
-            blind = offset_blindness(model, datasets, cls.acts_on, reach)
-            if blind:
-                notes.append(f"{name} is not tested: {blind}")
-                continue
+        if cls.acts_on in ("x", "theta") and datasets and offset_blindness(model, datasets, cls.acts_on, reach):
+            continue
         out.append(name)
-    return out, notes
+    return out
+
+
+def _reach(datasets) -> float | None:
+    """The largest |x| the data read (None without data)."""
+    return max((float(np.max(np.abs(d.column("x")))) for d in datasets), default=0.0) if datasets else None
+
+
+def offset_notes(model: PlantModel, datasets: list, outputs=None) -> list:
+    """One note per sensor-offset effect that is left untested because the data cannot show it."""
+    seen = visible_parts(datasets, outputs)
+    notes = []
+    for name, cls in CATALOGUE.items():
+        if cls.acts_on in ("x", "theta") and cls.acts_on in seen and name not in model.effects:
+            why = offset_blindness(model, datasets, cls.acts_on, _reach(datasets))
+            if why:
+                notes.append(f"{name} is not tested: {why}")
+    return notes
 
 
 def _depends_on(model: PlantModel, experiment: str, state: int) -> bool:
@@ -218,7 +228,7 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     the candidates to those named (each still subject to the checks of
     :func:`candidate_effects`); ``workers`` > 1 tests candidates in parallel processes;
     ``progress(done, total, name)`` is called after each candidate."""
-    names, skipped = _candidates(model, datasets, outputs)
+    names, skipped = candidate_effects(model, datasets, outputs), offset_notes(model, datasets, outputs)
     if effects is not None:
         unknown = [e for e in effects if e not in CATALOGUE]
         if unknown:
