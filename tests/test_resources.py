@@ -123,6 +123,21 @@ def test_registers_break_paths():
     assert longest_path(g) == (3, ("u", "a1", "a2", "a3"))
 
 
+def test_unsigned_operand_needs_a_sign_bit_in_the_multiplier():
+    """UFIX18 x FIX18 does not fit one 18x18 signed block: the unsigned operand enters with a
+    zero sign bit (19 bits), as the Verilog multiplies it (backend/timing.py)."""
+    from pendc.passes.resources import product_widths
+    nodes = [make("a", Kind.INPUT, port="a", qformat=Q("UFIX18_10")),
+             make("b", Kind.INPUT, port="b", qformat=Q("FIX18_10")),
+             make("p", Kind.MUL, ["a", "b"], qformat=Q("FIX37_20"))]
+    g = Graph.build("unsigned_product", nodes, [("p", "p")])
+    assert product_widths(g, g["p"]) == (19, 18)
+    assert dsp18_for(*product_widths(g, g["p"])) == 2
+    signed = Graph.build("signed_product", [make("a", Kind.INPUT, port="a", qformat=Q("FIX18_10"))] + nodes[1:],
+                         [("p", "p")])
+    assert product_widths(signed, signed["p"]) == (18, 18)
+
+
 def test_to_json_is_serialisable(res):
     data = json.loads(json.dumps(res.to_json()))
     assert data["dsp18"] == 5 and data["critical_path"] == list(res.critical_path)

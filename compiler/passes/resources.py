@@ -66,10 +66,14 @@ def dsp_for(wa: int, wb: int, shape: tuple) -> int:
 def product_widths(graph: Graph, n) -> tuple | None:
     """Signed operand widths (wider first) of the multiplier a node needs, or None.
     A LUT's is its interpolation: slope (entry difference) x fraction (plus a zero sign bit)."""
+    def signed_width(name):   # an unsigned operand enters a signed multiplier with a zero sign bit
+        f = graph[name].qformat
+        return f.width + (0 if f.signed else 1)
+
     if n.kind is Kind.GAIN:
-        wa, wb = graph[n.inputs[0]].qformat.width, QFormat.parse(n.param("cfmt")).width
+        wa, wb = signed_width(n.inputs[0]), QFormat.parse(n.param("cfmt")).width
     elif n.kind is Kind.MUL:
-        wa, wb = graph[n.inputs[0]].qformat.width, graph[n.inputs[1]].qformat.width
+        wa, wb = signed_width(n.inputs[0]), signed_width(n.inputs[1])
     elif n.kind is Kind.LUT and n.param("interpolate") and n.param("shift") and n.param("table"):
         wa, wb = slope_bits(n.param("table")), n.param("shift") + 1
     else:
