@@ -51,6 +51,7 @@ sim: setup
 bench: setup
 	$(PY) bench/bench_all.py -o bench/out/bench.json
 	$(PY) bench/bench_hil.py -o bench/out/hil.json
+	$(PY) bench/bench_rtl_cpp.py --full-scale -o bench/out/rtl_cpp.json   # the full-scale minute and a 20-turn spin through RTL
 
 # Long differential fuzzing run of the backend (tests/graphgen.py); count, seed, mismatches to bench/out/.
 .PHONY: fuzz
