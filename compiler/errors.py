@@ -11,3 +11,16 @@ class PendcError(Exception):
     The message is one line that names the problem and, where possible, the place
     (file, line, column, effect or parameter) where it was found.
     """
+
+
+def open_input(path, what: str):
+    """``path`` opened for binary reading, or a :class:`PendcError` naming it and ``what`` it
+    should be ("model file", "measurement file"): missing, a folder, or unreadable."""
+    try:
+        return open(path, "rb")
+    except FileNotFoundError:
+        raise PendcError(f"{path}: {what} not found") from None
+    except IsADirectoryError:
+        raise PendcError(f"{path}: is a folder, not a {what}") from None
+    except OSError as exc:
+        raise PendcError(f"{path}: cannot read {what} ({exc.strerror or exc})") from None

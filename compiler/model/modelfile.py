@@ -17,7 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..atomic import write_atomic
-from ..errors import PendcError
+from ..errors import PendcError, open_input
 from .plant import PlantModel
 
 TOP_LEVEL = ("plant", "effects", "fit", "meta", "hardware")
@@ -48,14 +48,8 @@ def read_model_text(path: str | os.PathLike | None = None) -> tuple[str, str]:
     else:
         path = Path(path) if path is not None else default_model_path()
         source = str(path)
-        try:
-            data = path.read_bytes()
-        except FileNotFoundError:
-            raise PendcError(f"{path}: model file not found") from None
-        except IsADirectoryError:
-            raise PendcError(f"{path}: is a folder, not a model file") from None
-        except OSError as exc:
-            raise PendcError(f"{path}: cannot read model file ({exc.strerror or exc})") from None
+        with open_input(path, "model file") as f:
+            data = f.read()
     try:
         return data.decode("utf-8"), source
     except UnicodeDecodeError as exc:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import PendcError
+from ..errors import PendcError, open_input
 from . import plausibility as plaus
 from .table import Table
 
@@ -90,15 +90,7 @@ def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
     if str(path) == "-":
         return read_csv_table(sys.stdin.buffer, "<stdin>", options.separator, options.decimal,
                               options.encoding)
-    try:
-        f = open(path, "rb")
-    except FileNotFoundError:
-        raise PendcError(f"{path}: measurement file not found") from None
-    except IsADirectoryError:
-        raise PendcError(f"{path}: is a folder, not a measurement file") from None
-    except OSError as exc:
-        raise PendcError(f"{path}: cannot read measurement file ({exc.strerror or exc})") from None
-    with f:
+    with open_input(path, "measurement file") as f:
         try:
             head = f.peek(128)[:128] if hasattr(f, "peek") else b""
             if is_mat_file(head, str(path)):
