@@ -14,6 +14,7 @@ from pendc.model.modelfile import load_model
 from pendc.sim import stimuli
 from pendc.sim.measurements import format_csv, parse_measurements, read_measurements
 from pendc.sim.simulator import Simulator
+from cli_capture import run_cli
 
 SPRING = {"k_c": 200.0, "x_0": 0.0}
 
@@ -32,14 +33,7 @@ def sensitive():
                               source="validation_12s.csv")
 
 
-def _cli(capsys, *argv):
-    from pendc.cli import main
-    import warnings
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")            # any Python warning fails the command
-        rc = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return rc, out, err
+_cli = run_cli
 
 
 def test_demo_story_error_falls_in_the_first_lines(capsys, tmp_path, model, sensitive, monkeypatch):

@@ -12,21 +12,15 @@ file, intervals, the model file) runs on every file at a fraction of a full diag
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 
-from pendc.cli import main
+from cli_capture import run_cli
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 SHIPPED = sorted(DATA.glob("*.csv"))
 
 
-def _run(capsys, *argv):
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")            # any Python warning fails the command
-        rc = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return rc, out, err
+_run = run_cli
 
 
 def _clean(err: str) -> bool:
