@@ -23,9 +23,9 @@ from .errors import PendcError
 from .ir.compiled import CompiledGraph
 from .ir.graph import Graph
 from .ir.interpret import FixedInterpreter
+from .model.interface import require_interface
 from .sim.simulator import SimResult
 
-STATES = ("x", "dx", "theta", "dtheta")
 OVERFLOW_CHOICES = ("error", "mark")
 LONG_RUN_STEPS = 5_000_000   # beyond 5 s at 1 us, run sample by sample instead of one trace in memory
 
@@ -83,7 +83,9 @@ class GoldenModel:
         self.graph = graph
         self.dt = dt
         self.engine = engine
-        self.u_format = graph["u"].qformat
+        iface = require_interface(graph)           # the plant's input port and reported states
+        self.input, self.states = iface.input.name, iface.outputs
+        self.u_format = graph[self.input].qformat
         self._run = CompiledGraph(graph, "fixed").run if engine == "compiled" else FixedInterpreter(graph).run
 
     def quantize_input(self, u) -> np.ndarray:
@@ -97,15 +99,15 @@ class GoldenModel:
         u = np.asarray(u_per_step)
         ints = u if np.issubdtype(u.dtype, np.integer) else self.quantize_input(u)
         if self.engine == "compiled":
-            return self._run({"u": ints}, every=every, record=record)
-        return self._run({"u": [int(v) for v in ints]}, every=every)
+            return self._run({self.input: ints}, every=every, record=record)
+        return self._run({self.input: [int(v) for v in ints]}, every=every)
 
     def __call__(self, t, u, on_overflow: str = "error", initial: tuple | None = None) -> GoldenRun:
         """States at the sample times ``t`` for ZOH input samples ``u`` (from reset, t[0] = 0 state).
 
         A node leaving its range raises :class:`OverflowStop`; with ``on_overflow="mark"`` the run
         completes and :meth:`GoldenRun.marked_rows` tells which sample rows come after the flag.
-        ``initial`` (x, dx, theta, dtheta) starts the state registers there instead of at reset
+        ``initial`` (the reported states in the interface's order: x, dx, theta, dtheta) starts the state registers there instead of at reset
         (the encoder FSMs start as at power-on)."""
         if on_overflow not in OVERFLOW_CHOICES:
             raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
@@ -122,7 +124,7 @@ class GoldenModel:
                                every=every)
         rows = np.concatenate([[0], np.cumsum(steps)])
         states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows // every] * self.graph.output(s).qformat.lsb
-                  for s in STATES}
+                  for s in self.states}
         result = SimResult(t=t, u=u, states=states)
         first = first_overflow(trace.overflows)
         if first is not None and on_overflow == "error":
@@ -135,12 +137,12 @@ class GoldenModel:
         from reset or from the registers at ``initial``."""
         if self.engine != "compiled":
             raise PendcError("a run from an initial state or a long run needs the compiled engine")
-        start = dict(zip(STATES, initial)) if initial is not None else None
+        start = dict(zip(self.states, initial)) if initial is not None else None
         stepper = GoldenStepper(self.graph)
         stepper.reset(start)
-        cols = [stepper.ports.index(s) for s in STATES]
+        cols = [stepper.ports.index(s) for s in self.states]
         ints = self.quantize_input(u)
-        rows = np.empty((len(t), len(STATES)), np.int64)
+        rows = np.empty((len(t), len(self.states)), np.int64)
         rows[0] = stepper.advance(int(ints[0]), 1)[0, cols]
         stepper.reset(start)
         for i, n in enumerate(steps):
@@ -148,8 +150,8 @@ class GoldenModel:
         first = first_overflow(stepper.overflows)
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows))
-        states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(STATES)}
-        return GoldenRun(result=SimResult(t=t, u=u, states=states), raw={s: rows[:, j] for j, s in enumerate(STATES)},
+        states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(self.states)}
+        return GoldenRun(result=SimResult(t=t, u=u, states=states), raw={s: rows[:, j] for j, s in enumerate(self.states)},
                          overflows=dict(stepper.overflows), rows=np.concatenate([[0], np.cumsum(steps)]))
 
 

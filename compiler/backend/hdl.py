@@ -7,13 +7,16 @@ from pathlib import Path
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
+from ..model.interface import require_interface
 from .emit import build_id, dumps_json, render_core, status_nodes, write_tree
 from .wrapper import BUSES, render_wrapper
 
 
 def port_formats(graph: Graph) -> dict:
-    ports = {"u": graph["u"].qformat}
-    ports.update({p: graph.output(p).qformat for p in ("x", "dx", "theta", "dtheta")})
+    """The core's data ports (the plant's input and reported states) and their formats."""
+    iface = require_interface(graph)
+    ports = {iface.input.name: graph[iface.input.name].qformat}
+    ports.update({p: graph.output(p).qformat for p in iface.outputs})
     return {p: {"signed": f.signed, "width": f.width, "frac": f.frac} for p, f in ports.items()}
 
 
