@@ -26,7 +26,8 @@ from pathlib import Path
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .golden_plant import STATE_PORTS
-from .rtl_plant import VERILATOR_MAKE_VARS, RtlPlant, _tool, build_cached
+from .rtl_build import VERILATOR_MAKE_VARS, find_tool, build_cached
+from .rtl_plant import RtlPlant
 
 CORE = "pendulum_core"
 EXECUTABLE = "pendc_hil_cpp"
@@ -198,7 +199,7 @@ int main(int argc, char** argv) {{
 
 
 def _build_command(work: Path, sources: list) -> list:
-    return [_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", CORE,
+    return [find_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", CORE,
             "-Mdir", str(work / "obj_dir"), "-o", EXECUTABLE, "-O3", "--x-assign", "fast", "--x-initial", "fast",
             "--noassert", "-Wno-fatal", "-Wno-lint", "-MAKEFLAGS", MAKE_VARS] + [str(s) for s in sources]
 

