@@ -33,7 +33,7 @@ class RigidBody:
     k: sp.Expr               # determinant of the mass matrix
     num_x: sp.Expr
     num_theta: sp.Expr
-    periods: tuple = ()      # (coordinate name, period or None): derived from the Lagrangian
+    periods: tuple = ()      # (coordinate name, period or None): read off the geometry (period_of)
 
 
 # What each generalized coordinate and its rate are, in words and units (the plant interface's
@@ -45,15 +45,23 @@ COORDINATES = (
 )
 
 
-def period_of(lagrangian: sp.Expr, q: sp.Symbol):
-    """2*pi if the Lagrangian depends on ``q`` and does not change when ``q`` turns once (an
-    angle), else None. Periodicity is a property of the physics, so it is read off the
-    energies, never declared; a coordinate the Lagrangian does not contain (the cart's x: the
-    track is the same everywhere) is a translation, not an angle."""
-    if q not in lagrangian.free_symbols:
+def period_of(geometry, q: sp.Symbol):
+    """2*pi if ``q`` is an angle, else None.
+
+    ``geometry`` is the mechanism's kinematic map (a matrix of the coordinates of its points,
+    the positions its energies are built from) or any expression of the coordinates. ``q`` is
+    an angle when the map depends on it and one turn of it (q -> q + 2*pi) brings every point
+    back to where it was. Periodicity is a property of the geometry, so it is read off, never
+    declared: the cart's x moves the cart (a translation, whatever the energies say: the track
+    is the same everywhere), the pendulum's theta and the Furuta arm's phi_r are rotations. The
+    arm's angle never appears in the Furuta's Lagrangian (a cyclic coordinate, like x), which is
+    why the test is on the points, not on the energies. A map that does not contain ``q`` at
+    all says nothing of it: None."""
+    entries = list(geometry) if isinstance(geometry, sp.MatrixBase) else [sp.sympify(geometry)]
+    if not any(q in e.free_symbols for e in entries):
         return None
-    turned = lagrangian.subs(q, q + 2 * sp.pi)
-    return 2 * sp.pi if sp.simplify(sp.expand_trig(turned - lagrangian)) == 0 else None
+    turned = [sp.simplify(sp.expand_trig(e.subs(q, q + 2 * sp.pi) - e)) for e in entries]
+    return 2 * sp.pi if all(d == 0 for d in turned) else None
 
 
 @lru_cache(maxsize=1)
@@ -92,6 +100,7 @@ def derive_rigid_body() -> RigidBody:
     adj = A.adjugate()
     num = [sp.expand(sum(adj[i, j] * b[j] for j in range(2))) for i in range(2)]
     plain_lag = lag.subs(plain)
+    points = sp.Matrix([-xf, 0, r_c[0], r_c[1]]).subs(plain)    # the cart, the pendulum's centre
     return RigidBody(
         constants={"g": g, "M": M, "m": m, "L": L, "I": I},
         state=(x, dx, theta, dtheta),
@@ -101,5 +110,5 @@ def derive_rigid_body() -> RigidBody:
         k=k,
         num_x=num[0],
         num_theta=num[1],
-        periods=tuple((q.name, period_of(plain_lag, q)) for q in (x, theta)),
+        periods=tuple((q.name, period_of(points, q)) for q in (x, theta)),
     )

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..atomic import write_atomic
 from ..errors import PendcError, open_input
+from .bodies import DEFAULT_BODY
 from .plant import PlantModel
 
 TOP_LEVEL = ("plant", "effects", "fit", "meta", "hardware")
@@ -69,8 +70,10 @@ def model_fingerprint(model: PlantModel) -> str:
     its file is and whatever its comments, layout or ``[meta]`` and ``[fit]`` tables say."""
     import json
 
-    canonical = json.dumps({"plant": model.plant, "effects": model.effects, "hardware": model.hardware},
-                           sort_keys=True, separators=(",", ":"), default=repr)
+    read = {"plant": model.plant, "effects": model.effects, "hardware": model.hardware}
+    if model.body != DEFAULT_BODY:     # the cart-pendulum's fingerprints stay what they were
+        read["body"] = model.body
+    canonical = json.dumps(read, sort_keys=True, separators=(",", ":"), default=repr)
     return "sha256:" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:16]
 
 
@@ -84,6 +87,7 @@ def build_source(model: PlantModel) -> str:
 
 
 def parse_model(text: str, source: str = "<model>") -> PlantModel:
+    """Read a model file's text (``source`` names it in errors) into a validated :class:`PlantModel`."""
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -103,8 +107,14 @@ def parse_model(text: str, source: str = "<model>") -> PlantModel:
     hardware = doc.get("hardware", {})
     if not isinstance(hardware, dict):
         raise PendcError(f"{source}: [hardware] must be a table")
-    return PlantModel(plant=doc["plant"], effects=doc.get("effects", {}), free=tuple(free), source=source,
-                      hardware=hardware)
+    plant = doc["plant"]
+    if not isinstance(plant, dict):
+        raise PendcError(f"{source}: [plant] must be a table")
+    # [plant] body = "..." selects the rigid body (pendc.model.bodies); the rest are its constants
+    body = plant.get("body", DEFAULT_BODY)
+    constants = {k: v for k, v in plant.items() if k != "body"}
+    return PlantModel(plant=constants, effects=doc.get("effects", {}), free=tuple(free), source=source,
+                      hardware=hardware, body=body)
 
 
 def _check_intervals(intervals, source: str) -> None:
@@ -135,6 +145,8 @@ def dumps_model(model: PlantModel, meta: dict | None = None) -> str:
             lines.append(f"{key} = {_number(value) if isinstance(value, (int, float)) else _string(str(value))}")
         lines.append("")
     lines.append("[plant]")
+    if model.body != DEFAULT_BODY:
+        lines.append(f"body = {_string(model.body)}")
     lines += [f"{k} = {_number(v)}" for k, v in model.plant.items()]
     for name, params in model.effects.items():
         lines += ["", f"[effects.{name}]"]
@@ -214,7 +226,7 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
     text = assemble("\n".join(out))
     try:
         back = parse_model(text, source="<fitted model>")
-        same = back.plant == model.plant and back.effects == model.effects
+        same = back.plant == model.plant and back.effects == model.effects and back.body == model.body
     except PendcError:
         same = False
     if not same:

@@ -1,0 +1,57 @@
+"""The symbolic state equations of one plant model (:class:`Equations`), whatever its body."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .experiments import DEFAULT_EXPERIMENT
+
+
+@dataclass(frozen=True)
+class Equations:
+    """Symbolic state equations of one model.
+
+    ``assignments`` are ``(symbol, expr)`` pairs in evaluation order; each expr uses
+    states, the input, parameters and earlier assignments. ``derivatives[i]`` is
+    d/dt of ``states[i]``; the first four states are the rigid body's two coordinates, each
+    followed by its rate (x, dx, theta, dtheta for the cart-pendulum). ``input`` is the voltage
+    as the plant sees it (after any transport delay ``delay``, which the simulator applies).
+    ``velocity_bound`` clamps |states[1]| after every integration step. ``initial`` gives the
+    initial value of each extra state (beyond the first four) from the input and parameters.
+    ``sensor_offsets`` is the measured-output map: ``(state name, offset)`` pairs, the
+    sensor of that position reading state + offset (parameters only, so the inverse, the
+    true state from a measured one, is a subtraction). ``experiment`` names what was held
+    or removed (:mod:`pendc.model.experiments`); the parameters are the same in every one.
+    ``measured`` names the positions a run of that experiment measures.
+    """
+
+    states: tuple
+    input: sp.Symbol
+    params: tuple
+    assignments: tuple
+    derivatives: tuple
+    initial: tuple = ()
+    velocity_bound: sp.Expr | None = None
+    delay: sp.Expr | None = None
+    sensor_offsets: tuple = ()
+    experiment: str = DEFAULT_EXPERIMENT
+    measured: tuple = ("x", "theta")
+
+    def outputs(self) -> tuple:
+        """Names of the positions a run of this experiment measures (for the cart: x, theta or both)."""
+        return self.measured
+
+    def inline(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with every assignment symbol replaced by its definition."""
+        for sym, value in reversed(self.assignments):
+            expr = expr.subs(sym, value)
+        return expr
+
+    def assignment(self, name: str) -> sp.Expr:
+        """The expression bound to the named intermediate ``name`` (KeyError if none)."""
+        for sym, value in self.assignments:
+            if sym.name == name:
+                return value
+        raise KeyError(name)
