@@ -26,14 +26,19 @@ def cmd_compare(args) -> int:
     from .ident.report_text import text_report
     from .ident.sidebyside import compare_models
     from .model.modelfile import load_model
+    from .sim.signals import signals_of
 
     if not args.horizon > 0:
         raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
     paths = args.model or [None]
     models = [load_model(p) for p in paths]
-    datasets = load_datasets(args)
+    columns = {m.interface.name: signals_of(m).all_columns for m in models}
+    if len(set(columns.values())) > 1:
+        raise PendcError("the models describe different plants (" + "; ".join(
+            f"{name}: {', '.join(cols)}" for name, cols in columns.items()) + "): compare one plant's models at a time")
+    datasets = load_datasets(args, plant=models[0])
     with np.errstate(all="ignore"):   # an undefined figure is NaN by design; no warning for it
-        s = compare_models(models, datasets, horizon=args.horizon, outputs=parse_outputs(args.outputs))
+        s = compare_models(models, datasets, horizon=args.horizon, outputs=parse_outputs(args.outputs, models[0]))
         for line in s.notes():
             note(line)
         if args.html:
@@ -58,8 +63,9 @@ def add_parser(sub) -> None:
                    help="model file; repeat to put models side by side (default: models/sct_thesis_final.toml)")
     p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
                    "(default 0.5, as diagnose and fit)")
-    p.add_argument("--outputs", help="outputs to compare: x, theta or x,theta (default: every output the data "
-                                     "move; held or missing ones are left out with a note)")
+    p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
+                                     "cart-pendulum's x, theta or x,theta; default: every output the data move; "
+                                     "held or missing ones are left out with a note)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--html", help="write a self-contained HTML report here")
     p.set_defaults(func=cmd_compare)

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 
-PENDC_COLUMNS = ("t", "u", "x", "theta", "dx", "dtheta")
 MODEL_HELP = "model file (default: models/sct_thesis_final.toml; '-': standard input)"
 
 FORMATS_HELP = """\
@@ -63,7 +63,11 @@ reading other formats, examples:
 """
 
 
+NAME = re.compile(r"[A-Za-z_]\w*$")   # a signal's name as the plant interface spells it
+
+
 def _mapping(text: str) -> dict:
+    """``PENDC_NAME=FILE_NAME`` pairs (the names are checked against the model's signals when read)."""
     out = {}
     for part in (p.strip() for p in text.split(",")):
         if not part:
@@ -72,8 +76,8 @@ def _mapping(text: str) -> dict:
         name, file_name = name.strip(), file_name.strip()
         if not eq or not file_name:
             raise argparse.ArgumentTypeError(f"expected PENDC_NAME=FILE_NAME pairs, got {part!r}")
-        if name not in PENDC_COLUMNS:
-            raise argparse.ArgumentTypeError(f"{name!r} is not a pendc column ({', '.join(PENDC_COLUMNS)})")
+        if not NAME.match(name):
+            raise argparse.ArgumentTypeError(f"{name!r} is not a signal name (letters, digits and _)")
         out[name] = file_name
     return out
 
@@ -86,10 +90,53 @@ def _steps(text: str) -> dict:
             step = float(value)
         except ValueError:
             step = -1.0
-        if not (step > 0 and math.isfinite(step)) or name.strip() not in PENDC_COLUMNS:
-            raise argparse.ArgumentTypeError(f"expected NAME=STEP with a pendc column and a positive step, got {part!r}")
+        if not (step > 0 and math.isfinite(step)) or not NAME.match(name.strip()):
+            raise argparse.ArgumentTypeError(f"expected NAME=STEP with a signal name and a positive step, got {part!r}")
         out[name.strip()] = step
     return out
+
+
+def _settings(kind: str, check):
+    """An argparse type: ``NAME=VALUE`` pairs, each value checked by ``check`` (returns it parsed)."""
+    def parse(text: str) -> dict:
+        out = {}
+        for part in (p.strip() for p in text.split(",") if p.strip()):
+            name, eq, value = (w.strip() for w in part.partition("="))
+            if not eq or not NAME.match(name) or not value:
+                raise argparse.ArgumentTypeError(f"expected NAME={kind.upper()} pairs, got {part!r}")
+            out[name] = check(value)
+        return out
+    return parse
+
+
+def _zero(text: str) -> str:
+    from .sim.signals import ZERO_NAMES
+
+    if text not in ZERO_NAMES:
+        raise argparse.ArgumentTypeError(f"{text!r}: use {' or '.join(ZERO_NAMES)}")
+    return text
+
+
+def _sign(text: str) -> float:
+    if text not in ("1", "-1", "+1"):
+        raise argparse.ArgumentTypeError(f"{text!r}: use 1 or -1")
+    return float(text)
+
+
+def _unit_text(text: str) -> str:
+    """A unit name or a positive number (checked against the signal's unit when read)."""
+    from .sim.signals import UNIT_SCALES
+
+    names = {n for scales in UNIT_SCALES.values() for n in scales}
+    if text not in names:
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not (value > 0 and math.isfinite(value)):
+            raise argparse.ArgumentTypeError(f"{text!r}: a unit name ({', '.join(sorted(names))}) or the size of "
+                                             "one file unit (a positive number)")
+    return text
 
 
 def finite(text: str) -> float:
@@ -111,27 +158,30 @@ def positive(text: str) -> float:
     return value
 
 
-def _unit(axis: str):
-    """An argparse type: a unit name of ``axis`` or a positive number."""
+def _unit(si_unit: str):
+    """An argparse type: a unit name of ``si_unit`` or a positive number."""
     def parse(text: str) -> str:
-        from .errors import PendcError
-        from .sim.readers import unit_factor
+        from .sim.signals import UNIT_SCALES, unit_scale
 
-        try:
-            unit_factor(axis, text)
-        except PendcError as exc:
-            raise argparse.ArgumentTypeError(f"{text!r}: {str(exc).split(': ', 1)[1]}") from None
+        if unit_scale(si_unit, text) is None:
+            names = ", ".join(UNIT_SCALES.get(si_unit, {si_unit: 1.0}))
+            raise argparse.ArgumentTypeError(f"{text!r}: use one of {names}, or the size of one file unit in "
+                                             f"{si_unit} (a positive number)")
         return text
     return parse
 
 
-# --AXIS-unit options: axis, unit names, default, what a number means, an example number
+# --<SIGNAL>-unit options: the option, the signal's SI unit, what a number means, an example number.
+# Time's, then the SCT cart-pendulum's signals under the spellings its scripts use (any plant's
+# signal takes --unit NAME=UNIT); each sets ReadOptions' field of the same name.
 UNIT_OPTIONS = (
-    ("t", ("s", "ms", "us"), "s", "seconds", ""),
-    ("x", ("m", "cm", "mm"), "m", "metres", "2.5e-6 for encoder counts"),
-    ("u", ("V", "mV"), "V", "volts", ""),
-    ("theta", ("rad", "deg"), "rad", "radians", "3.14159e-4 = 2*pi/20000 for encoder counts"),
+    ("--t-unit", "s", "seconds", ""),
+    ("--x-unit", "m", "metres", "2.5e-6 for encoder counts"),
+    ("--u-unit", "V", "volts", ""),
+    ("--theta-unit", "rad", "radians", "3.14159e-4 = 2*pi/20000 for encoder counts"),
 )
+# The SCT pendulum angle's --<signal>-zero and --<signal>-sign (any periodic position: --zero, --sign)
+ANGLE_OPTIONS = ("--theta-zero", "--theta-sign")
 
 
 def add_data_options(p, many: bool = True) -> None:
@@ -154,15 +204,28 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--encoding", default="utf-8", metavar="NAME",
                    help="text encoding of the header and comments (default utf-8; e.g. cp1252 for a "
                         "spreadsheet export with 'Winkel [°]')")
-    for axis, names, default, per, example in UNIT_OPTIONS:
-        g.add_argument(f"--{axis}-unit", type=_unit(axis), metavar="{" + ",".join(names) + ",NUMBER}",
-                       help=f"unit of {axis} in the file (default {default}; a number: {per} per file unit"
+    from .sim.signals import UNIT_SCALES
+
+    for flag, si, per, example in UNIT_OPTIONS:
+        axis = flag[2:-len("-unit")]
+        g.add_argument(flag, type=_unit(si), metavar="{" + ",".join(UNIT_SCALES[si]) + ",NUMBER}",
+                       help=f"unit of {axis} in the file (default {si}; a number: {per} per file unit"
                             + (f", e.g. {example})" if example else ")"))
-    g.add_argument("--theta-zero", choices=("hanging", "upright"), default="hanging",
-                   help="where the file's theta is 0 (default hanging); upright: theta = theta_file + pi")
-    g.add_argument("--theta-sign", type=int, choices=(1, -1), default=1,
-                   help="-1 when the file's theta grows counter-clockwise (pendc's grows clockwise, "
+    zero_flag, sign_flag = ANGLE_OPTIONS
+    angle = zero_flag[2:-len("-zero")]
+    g.add_argument(zero_flag, choices=("hanging", "upright"), default="hanging",
+                   help=f"where the file's {angle} is 0 (default hanging); upright: {angle} = {angle}_file + pi")
+    g.add_argument(sign_flag, type=int, choices=(1, -1), default=1,
+                   help=f"-1 when the file's {angle} grows counter-clockwise (pendc's grows clockwise, "
                         "with x positive to the left; spec section 1)")
+    g.add_argument("--unit", type=_settings("unit", _unit_text), default={}, metavar="NAME=UNIT",
+                   help="units of any of the model's signals in the file, e.g. alpha_p=deg,phi_r=deg (a unit "
+                        "name or the size of one file unit in the signal's SI unit)")
+    g.add_argument("--zero", type=_settings("zero", _zero), default={}, metavar="NAME=hanging|upright",
+                   help="where the file's zero of a periodic position is, e.g. alpha_p=upright "
+                        "(upright: half a period from the model's zero)")
+    g.add_argument("--sign", type=_settings("sign", _sign), default={}, metavar="NAME=-1",
+                   help="-1 for a periodic position the file counts the other way")
     g.add_argument("--experiment", metavar="NAME[,NAME...]",
                    help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
                         f"'# experiment:' line or free); one name for all files, or one per data file "
@@ -194,9 +257,15 @@ def reading_arguments(args) -> list:
     resolution = getattr(args, "resolution", None) or {}
     if resolution:
         words += ["--resolution", ",".join(f"{k}={v!r}" for k, v in resolution.items())]
-    defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", "t_unit": None, "x_unit": None,
-                "u_unit": None, "theta_unit": None, "theta_zero": "hanging", "theta_sign": 1, "experiment": None,
-                "missing": "", "u_value": 0.0, "sample_time": None, "rate": None}
+    for flag in ("--unit", "--zero", "--sign"):
+        values = getattr(args, flag[2:], None) or {}
+        if values:
+            words += [flag, ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())]
+    legacy = [flag[2:].replace("-", "_") for flag, *_ in UNIT_OPTIONS] + [f[2:].replace("-", "_") for f in ANGLE_OPTIONS]
+    defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", **dict.fromkeys(legacy),
+                "experiment": None, "missing": "", "u_value": 0.0, "sample_time": None, "rate": None}
+    defaults.update({name: "hanging" for name in legacy if name.endswith("_zero")})
+    defaults.update({name: 1 for name in legacy if name.endswith("_sign")})
     for name, default in defaults.items():
         value = getattr(args, name, default)
         if value is not None and value != default:
@@ -209,21 +278,30 @@ def note(text: str) -> None:
     print(f"pendc: note: {text}", file=sys.stderr)
 
 
-def read_options(args, experiment: str | None = None):
-    """The :class:`~pendc.sim.readers.ReadOptions` that ``args`` ask for (missing attributes: defaults)."""
+def read_options(args, experiment: str | None = None, plant=None):
+    """The :class:`~pendc.sim.readers.ReadOptions` that ``args`` ask for (missing attributes:
+    defaults), for the signals of ``plant`` (a model; default the default model)."""
     from .sim.csvread import separator_from_name
     from .sim.readers import ReadOptions
 
     missing = tuple(a.strip() for a in (getattr(args, "missing", "") or "").split(",") if a.strip())
+    units, zero, sign = (dict(getattr(args, k, None) or {}) for k in ("unit", "zero", "sign"))
+    for flag, *_ in UNIT_OPTIONS:              # --<signal>-unit: the same as --unit <signal>=...
+        value = getattr(args, flag[2:].replace("-", "_"), None)
+        if value is not None:
+            units.setdefault(flag[2:-len("-unit")], value)
+    zero_flag, sign_flag = ANGLE_OPTIONS
+    angle = zero_flag[2:-len("-zero")]
+    if (getattr(args, zero_flag[2:].replace("-", "_"), None) or "hanging") != "hanging":
+        zero.setdefault(angle, getattr(args, zero_flag[2:].replace("-", "_")))
+    if float(getattr(args, sign_flag[2:].replace("-", "_"), 1) or 1) != 1.0:
+        sign.setdefault(angle, float(getattr(args, sign_flag[2:].replace("-", "_"))))
     return ReadOptions(
         columns=dict(getattr(args, "columns", None) or {}),
         separator=separator_from_name(getattr(args, "separator", None)),
         decimal={"point": ".", "comma": ","}.get(getattr(args, "decimal", None) or "auto", ...),
         encoding=getattr(args, "encoding", None) or "utf-8",
-        t_unit=getattr(args, "t_unit", None), x_unit=getattr(args, "x_unit", None),
-        u_unit=getattr(args, "u_unit", None), theta_unit=getattr(args, "theta_unit", None),
-        theta_zero=getattr(args, "theta_zero", None) or "hanging",
-        theta_sign=float(getattr(args, "theta_sign", 1) or 1),
+        units=units, zero=zero, sign=sign, plant=plant,
         experiment=experiment, resolution=dict(getattr(args, "resolution", None) or {}),
         allow_missing=missing, u_value=float(getattr(args, "u_value", 0.0) or 0.0),
         sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True,
@@ -251,8 +329,10 @@ def experiments_for(args, paths: list, positional: bool = True) -> list:
     return names
 
 
-def load_datasets(args, paths=None) -> list:
-    """Read ``paths`` (default: ``args.data``) with the reading options in ``args``; print notes."""
+def load_datasets(args, paths=None, plant=None) -> list:
+    """Read ``paths`` (default: ``args.data``) with the reading options in ``args``, as
+    measurements of ``plant`` (a model: its interface names the columns; default the
+    default model); print notes."""
     from .errors import PendcError
     from .sim.measurements import read_measurements
 
@@ -262,7 +342,7 @@ def load_datasets(args, paths=None) -> list:
         raise PendcError("standard input ('-') can be read only once")
     datasets = []
     for path, experiment in zip(paths, experiments_for(args, paths, positional)):
-        datasets.append(read_measurements(path, options=read_options(args, experiment)))
+        datasets.append(read_measurements(path, options=read_options(args, experiment, plant)))
     for d in datasets:
         for w in d.warnings:
             print(f"pendc: warning: {w}", file=sys.stderr)
@@ -275,4 +355,5 @@ def load_model_and_data(args):
     """The model of ``--model`` (default: the thesis' final model) and the data sets."""
     from .model.modelfile import load_model
 
-    return load_model(args.model), load_datasets(args)
+    model = load_model(args.model)
+    return model, load_datasets(args, plant=model)

@@ -68,7 +68,7 @@ def cmd_diagnose(args) -> int:
     from .ident.shooting import horizon_figures
 
     model, datasets = load_model_and_data(args)
-    outputs = parse_outputs(args.outputs)
+    outputs = parse_outputs(args.outputs, model)
     before = horizon_figures(model, datasets, outputs=outputs)
     only = [e.strip() for e in (args.effects or "").split(",") if e.strip()] or None
     d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json), outputs=outputs,
@@ -98,8 +98,8 @@ def cmd_diagnose(args) -> int:
     elif d.unexplained:
         lines.append("No catalogue effect explains the error (the best removes less than half of it), and it is "
                      f"above the noise level ({ratio} the noise-only residual).")
-        lines.append("The unexplained force/torque correlates with:")
-        lines += [f"  {r['target']:12s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
+        lines.append("The unexplained acceleration correlates with:")
+        lines += [f"  {r['target']:21s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
         hint = parameter_hint(model, d.correlations)
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
@@ -167,10 +167,11 @@ def cmd_fit(args) -> int:
     from .ident.shooting import horizon_figures
     from .atomic import write_atomic
     from .model.modelfile import default_model_path, dumps_fitted
+    from .sim.signals import signals_of
 
     model, datasets = load_model_and_data(args)
-    outputs = parse_outputs(args.outputs)
-    validation = load_datasets(args, args.validate) if args.validate else datasets
+    outputs = parse_outputs(args.outputs, model)
+    validation = load_datasets(args, args.validate, plant=model) if args.validate else datasets
     before = horizon_figures(model, validation, outputs=outputs)   # the model as given
     free_before = free_run_figures(model, validation, outputs=outputs)
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
@@ -180,7 +181,7 @@ def cmd_fit(args) -> int:
             continue
         model = model.with_effect(effect)
     free = [p.strip() for p in (args.free or "").split(",") if p.strip()]
-    free = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + free)) or list(model.free)
+    free = list(dict.fromkeys([p for e in added for p in free_parameters(e, model)] + free)) or list(model.free)
     if not free:
         raise PendcError("nothing to fit: name effects with --add or parameters with --free")
     result = fit_parameters(model, datasets, free, max_evaluations=args.max_evaluations, outputs=outputs)
@@ -209,7 +210,8 @@ def cmd_fit(args) -> int:
     lines = ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
     lines += ["before: " + line for line in _figure_lines(free_before)]
     lines += ["after:  " + line for line in _figure_lines(free_after)]
-    if any(v < 0 for f in (free_before, free_after) for o, v in f["pooled"].items() if o == "theta"):
+    angles = set(signals_of(model).periodic)
+    if any(v < 0 for f in (free_before, free_after) for o, v in f["pooled"].items() if o in angles):
         from .ident.figures import UNWRAPPED_NOTE
         lines.append(f"(free-run: {UNWRAPPED_NOTE})")
     for p in free:
@@ -223,8 +225,9 @@ def cmd_fit(args) -> int:
 
 def _add_ident_options(p) -> None:
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
-    p.add_argument("--outputs", help="outputs to compare: x, theta or x,theta (default: every output the data "
-                                     "move; held or missing ones are left out with a note)")
+    p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
+                                     "cart-pendulum's x, theta or x,theta; default: every output the data move; "
+                                     "held or missing ones are left out with a note)")
     p.add_argument("--json", action="store_true",
                    help="print the result as JSON instead of text (non-finite numbers as null)")
 

@@ -17,7 +17,7 @@ import pytest
 from pendc.errors import PendcError
 from pendc.ident import compare as cmp
 from pendc.ident.compare import (Comparison, allowed_outside, autocorrelation, compare, cross_correlation,
-                                 fit_percent, regimes, worst_windows)
+                                 fit_percent, regime_partitions, regimes, worst_windows)
 from pendc.ident.report_text import format_text as format_comparison
 from pendc.model.modelfile import load_model
 from pendc.sim import stimuli
@@ -94,7 +94,7 @@ def test_regime_shares_sum_to_one(spring):
         assert sum(g["fraction_of_time"] for g in members) == pytest.approx(1.0)
         assert sum(g["samples"] for g in members) == len(spring.simulated.t)
     names = {g["name"] for g in spring.regimes if g["partition"] == "cart motion"}
-    assert names == {"standstill", "moving left", "moving right"}
+    assert names == {"standstill", "moving +x", "moving -x"}
 
 
 def test_regimes_locate_the_error():
@@ -102,15 +102,17 @@ def test_regimes_locate_the_error():
     n = 1000
     dx = np.where(np.arange(n) < 250, 0.0, 0.1)
     r = np.where(dx == 0.0, 1e-3, 0.0)
-    out = regimes({"x": r}, dx=dx, theta=np.zeros(n), x=np.zeros(n), u=np.full(n, 5.0), v_off=5.0)
+    model = load_model()
+    out = regimes({"x": r}, regime_partitions(model, {"dx": dx, "theta": np.zeros(n), "x": np.zeros(n)},
+                                              np.full(n, 5.0), 5.0))
     still = next(g for g in out if g["name"] == "standstill")
     assert still["share"] == pytest.approx(1.0) and still["fraction_of_time"] == pytest.approx(0.25)
     assert still["rms"] == pytest.approx(1e-3)
     sat = next(g for g in out if g["name"] == "saturated")
     assert sat["samples"] == 0 and sat["rms"] is None and sat["share"] == 0.0
     # theta 2 pi is hanging down again: small swing
-    out = regimes({"x": np.ones(3)}, dx=np.zeros(3), theta=np.array([0.0, 2 * np.pi + 0.1, 3.0]), x=np.zeros(3),
-                  u=np.full(3, 5.0), v_off=5.0)
+    out = regimes({"x": np.ones(3)}, regime_partitions(model, {"dx": np.zeros(3), "theta": np.array(
+        [0.0, 2 * np.pi + 0.1, 3.0]), "x": np.zeros(3)}, np.full(3, 5.0), 5.0))
     assert next(g for g in out if g["name"] == "small swing")["samples"] == 2
 
 
@@ -121,7 +123,7 @@ def test_windows_non_overlapping_and_sorted(spring):
         rms = [w["rms"] for w in ws]
         assert rms == sorted(rms, reverse=True)
         for w in ws:
-            assert w["t1"] - w["t0"] == pytest.approx(cmp.WINDOW)
+            assert w["t1"] - w["t0"] == pytest.approx(cmp.WORST_WINDOW)
         spans = sorted((w["t0"], w["t1"]) for w in ws)
         assert all(a[1] <= b[0] + 1e-9 for a, b in zip(spans, spans[1:]))
 

@@ -135,11 +135,12 @@ def test_initial_state_uses_at_least_three_samples():
 
 
 def test_voltage_outside_range_is_a_warning():
-    text = HEADER + "\n0,-0.5,0,0\n0.001,5,0,0\n0.002,10.25,0,0\n0.003,10,0,0\n"
+    # beyond the input's full scale in the plant interface (±10 V for the SCT drive)
+    text = HEADER + "\n0,-10.5,0,0\n0.001,5,0,0\n0.002,10.25,0,0\n0.003,10,0,0\n"
     m = parse_measurements(text, source="run.csv")
     assert len(m.warnings) == 1
     w = m.warnings[0]
-    assert "\n" not in w and "run.csv" in w and "2 of 4" in w and "-0.5" in w and "10.25" in w
+    assert "\n" not in w and "run.csv" in w and "2 of 4" in w and "-10.5" in w and "10.25" in w
 
 
 def test_realistic_radian_data_not_flagged(tmp_path):

@@ -41,23 +41,18 @@ import numpy as np
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from ..sim.measurements import Measurement
+from ..sim.signals import signals_of
 from ..sim.simulator import SimResult, Simulator
 from . import headline as hl
 from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, measured_motion
 from .outputs import experiment_of, plan_outputs
-from .shooting import SAVGOL_WINDOW, estimate_velocities
+from .smoothing import SAVGOL_WINDOW, estimate_velocities
+from .regimes import DEFAULT_V_OFF, input_centre, regime_partitions, regimes, wrap_angle  # noqa: F401
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
                         autocorrelation, cross_correlation, decimate, whiteness)
 
-OUTPUTS = ("x", "theta")
-WINDOW = 0.5                 # s, length of a worst-error window
+WORST_WINDOW = 0.5           # s, length of a worst-error window
 TOP_WINDOWS = 5              # per output
-STANDSTILL = 0.005           # m/s: below this |dx| the cart counts as standing (static friction's realm)
-SMALL_SWING = 0.3            # rad from hanging down: sin(theta) ~ theta still holds within 1.5 %
-LOW_DRIVE = 0.5              # V of |u - V_off|: about the static break-away voltage (0.40 V for Table 14)
-TRACK_END = 0.25             # m: |x| beyond this is the outer third of each half of the 750 mm track
-SAT_LO, SAT_HI = 0.05, 9.95  # V: the drive's 0-10 V input range, with a little margin
-DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3, for models without a drive effect
 TURN = 2 * math.pi
 
 
@@ -89,9 +84,9 @@ class Comparison:
     data_source: str = ""
     dt: float = 1e-4
     method: str = "rk4"
-    v_off: float = DEFAULT_V_OFF
+    v_off: float = DEFAULT_V_OFF    # the input's centre (the drive offset V_off; 0 for a plant without one)
     dx_source: str = ""
-    outputs: tuple = OUTPUTS
+    outputs: tuple = ()
     experiment: str = "free"
     free_residual: dict = field(default_factory=dict)
     fit_theta_wrapped: float = float("nan")
@@ -120,12 +115,20 @@ class Comparison:
         """RMS of ``residual`` per output (m, rad)."""
         return {k: float(np.sqrt(np.mean(r * r))) for k, r in self.residual.items()}
 
+    @property
+    def angle(self) -> str | None:
+        """The compared periodic position whose wrapped fit and turns are reported (the last:
+        the pendulum's angle), or None."""
+        periodic = [k for k in self.outputs if self.model is not None and signals_of(self.model).period(k)]
+        return periodic[-1] if periodic else None
+
     def rms_free_run(self) -> dict:
-        """RMS free-run residual per output (m, rad); theta also wrapped (``theta_wrapped``)."""
+        """RMS free-run residual per output (m, rad); a periodic output also wrapped
+        (``<name>_wrapped``)."""
         out = {k: float(np.sqrt(np.mean(r * r))) for k, r in self.free_residual.items()}
-        if "theta" in self.free_residual:
-            w = wrap_difference(self.free_residual["theta"])
-            out["theta_wrapped"] = float(np.sqrt(np.mean(w * w)))
+        if self.angle is not None and self.angle in self.free_residual:
+            w = wrap_difference(self.free_residual[self.angle])
+            out[f"{self.angle}_wrapped"] = float(np.sqrt(np.mean(w * w)))
         return out
 
     def to_json(self) -> dict:
@@ -138,12 +141,12 @@ class Comparison:
             "samples": len(self.simulated.t),
             "headline": {**self.headline.to_json(), "fit": self.headline_fit()} if self.headline else None,
             "fit": {"label": "free-run fit (%)", **self.fit},
-            "fit_theta_wrapped": {"label": "free-run fit of theta, angle error wrapped to (-pi, pi] (%)",
-                                  "theta": self.fit_theta_wrapped},
+            "fit_theta_wrapped": {"label": f"free-run fit of {self.angle}, angle error wrapped to (-pi, pi] (%)",
+                                  **({self.angle: self.fit_theta_wrapped} if self.angle else {})},
             "fit_horizon": {"label": f"{hl.horizon_label(self.horizon)} (%)", "horizon_s": self.horizon,
                             **self.fit_horizon},
             "turns": {"max": self.turns, "first_t": self.turn_time,
-                      "label": "largest whole number of turns between simulated and measured theta (free run)"},
+                      "label": f"largest whole number of turns between simulated and measured {self.angle} (free run)"},
             "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
             "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness, "V_off": self.v_off,
             "dx_source": self.dx_source, "notes": list(self.notes)})
@@ -188,31 +191,30 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     lands on the jump at a random phase (1e-5 RK4 still differs by 0.5 counts). Pass
     ``dt=1e-6, method="euler"`` to compare with the hardware's own integrator.
     """
-    experiment = experiment_of(data)
-    if experiment != getattr(model, "experiment", "free") and hasattr(model, "for_experiment"):
+    experiment = experiment_of(data, model)
+    if experiment != model.experiment:
         model = model.for_experiment(experiment)
     if len(data.t) < 3:
         raise PendcError(f"{data.source}: too short to compare ({len(data.t)} samples; at least 3 needed)")
     # the same choice as diagnose and fit: held, constant, missing or unasked outputs are left out
-    plan = plan_outputs([data], requested=outputs)
+    plan = plan_outputs([data], requested=outputs, model=model)
     outputs = plan.outputs[0]
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
     sim = Simulator(model, dt=dt, method=method)
-    position, velocity = measured_motion(data)
-    x0 = np.array([position["x"][0], velocity["x"][0], position["theta"][0], velocity["theta"][0]])
-    if hasattr(sim, "true_state"):
-        x0 = sim.true_state(x0)
+    sig = sim.signals
+    position, velocity = measured_motion(data, model)
+    x0 = sim.true_state(sim.initial_vector(position, velocity, 0))
 
     def free_run(start) -> dict:
         run = sim(t, u, x0=tuple(start))
-        return {k: (run.measured(k) if hasattr(run, "measured") else run.states[k]) for k in outputs}
+        return {k: run.measured(k) for k in outputs}
 
     run = sim(t, u, x0=tuple(x0))
-    simulated = {k: (run.measured(k) if hasattr(run, "measured") else run.states[k]) for k in outputs}
+    simulated = {k: run.measured(k) for k in outputs}
     free_residual = {k: y[k] - simulated[k] for k in outputs}
     try:
-        twin = hl.twin_fit(free_run, x0, y)
+        twin = hl.twin_fit(free_run, x0, y, sig)
     except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
         twin = {k: -math.inf for k in outputs}
     head = hl.choose(twin, horizon)
@@ -222,34 +224,42 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         residual_of = hl.horizon_label(horizon).replace(" fit", " simulation")
     else:
         residual, residual_of = free_residual, "free run"
+    periodic = [k for k in outputs if sig.period(k) is not None]
+    angle = periodic[-1] if periodic else None        # the pendulum's: the last periodic position
     turns, turn_time, wrapped_fit = 0, None, float("nan")
-    if "theta" in outputs:
-        turns, turn_time = turns_apart(t, free_residual["theta"])
-        wrapped_fit = fit_percent(y["theta"], y["theta"] - wrap_difference(free_residual["theta"]))
+    if angle is not None:
+        turns, turn_time = turns_apart(t, free_residual[angle])
+        wrapped_fit = fit_percent(y[angle], y[angle] - wrap_difference(free_residual[angle]))
     # the whiteness tests need an uninterrupted residual: a horizon residual restarts at zero every
     # segment and is correlated by construction, so they always see the free run (whole turns wrapped)
-    white_input = {k: (wrap_difference(r) if k == "theta" else r) for k, r in free_residual.items()}
-    x_measured = y["x"] if "x" in y else np.zeros_like(t)
-    if data.dx is not None:
-        dx, dx_source = np.asarray(data.dx, dtype=np.float64), "measured dx column"
-    elif "x" in y:
-        dx = estimate_velocities(t, x_measured)
-        dx_source = f"Savitzky-Golay derivative of measured x ({SAVGOL_WINDOW * 1e3:.0f} ms, cubic)"
+    white_input = {k: (wrap_difference(r) if k in periodic else r) for k, r in free_residual.items()}
+    # the regimes: the motion of the first position (the cart, the arm), where along its travel
+    # it is (a translation), the swing of the last periodic one (the pendulum), the input
+    lead = sig.positions[0]
+    lead_rate = sig.rate(lead)
+    lead_measured = y[lead] if lead in y else np.zeros_like(t)
+    if lead_rate is not None and data.columns.get(lead_rate) is not None:
+        lead_velocity, dx_source = np.asarray(data.columns[lead_rate], dtype=np.float64), f"measured {lead_rate} column"
+    elif lead in y:
+        lead_velocity = estimate_velocities(t, lead_measured)
+        dx_source = f"Savitzky-Golay derivative of measured {lead} ({SAVGOL_WINDOW * 1e3:.0f} ms, cubic)"
     else:
-        dx, dx_source = np.zeros_like(t), "cart held (not measured)"
-    theta_measured = y["theta"] if "theta" in y else np.zeros_like(t)
+        lead_velocity, dx_source = np.zeros_like(t), f"{sig.body_of(lead)} held (not measured)"
+    missing = set(getattr(data, "missing", ()) or ())
     # partitions by an axis the run did not have (a held cart, an input the file lacked) say nothing
-    skip = (({"cart motion", "track position"} if "x" not in outputs else set())
-            | ({"drive", "input saturation"} if "u" in set(getattr(data, "missing", ())) else set())
-            | ({"pendulum angle"} if "theta" not in outputs else set()))
-    v_off = float(model.effects.get("drive", {}).get("V_off", DEFAULT_V_OFF))
+    motion = {k: v for k, v in y.items()}
+    if lead in outputs and lead_rate is not None:
+        motion[lead_rate] = lead_velocity
+    v_off = input_centre(model)
+    partitions = regime_partitions(model, motion, u, v_off,
+                                   skip=("drive", "input saturation") if sig.input in missing else ())
     return Comparison(
         fit={k: fit_percent(y[k], simulated[k]) for k in outputs},
-        simulated=SimResult(t=run.t, u=run.u, states={**run.states, **simulated}),
+        simulated=SimResult(t=run.t, u=run.u, states={**run.states, **simulated}, signals=sig),
         residual=residual, windows=[w for k in outputs for w in worst_windows(t, residual[k], k)],
-        regimes=regimes(residual, dx=dx, theta=theta_measured, x=x_measured, u=u, v_off=v_off, skip=skip),
-        whiteness=whiteness(t, white_input, u, input_missing="u" in set(getattr(data, "missing", ()) or ())),
-        measured={**y, "dx": dx},
+        regimes=regimes(residual, partitions),
+        whiteness=whiteness(t, white_input, u, input_missing=sig.input in missing),
+        measured={**y, **({lead_rate: lead_velocity} if lead_rate else {})},
         model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source,
         outputs=outputs, experiment=experiment, free_residual=free_residual, fit_theta_wrapped=wrapped_fit,
         turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
@@ -279,7 +289,7 @@ def fit_percent(y, yhat) -> float:
     return 100.0 * (1.0 - float(np.linalg.norm(y - yhat)) / spread) if spread > 0 else float("nan")
 
 
-def worst_windows(t, residual, output: str, width: float = WINDOW, count: int = TOP_WINDOWS) -> list:
+def worst_windows(t, residual, output: str, width: float = WORST_WINDOW, count: int = TOP_WINDOWS) -> list:
     """The ``count`` non-overlapping windows [t0, t1) of ``width`` s with the largest RMS residual.
 
     Every sample can start a window (not a fixed grid), so a burst of error is not
@@ -309,57 +319,3 @@ def worst_windows(t, residual, output: str, width: float = WINDOW, count: int = 
     return [{"t0": float(t[starts[k]]), "t1": float(t[starts[k]] + width), "output": output,
              "rms": float(np.sqrt(mean_sq[k])),
              "share": float((sq[ends[k]] - sq[starts[k]]) / total) if total > 0 else 0.0} for k in taken]
-
-
-def wrap_angle(theta):
-    """theta folded into [-pi, pi): 2 pi is hanging down again after a full turn."""
-    return (np.asarray(theta, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi
-
-
-def regime_partitions(dx, theta, x, u, v_off: float) -> list:
-    """``[(partition, [(name, definition, mask), ...]), ...]``; each partition's masks
-    cover every sample exactly once. ``dx`` and ``theta`` are the measured motion."""
-    dx, x, u = (np.asarray(a, dtype=np.float64) for a in (dx, x, u))
-    th = np.abs(wrap_angle(theta))
-    e = np.abs(u - v_off)
-    sat = (u <= SAT_LO) | (u >= SAT_HI)
-    mm = STANDSTILL * 1e3
-    return [
-        ("cart motion", [("standstill", f"|dx| < {mm:g} mm/s", np.abs(dx) < STANDSTILL),
-                         ("moving left", f"dx >= {mm:g} mm/s (+x is left)", dx >= STANDSTILL),
-                         ("moving right", f"dx <= -{mm:g} mm/s", dx <= -STANDSTILL)]),
-        ("pendulum angle", [("small swing", f"|theta| < {SMALL_SWING:g} rad from hanging down", th < SMALL_SWING),
-                            ("large swing", f"|theta| >= {SMALL_SWING:g} rad", th >= SMALL_SWING)]),
-        ("drive", [("weak drive", f"|u - V_off| < {LOW_DRIVE:g} V, V_off = {v_off:.4g} V", e < LOW_DRIVE),
-                   ("strong drive", f"|u - V_off| >= {LOW_DRIVE:g} V", e >= LOW_DRIVE)]),
-        ("track position", [("centre", f"|x| <= {TRACK_END:g} m", np.abs(x) <= TRACK_END),
-                            ("near an end", f"|x| > {TRACK_END:g} m", np.abs(x) > TRACK_END)]),
-        ("input saturation", [("saturated", f"u <= {SAT_LO:g} V or u >= {SAT_HI:g} V", sat),
-                              ("in range", f"{SAT_LO:g} V < u < {SAT_HI:g} V", ~sat)]),
-    ]
-
-
-def regimes(residual: dict, dx, theta, x, u, v_off: float, skip=()) -> list:
-    """Share of each output's squared residual per regime, next to the share of time.
-
-    Entries: ``partition, name, definition, output, share, rms, fraction_of_time,
-    samples``; within one partition and output the shares add up to 1 (all 0 when
-    the residual is exactly zero) and so do the time fractions. ``rms`` is None for
-    a regime the run never entered. Samples count equally (uniform sampling assumed,
-    as in fit%). Partitions named in ``skip`` are left out.
-    """
-    out, n = [], len(u)
-    for partition, members in regime_partitions(dx, theta, x, u, v_off):
-        if partition in skip:
-            continue
-        for output, r in residual.items():
-            sq = np.asarray(r, dtype=np.float64) ** 2
-            total = float(sq.sum())
-            for name, definition, mask in members:
-                k = int(mask.sum())
-                part = float(sq[mask].sum())
-                out.append({"partition": partition, "name": name, "definition": definition, "output": output,
-                            "share": part / total if total > 0 else 0.0,
-                            "rms": math.sqrt(part / k) if k else None,
-                            "fraction_of_time": k / n, "samples": k})
-    return out

@@ -4,9 +4,10 @@ The identification workbench is tested the way it will be used: on data whose
 physics is known to us but not to the model being identified. A data set is the
 "true" model simulated (1 us Euler, the reference integrator) on a rich experiment,
 then degraded like the real rig: the command goes through a 12-bit DAC and picks up
-unmeasured noise before the drive sees it, and the positions are read by the x4
-encoders (2.5 um, 0.314 mrad). The file records the *commanded* voltage, as a
-controller log would.
+unmeasured noise before the drive sees it, and the positions are read by the plant's
+x4 encoders (the SCT's: 2.5 um, 0.314 mrad). The file records the *commanded* input,
+as a controller log would. The columns are the plant interface's: time, the input,
+each position (``t, u, x, theta`` for the cart-pendulum).
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.plant import PlantModel
-from ..sim.encoders import quantize_theta, quantize_x
+from ..sim.encoders import quantize
+from ..sim.signals import PlantSignals, signals_of
 from ..sim.simulator import Simulator
 from ..sim.stimuli import V_CENTER
 
@@ -43,31 +45,48 @@ def identification_experiment(duration: float = 20.0, center: float = V_CENTER, 
     return t, np.clip(u, 0.0, 10.0)                          # 16-20 s: u = V_off, free swing
 
 
-def degrade_input(u: np.ndarray, dac_bits: int = 12, noise_v: float = 0.005, seed: int = 11) -> np.ndarray:
-    """What the drive sees: the DAC's quantised command plus unmeasured noise."""
+def degrade_input(u: np.ndarray, dac_bits: int = 12, noise_v: float = 0.005, seed: int = 11,
+                  span: float = 10.0) -> np.ndarray:
+    """What the actuator sees: the DAC's quantised command (``dac_bits`` over ``span``, the SCT's
+    0-10 V) plus unmeasured noise."""
     rng = np.random.default_rng(seed)
-    lsb = 10.0 / (2**dac_bits - 1)
+    lsb = span / (2**dac_bits - 1)
     return np.round(u / lsb) * lsb + rng.normal(0.0, noise_v, size=u.shape)
+
+
+def encoder_readings(signals: PlantSignals, positions: dict) -> dict:
+    """Each position as its encoder reads it (counted from the first sample); a position no
+    sensor reads is passed on unchanged."""
+    out = {}
+    for name, values in positions.items():
+        step = signals.resolution(name)
+        out[name] = quantize(values, step) if step is not None else np.asarray(values, float)
+    return out
 
 
 def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noise_v: float = 0.005,
                  seed: int = 11, dt: float = 1e-6, experiment: str = "free", x0=None) -> dict:
-    """Columns ``t, u, x, theta`` of one simulated ``experiment`` on ``true_model`` from the
-    true state ``x0`` (default: at rest in the centre); positions as the sensors read them."""
+    """Columns time, input, positions (``t, u, x, theta`` for the cart-pendulum) of one
+    simulated ``experiment`` on ``true_model`` from the true state ``x0`` (default: at rest
+    at zero); positions as the sensors read them. The DAC spans the input's full scale."""
     if t is None:
         t, u = identification_experiment()
-    applied = degrade_input(np.asarray(u, float), dac_bits, noise_v, seed)
+    sig = signals_of(true_model)
+    applied = degrade_input(np.asarray(u, float), dac_bits, noise_v, seed, span=sig.interface.input.full_scale)
     res = Simulator(true_model.for_experiment(experiment), dt=dt)(t, applied, x0=x0)
-    return {"t": np.asarray(t, float), "u": np.asarray(u, float), "x": quantize_x(res.measured("x")),
-            "theta": quantize_theta(res.measured("theta"))}
+    return {"t": np.asarray(t, float), sig.input: np.asarray(u, float),
+            **encoder_readings(sig, {p: res.measured(p) for p in sig.positions})}
 
 
 def free_swing(true_model: PlantModel, duration: float = 30.0, theta0: float = 0.8, seed: int = 17) -> dict:
-    """The thesis' pivot experiment: the cart clamped, the pendulum released from ``theta0``
-    at rest; the drive is idle (the log holds u = V_off)."""
+    """The thesis' pivot experiment: the cart clamped, the pendulum (the last periodic
+    position) released from ``theta0`` at rest; the drive is idle (the log holds u = V_off)."""
     t = np.arange(int(round(duration * FS)) + 1) / FS
     u = np.full_like(t, true_model.parameter_values().get("V_off", V_CENTER))
-    return make_dataset(true_model, t, u, seed=seed, experiment="cart_held", x0=(0.0, 0.0, theta0, 0.0))
+    sig = signals_of(true_model)
+    x0 = np.zeros(len(sig.mechanical))
+    x0[sig.index(sig.periodic[-1])] = theta0
+    return make_dataset(true_model, t, u, seed=seed, experiment="cart_held", x0=tuple(x0))
 
 
 def unknown_pendulum(base: PlantModel) -> PlantModel:
@@ -112,15 +131,17 @@ def make_ripple_dataset(model: PlantModel, amplitude: float = 40.0, wavelength: 
     applied = degrade_input(u, dac_bits, noise_v, seed)
     alpha = model.effects["drive"]["alpha"]
     sim = Simulator(model, dt=1e-6)
-    state = np.zeros(4)
-    x, th = np.empty_like(t), np.empty_like(t)
-    x[0], th[0] = 0.0, 0.0
+    sig = sim.signals
+    track = sig.index(sig.positions[0])          # the cart's position: the ripple is along the rail
+    state = np.zeros(len(sig.mechanical))
+    log = {p: np.zeros_like(t) for p in sig.positions}
     for k in range(len(t) - 1):
-        ripple = amplitude * np.sin(2 * np.pi * state[0] / wavelength) / alpha
+        ripple = amplitude * np.sin(2 * np.pi * state[track] / wavelength) / alpha
         seg = sim(t[k:k + 2], applied[k:k + 2] + ripple, x0=state)
-        state = np.array([seg[s][-1] for s in ("x", "dx", "theta", "dtheta")])
-        x[k + 1], th[k + 1] = state[0], state[2]
-    return {"t": t, "u": u, "x": quantize_x(x), "theta": quantize_theta(th)}
+        state = np.array([seg[s][-1] for s in sig.mechanical])
+        for p in sig.positions:
+            log[p][k + 1] = state[sig.index(p)]
+    return {"t": t, sig.input: u, **encoder_readings(sig, log)}
 
 
 def demo_datasets(base: PlantModel) -> dict:
@@ -155,15 +176,19 @@ def closed_loop_swing_up(model: PlantModel, duration: float = 10.0, gain_energy:
     h = 1.0 / FS
     n = int(round(duration * FS))
     sim = Simulator(model, dt=1e-6)
+    sig = sim.signals
+    cart, pendulum = sig.positions[0], sig.periodic[-1]     # the controller's two sensors
+    i_cart, i_pend = sig.index(cart), sig.index(pendulum)
     lsb = 10.0 / (2**dac_bits - 1)
-    state = np.array([0.0, 0.0, 0.05, 0.0])
+    state = np.zeros(len(sig.mechanical))
+    state[i_pend] = 0.05
     t = np.arange(n + 1) * h
     u_log, x_log, th_log = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
     prev_x = prev_th = 0.0
     vx = vth = 0.0
     for k in range(n + 1):
-        xq = float(quantize_x(np.array([0.0, state[0]]))[1])
-        thq = float(quantize_theta(np.array([0.0, state[2]]))[1])
+        xq = float(quantize(np.array([0.0, state[i_cart]]), sig.resolution(cart))[1])
+        thq = float(quantize(np.array([0.0, state[i_pend]]), sig.resolution(pendulum))[1])
         vx = 0.8 * vx + 0.2 * (xq - prev_x) / h
         vth = 0.8 * vth + 0.2 * (thq - prev_th) / h
         prev_x, prev_th = xq, thq
@@ -175,5 +200,5 @@ def closed_loop_swing_up(model: PlantModel, duration: float = 10.0, gain_energy:
             break
         applied = np.round(u / lsb) * lsb + rng.normal(0.0, noise_v)
         seg = sim(np.array([t[k], t[k + 1]]), np.array([applied, applied]), x0=state)
-        state = np.array([seg[s][-1] for s in ("x", "dx", "theta", "dtheta")])
-    return {"t": t, "u": u_log, "x": x_log, "theta": th_log}
+        state = np.array([seg[s][-1] for s in sig.mechanical])
+    return {"t": t, sig.input: u_log, cart: x_log, pendulum: th_log}

@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
-from ..model.effects import CATALOGUE, CONFLICTS
 from ..model.plant import PlantModel
+from ..sim.signals import signals_of
 from .evidence import describe_candidate, residual_correlations
 from .fit import fit_parameters
 from .noise import NOISE_FACTOR, noise_ratio
@@ -88,55 +88,75 @@ class Diagnosis:
                 "tie": self.tie}
 
 
-def visible_parts(datasets: list, outputs=None) -> set:
-    """What the compared outputs of ``datasets`` can see: "cart", "pendulum", "x", "theta"."""
-    plan = plan_outputs(datasets, outputs)
+def visible_parts(datasets: list, outputs=None, model=None) -> set:
+    """What the compared outputs of ``datasets`` can see: the positions compared and the
+    bodies they belong to (for the cart-pendulum "cart", "pendulum", "x", "theta")."""
+    from ..model.experiments import DEFAULT_EXPERIMENT
+
+    plan = plan_outputs(datasets, outputs, model)
+    sig = signals_of(model)
     seen = set()
     for data, used in zip(datasets, plan.outputs):
         seen |= set(used)
-        if experiment_of(data) == "free":
-            seen |= {"cart", "pendulum"}    # coupled: each part moves the other
+        if experiment_of(data, model) == DEFAULT_EXPERIMENT:
+            seen |= {sig.body_of(p) for p in sig.positions}    # coupled: each part moves the other
         else:
-            seen |= {"pendulum"} if "theta" in used else {"cart"}
+            seen |= {sig.body_of(p) for p in used}
     return seen
+
+
+def _catalogue(model) -> dict:
+    return getattr(model, "catalogue", None) or {}
+
+
+def _conflicts(model) -> tuple:
+    return getattr(getattr(model, "rigid_body", None), "conflicts", ())
 
 
 def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=None) -> list:
     """Catalogue effects the model lacks and could take (no conflict, requirements met) and,
     given data, that the data could show (a sensor offset only where :func:`offset_blindness`
     finds physics that reveals it)."""
-    seen = visible_parts(datasets, outputs) if datasets else None
-    reach = _reach(datasets)
+    seen = visible_parts(datasets, outputs, model) if datasets else None
+    reach = _reach(datasets, model)
+    positions = signals_of(model).positions
     out = []
-    for name, cls in CATALOGUE.items():
+    for name, cls in _catalogue(model).items():
         if name in model.effects:
             continue
         if seen is not None and cls.acts_on not in seen:
             continue
         if name == "end_stops" and reach is not None and reach < NEAR_END * 0.375:
             continue
-        if any(name in (a, b) and (b if name == a else a) in model.effects for a, b, _ in CONFLICTS):
+        if any(name in (a, b) and (b if name == a else a) in model.effects for a, b, _ in _conflicts(model)):
             continue
         if any(not any(r in model.effects for r in alts) for alts in cls.requires):
             continue
-        if cls.acts_on in ("x", "theta") and datasets and offset_blindness(model, datasets, cls.acts_on, reach):
+        if cls.acts_on in positions and datasets and offset_blindness(model, datasets, cls.acts_on, reach):
             continue
         out.append(name)
     return out
 
 
-def _reach(datasets) -> float | None:
-    """The largest |x| the data read (None without data)."""
-    return max((float(np.max(np.abs(d.column("x")))) for d in datasets), default=0.0) if datasets else None
+def _reach(datasets, model) -> float | None:
+    """The largest |position| the data read of a translation (a position that does not wrap:
+    how near the cart comes to its end stops); None without data."""
+    if not datasets:
+        return None
+    sig = signals_of(model)
+    lines = [p for p in sig.positions if sig.period(p) is None]
+    return max((float(np.max(np.abs(d.column(p)))) for d in datasets for p in lines
+                if d.columns.get(p) is not None), default=0.0)
 
 
 def offset_notes(model: PlantModel, datasets: list, outputs=None) -> list:
     """One note per sensor-offset effect that is left untested because the data cannot show it."""
-    seen = visible_parts(datasets, outputs)
+    seen = visible_parts(datasets, outputs, model)
+    positions = signals_of(model).positions
     notes = []
-    for name, cls in CATALOGUE.items():
-        if cls.acts_on in ("x", "theta") and cls.acts_on in seen and name not in model.effects:
-            why = offset_blindness(model, datasets, cls.acts_on, _reach(datasets))
+    for name, cls in _catalogue(model).items():
+        if cls.acts_on in positions and cls.acts_on in seen and name not in model.effects:
+            why = offset_blindness(model, datasets, cls.acts_on, _reach(datasets, model))
             if why:
                 notes.append(f"{name} is not tested: {why}")
     return notes
@@ -144,7 +164,7 @@ def offset_notes(model: PlantModel, datasets: list, outputs=None) -> list:
 
 def _depends_on(model: PlantModel, experiment: str, state: int) -> bool:
     """Whether the dynamics of ``model`` in ``experiment`` involve the absolute value of
-    state ``state`` (0: x, 2: theta)."""
+    the state at index ``state`` of the state vector."""
     eq = model.for_experiment(experiment).equations
     used = set().union(*(e.free_symbols for _, e in eq.assignments), *(d.free_symbols for d in eq.derivatives))
     return eq.states[state] in used
@@ -155,36 +175,44 @@ def offset_blindness(model: PlantModel, datasets: list, output: str, reach: floa
 
     Shooting starts every segment from the measured state, so a constant offset of a
     sensor changes the residual only through physics that depends on the absolute
-    position: gravity for theta, end stops or a spring for x."""
-    state = 0 if output == "x" else 2
-    experiments = {experiment_of(d) for d in datasets}
+    position: gravity for an angle, end stops or a spring for the cart's position."""
+    sig = signals_of(model)
+    state = sig.index(output)
+    translation = sig.period(output) is None
+    experiments = {experiment_of(d, model) for d in datasets}
     if any(_depends_on(model, e, state) for e in experiments):
-        if output == "x" and "end_stops" in model.effects and reach is not None and \
-                not any(_depends_on(model.without_effect("end_stops"), e, 0) for e in experiments):
+        if translation and "end_stops" in model.effects and reach is not None and \
+                not any(_depends_on(model.without_effect("end_stops"), e, state) for e in experiments):
             x_end = model.effects["end_stops"].get("x_end", 0.375)
             if reach < NEAR_END * x_end:
                 return (f"the cart never comes near the end stops (|x| <= {reach:.3g} m, stops at {x_end:g} m), "
                         "the only place where the model depends on its absolute position; a run into the end "
                         "stops would show an offset of the position sensor")
         return ""
-    if output == "x":
-        return ("nothing in the model depends on where the cart is on the track (no end stops, no spring), so an "
+    if translation:
+        return (f"nothing in the model depends on where the {sig.body_of(output)} is on the track (no end stops, no spring), so an "
                 "offset of the position sensor changes no residual: it is not identifiable from these data; a "
                 "run into the end stops with end_stops in the model would show it")
     return ("nothing in the model depends on the absolute angle in these experiments, so an offset of the angle "
-            "sensor changes no residual; a swing of the pendulum would show it")
+            f"sensor changes no residual; a swing of the {sig.body_of(output)} would show it")
 
 
-def free_parameters(effect: str) -> list:
-    """The parameters a fit of ``effect`` moves (optional ones keep their defaults)."""
-    return [p.name for p in CATALOGUE[effect].params if not p.optional]
+def free_parameters(effect: str, model=None) -> list:
+    """The parameters a fit of ``effect`` moves (optional ones keep their defaults), from the
+    catalogue of ``model``'s body (the cart-pendulum's without a model)."""
+    from ..model.effects import CATALOGUE
+
+    catalogue = _catalogue(model) if model is not None else CATALOGUE
+    if effect not in catalogue:
+        raise PendcError(f"unknown effect '{effect}' (the catalogue has: {', '.join(catalogue)})")
+    return [p.name for p in catalogue[effect].params if not p.optional]
 
 
 def _test_candidate(args) -> Candidate:
     model, datasets, effect, dt, segment, outputs = args
     started = time.perf_counter()
     trial = model.with_effect(effect)
-    free = free_parameters(effect)
+    free = free_parameters(effect, model)
     fit = fit_parameters(trial, datasets, free, dt=dt, segment=segment, subset="even", outputs=outputs)
     held = ShootingProblem(fit.model, datasets, free, dt=dt, segment=segment, subset="odd", outputs=outputs)
     base = ShootingProblem(model, datasets, [], dt=dt, segment=segment, subset="odd", outputs=outputs)
@@ -230,9 +258,10 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     ``progress(done, total, name)`` is called after each candidate."""
     names, skipped = candidate_effects(model, datasets, outputs), offset_notes(model, datasets, outputs)
     if effects is not None:
-        unknown = [e for e in effects if e not in CATALOGUE]
+        catalogue = _catalogue(model)
+        unknown = [e for e in effects if e not in catalogue]
         if unknown:
-            raise PendcError(f"unknown effect(s) {', '.join(unknown)} (the catalogue has: {', '.join(CATALOGUE)})")
+            raise PendcError(f"unknown effect(s) {', '.join(unknown)} (the catalogue has: {', '.join(catalogue)})")
         names = [n for n in names if n in effects]
         skipped = [n for n in skipped if n.split(" ", 1)[0] in effects]
     jobs = [(model, datasets, name, dt, segment, outputs) for name in names]

@@ -1,104 +1,154 @@
-"""Equation-error evidence: the force and torque the model leaves unexplained, in words.
+"""Equation-error evidence: the acceleration the model leaves unexplained, in words.
 
-Positions are smoothed and differentiated (Savitzky-Golay, ~51 ms, cubic) to get
-velocities and accelerations; the Euler-Lagrange left-hand sides then give the
-generalized force on the cart and torque at the pivot that the data *needed*, and
-the model's own force/torque at the measured states is subtracted. What remains is
-the residual a missing effect has to supply. Samples where the cart is nearly at
-rest are left out of cart-force statistics: there the model's friction is a sticking
-rule that a measured (never exactly zero) velocity cannot exercise. A held cart has no
-cart-force statistics, a removed pendulum no pivot torque (and no pendulum mass).
+Positions are smoothed and differentiated (Savitzky-Golay, ~51 ms, cubic:
+:func:`pendc.ident.smoothing.velocity_and_acceleration`) to get velocities and
+accelerations; the model's own accelerations at the measured states and input are
+subtracted. What remains, per coordinate of the plant (for the cart-pendulum the cart's and
+the pendulum's), is the residual a missing effect has to supply. The coordinates, their
+rates and which of them are angles come from the plant interface, the accelerations from
+the model's state equations, so the same code reads any plant.
+
+Samples where a translation is nearly at rest (below ``MOVING`` of its rate's unit) are
+left out of its statistics: there the model's friction is a sticking rule that a measured
+(never exactly zero) velocity cannot exercise. A coordinate the experiment holds (a
+clamped cart, a removed pendulum) has no statistics.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import sympy as sp
-from scipy.signal import savgol_filter
 
 from ..model.plant import PlantModel
+from ..sim.experiment_axes import irrelevant_axes
+from ..sim.signals import signals_of
 from .outputs import experiment_of
+from .smoothing import velocity_and_acceleration
 
-WINDOW = 0.051
-MOVING = 0.005   # m/s
+MOVING = {"m/s": 0.005}   # per rate unit: below this a translation counts as standing (sticking friction)
 MIN_SAMPLES = 20  # fewer samples than this give no correlation worth reporting
-# wavelengths (m) of the position-periodic forces looked for: rail ripple, screw pitch, cogging
+# wavelengths (m) of the position-periodic forces looked for along a translation: rail
+# ripple, screw pitch, cogging
 WAVELENGTHS = (0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.12, 0.2)
 
 
-def _derivatives(t, y):
-    h = float(np.median(np.diff(t)))
-    n = max(7, int(round(WINDOW / h)) | 1)
-    if len(y) <= n:
-        return np.gradient(y, t), np.gradient(np.gradient(y, t), t)
-    return savgol_filter(y, n, 3, deriv=1, delta=h), savgol_filter(y, n, 3, deriv=2, delta=h)
+def acceleration_name(rate: str) -> str:
+    """The name of a rate's derivative (``dx`` -> ``ddx``), as the equations name it."""
+    return f"d{rate}"
 
 
-def signals(data) -> dict:
-    """Positions, their smoothed derivatives, the input and the experiment of ``data``."""
+def signals(data, model: PlantModel | None = None) -> dict:
+    """Positions, their smoothed rates and accelerations, the input and the experiment of
+    ``data`` (keys: the plant's state names, ``d<rate>`` for accelerations, the input's name,
+    ``t`` and ``experiment``). A position the experiment holds has zero rate and acceleration."""
+    sig = signals_of(getattr(data, "signals", None) if model is None else model)
     t = np.asarray(data.t, float)
-    x, th = np.asarray(data.column("x"), float), np.asarray(data.column("theta"), float)
-    dx, ddx = _derivatives(t, x)
-    dth, ddth = _derivatives(t, th)
-    exp = experiment_of(data)
-    if exp == "cart_held":
-        dx, ddx = np.zeros_like(x), np.zeros_like(x)
-    elif exp == "pendulum_removed":
-        dth, ddth = np.zeros_like(th), np.zeros_like(th)
-    return {"t": t, "u": np.asarray(data.u, float), "x": x, "dx": dx, "ddx": ddx, "theta": th, "dtheta": dth,
-            "ddtheta": ddth, "experiment": exp}
+    exp = experiment_of(data, model)
+    held = irrelevant_axes(model, exp)
+    out = {"t": t, sig.input: np.asarray(data.u, float), "experiment": exp}
+    for p in sig.positions:
+        y = np.asarray(data.column(p), float)
+        rate = sig.rate(p)
+        v, a = velocity_and_acceleration(t, y)
+        if p in held:
+            v, a = np.zeros_like(y), np.zeros_like(y)
+        out[p] = y
+        if rate is not None:
+            out[rate], out[acceleration_name(rate)] = v, a
+    return out
 
 
-def _numeric(model: PlantModel, name: str):
-    """numpy function of (x, dx, theta, dtheta, u) for an assignment of the model (a lag's
-    state takes the value of F_in: the force it would settle to).
+def _numeric(model: PlantModel, names: tuple):
+    """numpy function of the measured signals (keyword arguments by state and input name)
+    giving the model's values of ``names`` (assignments or state derivatives ``d<rate>``).
 
     The assignments are evaluated one after another, each lambdified on its own: inlined
     into one expression, a force limit or dead zone ends up inside the sticking rule's
-    condition, and sympy's printer then simplifies that logic for seconds per call."""
+    condition, and sympy's printer then simplifies that logic for seconds per call. A lag
+    state takes its settled value (its initial value for the present input)."""
     eq = model.equations
-    target = next((s for s, _ in eq.assignments if s.name == name), None)
-    if target is None:
-        return lambda **kw: np.zeros_like(kw["x"])
+    sig = signals_of(model)
     values = dict(zip(eq.params, (float(v) for v in model.parameter_vector())))
     offsets = {n: float(sp.sympify(e).subs(values)) for n, e in eq.sensor_offsets}
-    x, dx, theta, dtheta = eq.states[:4]
-    lag = eq.states[4:]
-    steps = []
-    for sym, expr in eq.assignments:
+    nm = len(eq.states) - len(eq.initial)
+    derivative = {acceleration_name(s.name): sp.sympify(d) for s, d in zip(eq.states, eq.derivatives)}
+
+    def compiled(expr):
         args = sorted(expr.free_symbols, key=lambda s: s.name)
-        steps.append((sym, args, sp.lambdify(args, expr, "numpy")))
-        if sym == target:
-            break
+        return args, sp.lambdify(args, expr, "numpy")
+
+    lags = {state: compiled(sp.sympify(init)) for state, init in zip(eq.states[nm:], eq.initial)}
+    steps = [(sym, *compiled(expr)) for sym, expr in eq.assignments]
+    steps += [(sp.Symbol(f"__out_{n}"), *compiled(derivative[n])) for n in names if n in derivative]
 
     def evaluate(**kw):
-        shape = np.shape(kw["x"])
-        # the data are sensor readings: the true position is the reading minus the offset
-        env = {**values, x: kw["x"] - offsets.get("x", 0.0), dx: kw["dx"],
-               theta: kw["theta"] - offsets.get("theta", 0.0), dtheta: kw["dtheta"], eq.input: kw["u"]}
+        shape = np.shape(kw[sig.input])
+        env = dict(values)
+        for s in eq.states[:nm]:
+            # the data are sensor readings: the true position is the reading minus the offset
+            env[s] = np.asarray(kw.get(s.name, np.zeros(shape)), float) - offsets.get(s.name, 0.0)
+        env[eq.input] = kw[sig.input]
+
+        def value(args, fn):
+            for a in args:
+                if a not in env and a in lags:     # a lag state: the value it settles to
+                    env[a] = value(*lags[a])
+            return np.broadcast_to(np.asarray(fn(*(env[a] for a in args)), float), shape)
+
         with np.errstate(all="ignore"):
             for sym, args, fn in steps:
-                env[sym] = np.broadcast_to(np.asarray(fn(*(env[a] for a in args)), float), shape)
-                if sym.name == "F_in":
-                    env.update(dict.fromkeys(lag, env[sym]))
-        return np.array(env[target], dtype=float)
+                env[sym] = value(args, fn)
+        out = {}
+        for n in names:
+            key = sp.Symbol(f"__out_{n}") if n in derivative else next((s for s, _ in eq.assignments if s.name == n),
+                                                                         None)
+            out[n] = np.array(env[key], dtype=float) if key is not None else np.zeros(shape)
+        return out
     return evaluate
 
 
-def residuals(model: PlantModel, sig: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(cart force, pivot torque) the data need beyond what ``model`` supplies."""
-    p = model.plant
-    M, m, L, I, g = p["M"], p["m"], p["L"], p["I"], p["g"]
-    exp = sig.get("experiment", "free")
-    model = model.for_experiment(exp)
-    if exp == "pendulum_removed":
-        m = 0.0
-    off = dict((n, model.parameter_values()[e.name]) for n, e in model.equations.sensor_offsets)
-    th, dth = sig["theta"] - off.get("theta", 0.0), sig["dtheta"]
-    need_x = (M + m) * sig["ddx"] - m * L * np.cos(th) * sig["ddtheta"] + m * L * dth**2 * np.sin(th)
-    need_t = (m * L**2 + I) * sig["ddtheta"] - m * L * np.cos(th) * sig["ddx"] + m * g * L * np.sin(th)
-    kw = {k: sig[k] for k in ("x", "dx", "theta", "dtheta", "u")}
-    return need_x - _numeric(model, "F_cart")(**kw), need_t - _numeric(model, "tau_pend")(**kw)
+def _coordinates(model: PlantModel) -> list:
+    """``(position, rate, acceleration name)`` of every coordinate with a rate."""
+    sig = signals_of(model)
+    return [(p, sig.rate(p), acceleration_name(sig.rate(p))) for p in sig.positions if sig.rate(p) is not None]
+
+
+def target_name(model: PlantModel, position: str) -> str:
+    """How a report names a coordinate's residual: "cart acceleration", "pendulum acceleration"."""
+    return f"{signals_of(model).body_of(position)} acceleration"
+
+
+def residuals(model: PlantModel, sig: dict) -> dict:
+    """Per coordinate (by position name), the acceleration the data need beyond what ``model``
+    gives at the measured states and input (``model`` set to the data's experiment)."""
+    model = model.for_experiment(sig.get("experiment", model.experiment))
+    coords = _coordinates(model)
+    kw = _kwargs(model, sig)
+    own = _numeric(model, tuple(a for _, _, a in coords))(**kw)
+    return {p: sig[a] - own[a] for p, _, a in coords}
+
+
+def _kwargs(model, sig: dict) -> dict:
+    s = signals_of(model)
+    return {k: sig[k] for k in (*s.mechanical, s.input) if k in sig}
+
+
+def _usable(model: PlantModel, sig: dict) -> dict:
+    """Per coordinate, the samples its statistics may use (None: the coordinate is held)."""
+    s = signals_of(model)
+    held = irrelevant_axes(model, sig["experiment"])
+    out = {}
+    for p, rate, _ in _coordinates(model):
+        if p in held:
+            continue
+        threshold = MOVING.get(s.unit(rate))
+        if threshold is None:
+            out[p] = slice(None)
+            continue
+        moving = np.abs(sig[rate]) > threshold
+        if np.count_nonzero(moving) >= MIN_SAMPLES:
+            out[p] = moving
+    return out
 
 
 def _corr(a, b) -> float:
@@ -127,6 +177,12 @@ SENTENCES = {
     "theta_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
     "x_offset": "the cart's forces look shifted along the track: an offset of the position sensor",
     "end_stops": "the cart is pushed back hard near the ends of the track: end stops",
+    "viscous_arm": "the residual torque on the arm is proportional to -dphi_r: viscous damping of the arm",
+    "coulomb_arm": "the residual torque on the arm follows -sgn(dphi_r): dry friction in the motor and arm",
+    "viscous_pivot": "the residual torque at the hinge is proportional to -dalpha_p: viscous damping of the swing",
+    "coulomb_pivot": "the residual torque at the hinge follows -sgn(dalpha_p): dry friction in the hinge",
+    "voltage_limit": "the arm stops answering larger inputs: the amplifier saturates",
+    "alpha_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
 }
 
 
@@ -142,47 +198,62 @@ def describe_candidate(base: PlantModel, fitted: PlantModel, effect: str, datase
 
 
 def _contribution_correlation(base, fitted, datasets):
+    """Correlation of what the effect adds with the residual, on the coordinate where its
+    contribution is largest against the residual's own spread."""
     rs = []
     for data in datasets:
-        sig = signals(data)
-        rx, rt = residuals(base, sig)
-        kw = {k: sig[k] for k in ("x", "dx", "theta", "dtheta", "u")}
-        cx = _numeric(fitted, "F_cart")(**kw) - _numeric(base, "F_cart")(**kw)
-        ct = _numeric(fitted, "tau_pend")(**kw) - _numeric(base, "tau_pend")(**kw)
-        moving = np.abs(sig["dx"]) > MOVING
-        cart_ok = sig["experiment"] != "cart_held" and np.count_nonzero(moving) >= MIN_SAMPLES
-        pend_ok = sig["experiment"] != "pendulum_removed"
-        spread_x = float(np.std(cx[moving])) if cart_ok else 0.0
-        if pend_ok and np.std(ct) > 0 and np.std(ct) * 50 > spread_x * base.plant["L"]:
-            rs.append(_corr(rt, ct))
-        elif cart_ok and spread_x > 0:
-            rs.append(_corr(rx[moving], cx[moving]))
+        sig = signals(data, base)
+        exp_base, exp_fit = base.for_experiment(sig["experiment"]), fitted.for_experiment(sig["experiment"])
+        coords = _coordinates(base)
+        res = residuals(base, sig)
+        names = tuple(a for _, _, a in coords)
+        kw = _kwargs(base, sig)
+        with_effect, without = _numeric(exp_fit, names)(**kw), _numeric(exp_base, names)(**kw)
+        best, share = None, 0.0
+        for p, keep in _usable(base, sig).items():
+            a = acceleration_name(signals_of(base).rate(p))
+            added = (with_effect[a] - without[a])[keep]
+            spread = float(np.std(res[p][keep]))
+            size = float(np.std(added)) / spread if spread > 0 else 0.0
+            if size > share:
+                best, share = (p, added, keep), size
+        if best is not None:
+            p, added, keep = best
+            rs.append(_corr(res[p][keep], added))
     return float(np.mean(rs)) if rs else None
 
 
+def _basis(model: PlantModel, sig: dict) -> dict:
+    """Simple signals a missing force may follow: each position (and sin/cos of an angle),
+    each rate, its sign and its square with sign, the input about its centre, and
+    position-periodic forces along each translation."""
+    s = signals_of(model)
+    centre = float(model.parameter_values().get("V_off", 0.0))
+    basis = {}
+    for p in s.positions:
+        basis[p] = sig[p]
+        if s.period(p) is not None:
+            basis[f"sin({p})"], basis[f"cos({p})"] = np.sin(sig[p]), np.cos(sig[p])
+        rate = s.rate(p)
+        if rate is not None:
+            v = sig[rate]
+            basis[rate], basis[f"sgn({rate})"], basis[f"{rate}*|{rate}|"] = v, np.sign(v), v * np.abs(v)
+    basis[f"{s.input} - V_off" if "V_off" in model.parameter_names() else s.input] = sig[s.input] - centre
+    for p in [p for p in s.positions if s.period(p) is None]:
+        for lam in WAVELENGTHS:   # position-periodic forces (ripple, cogging) show only against the position
+            basis[f"sin(2 pi {p}/{lam:g})"] = np.sin(2 * np.pi * sig[p] / lam)
+            basis[f"cos(2 pi {p}/{lam:g})"] = np.cos(2 * np.pi * sig[p] / lam)
+    return basis
+
+
 def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> list:
-    """What the unexplained force and torque correlate with, strongest first."""
+    """What the unexplained accelerations correlate with, strongest first."""
     rows = []
     for data in datasets:
-        sig = signals(data)
-        rx, rt = residuals(model, sig)
-        v_off = model.effects.get("drive", {}).get("V_off", 5.0)
-        x = sig["x"]
-        basis = {
-            "x": x, "dx": sig["dx"], "sgn(dx)": np.sign(sig["dx"]), "dx*|dx|": sig["dx"] * np.abs(sig["dx"]),
-            "theta": sig["theta"], "sin(theta)": np.sin(sig["theta"]), "cos(theta)": np.cos(sig["theta"]),
-            "dtheta": sig["dtheta"], "sgn(dtheta)": np.sign(sig["dtheta"]),
-            "dtheta*|dtheta|": sig["dtheta"] * np.abs(sig["dtheta"]), "u - V_off": sig["u"] - v_off,
-        }
-        for lam in WAVELENGTHS:   # position-periodic forces (ripple, cogging) show only against x
-            basis[f"sin(2 pi x/{lam:g})"] = np.sin(2 * np.pi * x / lam)
-            basis[f"cos(2 pi x/{lam:g})"] = np.cos(2 * np.pi * x / lam)
-        moving = np.abs(sig["dx"]) > MOVING
-        targets = []
-        if sig["experiment"] != "cart_held" and np.count_nonzero(moving) >= MIN_SAMPLES:
-            targets.append(("cart force", rx[moving], moving))
-        if sig["experiment"] != "pendulum_removed":
-            targets.append(("pivot torque", rt, slice(None)))
+        sig = signals(data, model)
+        res = residuals(model, sig)
+        basis = _basis(model, sig)
+        targets = [(target_name(model, p), res[p][keep], keep) for p, keep in _usable(model, sig).items()]
         for name, b in basis.items():
             for target, r, keep in targets:
                 rows.append({"signal": name, "target": target, "r": _corr(r, b[keep]), "file": data.source})
@@ -190,16 +261,32 @@ def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> li
     return rows[:top]
 
 
-# What a strong correlation of the unexplained force/torque points at among the constants
-# the model already has (rather than a missing effect): which ones to free.
-PLANT_HINTS = {
-    ("pivot torque", "sin(theta)"): ("I", "the swing's period is off (free I, or L)"),
-    ("pivot torque", "theta"): ("I", "the swing's period is off (free I, or L)"),
-    ("pivot torque", "dtheta"): ("b_theta", "the pivot damping is off"),
-    ("cart force", "u - V_off"): ("alpha,V_off", "the drive gain or offset is off"),
-    ("cart force", "dx"): ("b_x", "the viscous friction of the cart is off"),
-}
+# What a strong correlation of the unexplained acceleration points at among the constants
+# the model already has (rather than a missing effect): which ones to free. Keys: the body
+# whose acceleration is off and what it follows ("angle": the angle or its sine, "rate":
+# the body's own rate, "input": the input about its centre); a hint applies only to a model
+# that has every parameter it names.
+PLANT_HINTS = (
+    ("pendulum", "angle", "I", "the swing's period is off (free I, or L)"),
+    ("pendulum", "rate", "b_theta", "the pivot damping is off"),
+    ("cart", "input", "alpha,V_off", "the drive gain or offset is off"),
+    ("cart", "rate", "b_x", "the viscous friction of the cart is off"),
+    ("pendulum", "rate", "D_p", "the hinge damping is off"),
+    ("arm", "rate", "D_r", "the arm's damping is off"),
+    ("arm", "input", "k_t", "the motor's torque constant is off"),
+)
 HINT_R = 0.4
+
+
+def _signal_kind(model: PlantModel, body: str, signal: str) -> str | None:
+    """What ``signal`` is for ``body``: "angle", "rate" (of the body's own position), "input"."""
+    s = signals_of(model)
+    for p in [p for p in s.positions if s.body_of(p) == body]:
+        if s.period(p) is not None and signal in (p, f"sin({p})"):
+            return "angle"
+        if signal == s.rate(p):
+            return "rate"
+    return "input" if signal.split(" ", 1)[0] == s.input else None
 
 
 def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
@@ -210,8 +297,10 @@ def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
     for row in correlations:
         if abs(row["r"]) < HINT_R:
             break
-        hint = PLANT_HINTS.get((row["target"], row["signal"]))
-        if hint and all(p in names for p in hint[0].split(",")):
-            params.update(dict.fromkeys(hint[0].split(",")))
-            reasons[hint[1]] = None
+        body = row["target"].rsplit(" ", 1)[0]
+        kind = _signal_kind(model, body, row["signal"])
+        for hint_body, hint_kind, hint_params, reason in PLANT_HINTS:
+            if (hint_body, hint_kind) == (body, kind) and all(p in names for p in hint_params.split(",")):
+                params.update(dict.fromkeys(hint_params.split(",")))
+                reasons[reason] = None
     return (",".join(params), "; ".join(reasons)) if params else None

@@ -33,14 +33,16 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
     for rec in problem.records:
         sim = problem.sims[rec.experiment]
         p = sim.param_vector
-        s0 = sim.true_state(np.array([rec.x[0], rec.dx[0], rec.theta[0], rec.dtheta[0]]), p)
+        s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0), p)
         states, valid = sim.raw(rec.t, rec.u, s0, p)
         off = sim.offset_values(p)
         fit, extra = {}, {}
-        for o, col in (("x", 0), ("theta", 2)):
+        periodic = [o for o in rec.outputs if sim.signals.period(o) is not None]
+        for o in sim.signals.positions:
             if o not in rec.outputs:
                 continue
-            y = {"x": rec.x, "theta": rec.theta}[o]
+            col = sim.signals.index(o)
+            y = rec.positions[o]
             if valid < rec.t.size:
                 fit[o] = float("-inf")
                 continue
@@ -48,7 +50,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             fit[o] = _fit(err, y)
             num[o] = num.get(o, 0.0) + float(err @ err)
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))
-            if o == "theta":
+            if periodic and o == periodic[-1]:       # the pendulum's angle: the last periodic position
                 wrapped = np.angle(np.exp(1j * err))
                 extra["wrapped_theta_rms"] = float(np.sqrt(np.mean(wrapped ** 2)))
                 wrapped_sq, wrapped_n = wrapped_sq + float(wrapped @ wrapped), wrapped_n + wrapped.size

@@ -19,12 +19,12 @@ import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
 from ..errors import PendcError
-from ..model.effects import CATALOGUE
 from ..model.plant import PlantModel
 from .shooting import ShootingProblem
 
 # Physical ranges of the rigid-body constants when a fit frees them (``--free I,L,m``):
 # wide enough for any bench pendulum and cart, narrow enough to keep the optimiser sane.
+RIGID_SPAN = 10.0           # a rigid-body constant without bounds below is fitted within this factor of its value
 PLANT_BOUNDS = {
     "g": (9.7, 9.9),
     "M": (0.05, 1e4),       # virtual mass: motor and spindle inertia make it large
@@ -65,10 +65,13 @@ class FitResult:
 def parameter_bounds(model: PlantModel, name: str) -> tuple[float, float]:
     """Physical range of parameter ``name``: the catalogue's, or :data:`PLANT_BOUNDS`."""
     for effect in model.effects:
-        for p in CATALOGUE[effect].params:
+        for p in model.catalogue[effect].params:
             if p.name == name:
                 return p.lo, p.hi
-    return PLANT_BOUNDS[name]
+    if name in PLANT_BOUNDS:
+        return PLANT_BOUNDS[name]
+    value = abs(float(model.plant[name]))      # another body's constant: within a decade of its value
+    return value / RIGID_SPAN, value * RIGID_SPAN
 
 
 class _Transform:
@@ -88,7 +91,7 @@ class _Transform:
     @staticmethod
     def _typical(model, name):
         for effect in model.effects:
-            for p in CATALOGUE[effect].params:
+            for p in model.catalogue[effect].params:
                 if p.name == name:
                     return max(abs(p.default), (p.hi - p.lo) * 1e-2, 1e-6)
         return model.plant[name]   # a rigid-body constant: its own size

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sim.encoders import THETA_COUNT, X_COUNT
+from ..sim.signals import signals_of
 
 SENSITIVITY = 0.10   # a twin run one count apart may differ by this fraction of the data's spread (rms)
-COUNT = {"x": X_COUNT, "theta": THETA_COUNT}
 FREE_RUN, HORIZON = "free_run", "horizon"
 
 
@@ -52,17 +51,28 @@ def horizon_label(horizon: float) -> str:
     return f"{horizon:g} s horizon fit"
 
 
-def twin_fit(simulate, x0, measured: dict) -> dict:
+def count_step(signals) -> np.ndarray:
+    """One encoder count on every position a sensor reads, zero elsewhere, as a state vector."""
+    sig = signals_of(signals)
+    step = np.zeros(len(sig.mechanical))
+    for p in sig.positions:
+        step[sig.index(p)] = sig.resolution(p) or 0.0
+    return step
+
+
+def twin_fit(simulate, x0, measured: dict, signals=None) -> dict:
     """fit% of the model's free run started one encoder count away (up and down, both
     positions at once) against the run from ``x0``, per output; the worse direction counts.
 
     ``simulate(x0)`` returns ``{output: array}``; ``measured`` holds the data of each
     output, whose spread normalises the difference as fit% does. NaN for a constant output.
+    ``signals``: the plant's (default: the default model's), whose encoders give the count.
     """
     base = simulate(np.asarray(x0, dtype=np.float64))
     out = {k: 100.0 for k in measured}
+    step = count_step(signals)
     for sign in (1.0, -1.0):
-        moved = np.asarray(x0, dtype=np.float64) + sign * np.array([X_COUNT, 0.0, THETA_COUNT, 0.0])
+        moved = np.asarray(x0, dtype=np.float64) + sign * step
         twin = simulate(moved)
         for k, y in measured.items():
             spread = float(np.linalg.norm(y - np.mean(y)))

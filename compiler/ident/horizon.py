@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import PendcError
 from ..sim.simulator import Simulator
-from .shooting import HISTORY, estimate_velocities
+from .shooting import HISTORY, measured_motion  # noqa: F401 (measured_motion re-exported)
 
 DEFAULT_HORIZON = 0.5   # s: the segment length diagnose and fit use
 
@@ -57,12 +57,13 @@ class HorizonRun:
         return np.concatenate(tt), np.concatenate(yy)
 
 
-def horizon_run(model, data, outputs=("x", "theta"), horizon: float = DEFAULT_HORIZON, dt: float = 1e-4,
+def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt: float = 1e-4,
                 method: str = "rk4") -> HorizonRun:
     """Simulate ``data`` with restarts from the measured state every ``horizon`` s.
 
     ``model`` is a PlantModel (already set to the data's experiment); ``outputs`` the
-    positions to compare. Raises PendcError when a segment diverges (a non-finite state).
+    positions to compare (default: all of the plant's). Raises PendcError when a segment
+    diverges (a non-finite state).
     """
     if not horizon > 0:
         raise PendcError(f"the horizon must be positive, got {horizon:g} s")
@@ -70,50 +71,30 @@ def horizon_run(model, data, outputs=("x", "theta"), horizon: float = DEFAULT_HO
     u = np.asarray(data.u, dtype=np.float64)
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
-    measured, velocity = measured_motion(data)
+    measured, velocity = measured_motion(data, model)
     sim = Simulator(model, dt=dt, method=method)
+    positions = sim.signals.positions
+    outputs = positions if outputs is None else tuple(outputs)
     p = sim.param_vector
-    offset = sim.offset_values(p) if hasattr(sim, "offset_values") else {"x": 0.0, "theta": 0.0}
+    offset = sim.offset_values(p)
     h = float(np.median(np.diff(t)))
     step = max(2, int(round(horizon / h)))
     history = int(np.ceil(HISTORY / h))
-    predicted = {k: np.full(len(t), np.nan) for k in ("x", "theta")}
+    predicted = {k: np.full(len(t), np.nan) for k in positions}
     # as shooting does: a tail shorter than two samples is no segment
     starts = tuple(a for a in range(0, len(t) - 1, step) if min(a + step, len(t) - 1) - a >= 2)
     for a in starts:
         b = min(a + step, len(t) - 1)
-        s0 = np.array([measured["x"][a] - offset["x"], velocity["x"][a],
-                       measured["theta"][a] - offset["theta"], velocity["theta"][a]])
+        s0 = sim.true_state(sim.initial_vector(measured, velocity, a), p)
         h0 = max(0, a - history)
         states, valid = sim.raw(t[h0:b + 1], u[h0:b + 1], s0, p, a - h0)
         if valid < b + 1 - h0:
             raise PendcError(f"{data.source}: the simulation diverged in the horizon segment at t = {t[a]:.6g} s")
-        for i, k in ((0, "x"), (2, "theta")):
-            predicted[k][a + 1:b + 1] = states[a - h0 + 1:, i] + offset[k]
+        for k in positions:
+            predicted[k][a + 1:b + 1] = states[a - h0 + 1:, sim.signals.index(k)] + offset[k]
     fit = {k: _segment_fit(measured[k], predicted[k]) for k in outputs}
     return HorizonRun(horizon=float(horizon), t=t, outputs={k: predicted[k] for k in outputs}, starts=starts,
                       restarts={k: measured[k][list(starts)] for k in outputs}, fit=fit)
-
-
-def measured_motion(data) -> tuple[dict, dict]:
-    """``({"x": positions, "theta": ...}, {"x": velocities, "theta": ...})`` of a run: the
-    velocities from the data's ``dx``/``dtheta`` columns, else the Savitzky-Golay derivative
-    that :mod:`pendc.ident.shooting` uses, so every simulation that starts from the data
-    (free run, horizon segments, diagnose, fit) starts from the same state."""
-    t = np.asarray(data.t, dtype=np.float64)
-    measured = {k: _position(data, k, len(t)) for k in ("x", "theta")}
-    velocity = {}
-    for pos, vel in (("x", "dx"), ("theta", "dtheta")):
-        column = data.columns.get(vel)
-        velocity[pos] = (np.asarray(column, dtype=np.float64) if column is not None
-                         else estimate_velocities(t, measured[pos]))
-    return measured, velocity
-
-
-def _position(data, name: str, n: int) -> np.ndarray:
-    """The measured position, or zeros for an axis the file does not have (a held cart)."""
-    column = data.columns.get(name)
-    return np.zeros(n) if column is None else np.asarray(data.column(name), dtype=np.float64)
 
 
 def _segment_fit(y, yhat) -> float:

@@ -36,8 +36,7 @@ class SyntheticRun:
     experiment: str
     missing: tuple = ()
     resolution: dict = None
-    dx = None
-    dtheta = None
+    signals: object = None   # the plant's signals (no rate columns: velocities are estimated)
 
     def column(self, name: str) -> np.ndarray:
         """The column ``name``."""
@@ -53,16 +52,16 @@ def noise_run(model: PlantModel, problem: ShootingProblem, index: int, seed: int
     (None if the free run leaves the finite range)."""
     rec = problem.records[index]
     sim = Simulator(model.for_experiment(rec.experiment), dt=problem.sim.dt, method=problem.sim.method)
-    s0 = sim.true_state(np.array([rec.x[0], rec.dx[0], rec.theta[0], rec.dtheta[0]]))
+    s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0))
     out, valid = sim.raw(rec.t, degrade_input(rec.u, seed=seed), s0, sim.param_vector)
     if valid < rec.t.size:
         return None
     off = sim.offset_values(sim.param_vector)
-    cols = {"x": out[:, 0] + off["x"], "theta": out[:, 2] + off["theta"]}
+    cols = {k: out[:, sim.signals.index(k)] + off[k] for k in sim.signals.positions}
     res = problem.resolution
     cols = {k: _quantise(v, res.get(k, 1e-12)) for k, v in cols.items()}
     return SyntheticRun(t=rec.t, u=rec.u, columns=cols, source=f"noise-only run of {rec.source}",
-                        experiment=rec.experiment, resolution=dict(res))
+                        experiment=rec.experiment, resolution=dict(res), signals=sim.signals)
 
 
 def _mean_squares(problem: ShootingProblem) -> dict:

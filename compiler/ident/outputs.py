@@ -16,22 +16,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
-from ..model.experiments import DEFAULT_EXPERIMENT, EXPERIMENTS
-from ..sim.encoders import THETA_COUNT, X_COUNT
+from ..model.experiments import DEFAULT_EXPERIMENT
+from ..sim.experiment_axes import experiments_of, irrelevant_axes
+from ..sim.signals import signals_of
 
-POSITIONS = ("x", "theta")
-DEFAULT_RESOLUTION = {"x": X_COUNT, "theta": THETA_COUNT}
+FINEST = 1e-12      # the resolution of a position no sensor reads and the data do not show
 HELD_COUNTS = 2.0   # an output that never moves more than this many resolution steps is held
 
 
-def experiment_of(data) -> str:
+def experiment_of(data, model=None) -> str:
     """The experiment a measurement declares (``free`` when it says nothing): its
-    ``experiment`` attribute, else a ``# experiment: NAME`` metadata line."""
+    ``experiment`` attribute, else a ``# experiment: NAME`` metadata line; it must be one of
+    ``model``'s body (the cart-pendulum's without a model)."""
     meta = getattr(data, "meta", None) or {}
     name = getattr(data, "experiment", None) or meta.get("experiment") or DEFAULT_EXPERIMENT
-    if name not in EXPERIMENTS:
+    known = experiments_of(model)
+    if name not in known and name not in experiments_of(None):
         raise PendcError(f"{getattr(data, 'source', '<data>')}: unknown experiment '{name}' "
-                         f"(known: {', '.join(EXPERIMENTS)})")
+                         f"(known: {', '.join(known)})")
     return name
 
 
@@ -45,9 +47,15 @@ def _looks_quantised(y: np.ndarray, step: float) -> bool:
     return float(np.mean(np.abs(k - np.round(k)) < 0.05)) > 0.9
 
 
+def signals_for(data):
+    """The plant signals a measurement was read for (the default model's for other objects)."""
+    return signals_of(getattr(data, "signals", None))
+
+
 def resolution_of(data, name: str) -> float:
     """Measurement resolution of column ``name``: as the file or user gives it, else the
-    quantisation step the data show, else the SCT's x4 encoder count."""
+    quantisation step the data show, else one count of the plant's encoder on it (the SCT's
+    x4 count for its positions)."""
     given = (getattr(data, "resolution", None) or {}).get(name)
     if given is not None and np.isfinite(given) and given > 0:
         return float(given)
@@ -58,7 +66,7 @@ def resolution_of(data, name: str) -> float:
         step = float(np.min(d))
         if step > 0 and _looks_quantised(y, step):
             return max(step, 1e-12)
-    return DEFAULT_RESOLUTION[name]
+    return signals_for(data).resolution(name) or FINEST
 
 
 @dataclass(frozen=True)
@@ -71,36 +79,38 @@ class OutputPlan:
     notes: tuple
 
 
-def plan_outputs(datasets: list, requested=None) -> OutputPlan:
-    """Choose and weight the outputs of ``datasets``; ``requested`` (e.g. ``("theta",)``)
-    restricts them. Raises PendcError when nothing is left to compare."""
+def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
+    """Choose and weight the outputs of ``datasets`` (the positions of their plant);
+    ``requested`` (e.g. ``("theta",)``) restricts them; ``model`` (default: the default
+    model) says which positions each experiment holds. Raises PendcError when nothing is
+    left to compare."""
+    positions = signals_for(datasets[0]).positions if datasets else signals_of(model).positions
     if requested is not None:
         requested = tuple(requested)
-        bad = [o for o in requested if o not in POSITIONS]
+        bad = [o for o in requested if o not in positions]
         if bad:
-            raise PendcError(f"unknown output(s) {', '.join(bad)} (choose from: {', '.join(POSITIONS)})")
+            raise PendcError(f"unknown output(s) {', '.join(bad)} (choose from: {', '.join(positions)})")
     per_set, notes = [], []
-    values = {o: [] for o in POSITIONS}
+    values = {o: [] for o in positions}
     resolution = {}
     for data in datasets:
         exp = experiment_of(data)
         source = getattr(data, "source", "<data>")
         missing = set(getattr(data, "missing", ()) or ())
+        held = irrelevant_axes(model, exp)
         used = []
-        for o in POSITIONS:
+        for o in positions:
             if requested is not None and o not in requested:
                 continue
             if o in missing:
                 notes.append(f"{source}: no {o} column: {o} is not compared")
                 continue
-            if exp == "cart_held" and o == "x":
-                continue
-            if exp == "pendulum_removed" and o == "theta":
+            if o in held:
                 continue
             y = np.asarray(data.column(o), float)
             res = resolution_of(data, o)
             if float(np.ptp(y)) <= HELD_COUNTS * res:
-                hint = " (the cart looks held: --experiment cart_held)" if o == "x" and exp == "free" else ""
+                hint = _held_hint(model, o) if exp == DEFAULT_EXPERIMENT else ""
                 notes.append(f"{source}: {o} does not move beyond {HELD_COUNTS:g} resolution steps "
                              f"({res:.3g}): {o} is not compared{hint}")
                 continue
@@ -109,18 +119,33 @@ def plan_outputs(datasets: list, requested=None) -> OutputPlan:
             resolution[o] = min(res, resolution.get(o, np.inf))
         if not used:
             raise PendcError(f"{source}: no output left to compare (experiment {exp}; "
-                             f"x and theta are held, missing or not asked for)")
+                             f"{' and '.join(positions)} are held, missing or not asked for)")
         per_set.append(tuple(used))
     scales = {o: max(float(np.std(np.concatenate(v))), resolution[o]) for o, v in values.items() if v}
     return OutputPlan(outputs=tuple(per_set), scales=scales, resolution=resolution, notes=tuple(notes))
 
 
-def parse_outputs(text: str | None):
-    """``--outputs theta`` or ``x,theta`` -> tuple, or None for "all"."""
+def _held_hint(model, position: str) -> str:
+    """`` (the cart looks held: --experiment cart_held)``: the experiment that holds ``position``."""
+    from ..sim.experiment_axes import _model
+
+    plant = _model(model)
+    if plant is None:
+        return ""
+    held = [e for e in experiments_of(plant) if e != DEFAULT_EXPERIMENT and position in irrelevant_axes(plant, e)]
+    if not held:
+        return ""
+    return f" (the {signals_of(plant).body_of(position)} looks held: --experiment {held[0]})"
+
+
+def parse_outputs(text: str | None, plant=None):
+    """``--outputs theta`` or ``x,theta`` (positions of ``plant``, default the default model) ->
+    tuple, or None for "all"."""
     if not text:
         return None
+    positions = signals_of(plant).positions
     names = tuple(o.strip() for o in text.split(",") if o.strip())
-    bad = [o for o in names if o not in POSITIONS]
+    bad = [o for o in names if o not in positions]
     if bad or not names:
-        raise PendcError(f"--outputs takes x, theta or x,theta, got '{text}'")
+        raise PendcError(f"--outputs takes {', '.join(positions)} or a comma-separated list of them, got '{text}'")
     return names

@@ -21,8 +21,8 @@ import numpy as np
 
 from ..atomic import write_atomic
 from . import headline as hl
-from .compare import WINDOW, Comparison, model_name
-from .report_plots import RSCALE, ZOOM
+from .compare import WORST_WINDOW, Comparison, model_name
+from .report_plots import ZOOM, residual_scale, scatter_axes
 from .report_plots import figure_correlations as _figure_correlations
 from .report_plots import figure_free as _figure_free
 from .report_plots import figure_horizon as _figure_horizon
@@ -30,9 +30,9 @@ from .report_plots import figure_scatter as _figure_scatter
 from .report_plots import zoom_span as _zoom_span  # noqa: F401 (the zoomed figure's span, for tests)
 from .report_text import concentrated, format_side_by_side, short, side_by_side_headline
 from .sidebyside import SideBySide, as_side_by_side
+from ..sim.signals import signals_of
 
 DPI = 80
-_UNIT = {"x": "mm", "theta": "mrad"}
 
 _CSS = """
 body { font-family: sans-serif; max-width: 1200px; margin: 1em auto; padding: 0 1em; color: #222; }
@@ -81,21 +81,23 @@ def _run_section(s: SideBySide, i: int, run) -> list:
     out = [f"<h2>{e(c0.data_source or 'data')} (experiment {e(c0.experiment)})</h2>",
            "<h3>Every figure, labelled</h3>", _figures_table(s, i),
            f'<p class="note">Free-run fit: one simulation from the data\'s initial state on the measured input '
-           f"(zero-order hold), {e(c0.method)} step {c0.dt:g} s; each extra turn of the simulated pendulum counts "
-           f"as 2π of theta error, the wrapped figure folds the angle error into (-π, π]. {e(horizon.capitalize())}: "
+           f"(zero-order hold), {e(c0.method)} step {c0.dt:g} s; "
+           + (f"each extra turn of the simulated {e(_body(c0, c0.angle))} counts as 2π of {e(c0.angle)} error, the "
+              "wrapped figure folds the angle error into (-π, π]. " if c0.angle else "")
+           + f"{e(horizon.capitalize())}: "
            f"the simulation restarts from the measured state every {c0.horizon:g} s (what diagnose and fit "
            f"use). Headline: <b>{e(h.label)}</b>, because {e(h.reason)}.</p>"]
     horizon_first = h.metric == hl.HORIZON
     free = ["<h3>Free run: measured and simulated outputs</h3>", _img(_figure_free(s, run), "free-run outputs"),
-            '<p class="note">Theta residual wrapped to (-π, π].'
-            + (f" Shaded: the worst {WINDOW:g} s windows of the first model's free run." if not horizon_first else "")
+            '<p class="note">' + (f"{e(c0.angle.capitalize())} residual wrapped to (-π, π]." if c0.angle else "")
+            + (f" Shaded: the worst {WORST_WINDOW:g} s windows of the first model's free run." if not horizon_first else "")
             + "</p>"]
     seg = [f"<h3>{e(horizon.capitalize())}: segments restarting from the measured state</h3>",
            _img(_figure_horizon(s, run), f"{horizon} segments over the data"),
            _img(_figure_horizon(s, run, zoom=True), f"{horizon} segments, zoomed on the worst stretch"),
            f'<p class="note">Each line starts at the measured state and runs {c0.horizon:g} s on the measured '
            "input; the lower panels are measured minus simulated. "
-           + (f"Shaded: the worst {WINDOW:g} s windows of the first model. " if horizon_first else "")
+           + (f"Shaded: the worst {WORST_WINDOW:g} s windows of the first model. " if horizon_first else "")
            + "The second figure zooms on the "
            f"{ZOOM:g} s where the first model's horizon error is largest.</p>"]
     out += seg + free if horizon_first else free + seg
@@ -114,14 +116,15 @@ def _model_section(label: str, c: Comparison) -> list:
         f"<h3>{e(who)}error by operating regime ({e(of)})</h3>",
         '<p class="note">Share of each output\'s squared residual falling in the regime, next to the share '
         "of time spent there. A ratio well above 1 (highlighted) means the error concentrates in that regime. "
-        f"Cart motion uses {e(c.dx_source or 'the measured cart velocity')}.</p>",
+        f"{e(_body(c, signals_of(c.model).positions[0]).capitalize())} motion uses {e(c.dx_source or 'the measured velocity')}.</p>",
         _regimes_table(c),
         f"<h3>{e(who)}residual against the state ({e(of)})</h3>",
-        '<p class="note">A trend or a step in these clouds names the missing physics: against dx friction, '
-        "against theta a pendulum torque, against u - V_off the drive law, against x a force that depends "
-        "on the position.</p>",
-        _img(_figure_scatter(c), "residual against dx, theta, u - V_off and x"),
-        f"<h3>{e(who)}whiteness (free-run residual, theta wrapped)</h3>",
+        '<p class="note">A trend or a step in these clouds names the missing physics: against a velocity '
+        "friction, against an angle a torque that depends on it (gravity, a pendulum torque), against the input "
+        "the drive law, against a position a force that depends on where the body is.</p>",
+        _img(_figure_scatter(c), "residual against " + ", ".join(name.rsplit(" (", 1)[0] for name, _ in
+                                                                  scatter_axes(c))),
+        f"<h3>{e(who)}whiteness (free-run residual{e(f', {c.angle} wrapped' if c.angle else '')})</h3>",
         *(['<p class="note">Caution: the free run is not meaningful on these data (see the headline), so '
            "these verdicts describe its divergence more than the model.</p>"] if c.headline is not None
           and c.headline.metric == hl.HORIZON else []),
@@ -139,11 +142,17 @@ def _img(fig, alt: str) -> str:
     return f'<p><img alt="{html.escape(alt)}" src="data:image/png;base64,{_png(fig)}"></p>'
 
 
-def _fmt(output: str, value, digits: int = 4) -> str:
+def _fmt(c: Comparison, output: str, value, digits: int = 4) -> str:
+    """A residual of ``output`` in the unit :func:`_unit` names (mm, mrad)."""
     if value is None or not np.isfinite(value):
         return "–"
-    sc, _ = RSCALE[output]
+    sc, _ = residual_scale(c, output)
     return f"{sc * value:.{digits}g}"
+
+
+def _unit(c: Comparison, output: str) -> str:
+    """The unit residuals of ``output`` are printed in: ``mm``, ``mrad``."""
+    return residual_scale(c, output)[1].rsplit("(", 1)[1].rstrip(")")
 
 
 def _num(v, sign: bool = False, digits: int = 2) -> str:
@@ -173,7 +182,7 @@ def _figures_table(s: SideBySide, i: int) -> str:
 def _windows_table(c: Comparison) -> str:
     rows = "".join(
         f"<tr><td class=l>{w['output']}</td><td>{w['t0']:.3f}</td><td>{w['t1']:.3f}</td>"
-        f"<td>{_fmt(w['output'], w['rms'])} {_UNIT[w['output']]}</td>"
+        f"<td>{_fmt(c, w['output'], w['rms'])} {_unit(c, w['output'])}</td>"
         f"<td>{100 * w['share']:.1f} %</td></tr>" for w in c.windows)
     return ("<table><tr><th class=l>output</th><th>from (s)</th><th>to (s)</th><th>rms residual</th>"
             f"<th>share of the output's squared error</th></tr>{rows}</table>")
@@ -194,11 +203,17 @@ def _regimes_table(c: Comparison) -> str:
             ratio = r["share"] / r["fraction_of_time"] if r["fraction_of_time"] else None
             hot |= concentrated(r)
             cells.append(f"<td>{100 * r['share']:.1f} %</td><td>{'–' if ratio is None else f'{ratio:.2f}'}</td>"
-                         f"<td>{_fmt(k, r['rms'], 3)}</td>")
+                         f"<td>{_fmt(c, k, r['rms'], 3)}</td>")
         rows.append(f"<tr{' class=hot' if hot else ''}><td class=l>{html.escape(g['partition'])}</td>"
                     f"<td class=l>{html.escape(g['name'])}</td><td class=l>{html.escape(g['definition'])}</td>"
                     f"<td>{100 * g['fraction_of_time']:.1f} %</td>{''.join(cells)}</tr>")
-    return f"<table>{head}{''.join(rows)}</table><p class=note>rms in mm (x) and mrad (theta).</p>"
+    units = " and ".join(f"{_unit(c, k)} ({k})" for k in c.outputs)
+    return f"<table>{head}{''.join(rows)}</table><p class=note>rms in {html.escape(units)}.</p>"
+
+
+def _body(c: Comparison, state: str) -> str:
+    """The body a state belongs to, in words ("pendulum")."""
+    return signals_of(c.model).body_of(state) if state else ""
 
 
 def _whiteness_table(c: Comparison) -> str:

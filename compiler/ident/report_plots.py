@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import headline as hl
+from ..sim.signals import signals_of
 from .compare import Comparison, worst_windows, wrap_angle, wrap_difference
+from .units import small_scale, trajectory_scale, unit_of
 from .report_text import short
 from .sidebyside import SideBySide
 
@@ -19,8 +21,22 @@ MAX_SCATTER = 4000       # points per scatter panel: enough to see a trend, keep
 ZOOM = 2.5              # s of the zoomed horizon figure: about two pendulum periods
 MEASURED, RESID, BAND = "#1f4e9a", "#444444", "#2a9d8f"
 MODEL_COLOURS = ("#d1495b", "#2a9d8f", "#8d6cab", "#e9a23b", "#6b8e23")
-SCALE = {"x": (1e3, "x (mm)"), "theta": (1.0, "theta (rad)")}
-RSCALE = {"x": (1e3, "x residual (mm)"), "theta": (1e3, "theta residual (mrad)")}
+
+
+def scale(c: Comparison, output: str) -> tuple:
+    """``(factor, axis label)`` of a plotted trajectory: ``x (mm)``, ``theta (rad)``."""
+    factor, unit = trajectory_scale(unit_of(c.model, output))
+    return factor, f"{output} ({unit})"
+
+
+def residual_scale(c: Comparison, output: str) -> tuple:
+    """``(factor, axis label)`` of a plotted residual: ``x residual (mm)``, ``theta residual (mrad)``."""
+    factor, unit = small_scale(unit_of(c.model, output))
+    return factor, f"{output} residual ({unit})"
+
+
+def _periodic(c: Comparison, output: str) -> bool:
+    return c.model is not None and signals_of(c.model).period(output) is not None
 
 
 def new_figure(width: float, height: float, rows: int = 1, cols: int = 1):
@@ -66,7 +82,7 @@ def figure_free(s: SideBySide, run):
     t = c0.simulated.t
     for i, k in enumerate(c0.outputs):
         ax = fig.add_subplot(2 * n, 1, i + 1)
-        sc, label = SCALE[k]
+        sc, label = scale(c0, k)
         if c0.residual_of == "free run":
             _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.0, label="measured")
@@ -78,14 +94,15 @@ def figure_free(s: SideBySide, run):
         ax.legend(loc="upper right", fontsize=8)
     for i, k in enumerate(c0.outputs):
         ax = fig.add_subplot(2 * n, 1, n + i + 1)
-        sc, label = RSCALE[k]
+        sc, label = residual_scale(c0, k)
+        wrapped = _periodic(c0, k)
         for j, (lab, c) in enumerate(zip(s.labels, run)):
-            r = wrap_difference(c.free_residual[k]) if k == "theta" else c.free_residual[k]
+            r = wrap_difference(c.free_residual[k]) if wrapped else c.free_residual[k]
             ax.plot(t, sc * r, color=_colour(j), lw=0.8, label=lab)
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel(label + (" wrapped" if k == "theta" else ""))
-        if k == "theta":
-            ax.set_title("theta free-run residual, wrapped: fit "
+        ax.set_ylabel(label + (" wrapped" if wrapped else ""))
+        if k == c0.angle:
+            ax.set_title(f"{k} free-run residual, wrapped: fit "
                          + _fits([c.fit_theta_wrapped for c in run], s.labels), fontsize=10)
         ax.grid(alpha=0.3)
         if len(run) > 1:
@@ -113,7 +130,7 @@ def figure_horizon(s: SideBySide, run, zoom: bool = False):
     span = zoom_span(c0) if zoom else None
     for i, k in enumerate(c0.outputs):
         ax = fig.add_subplot(2 * n, 1, 2 * i + 1)
-        sc, label = SCALE[k]
+        sc, label = scale(c0, k)
         if c0.residual_of != "free run" and not zoom:
             _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.6, alpha=0.6, label="measured")
@@ -126,7 +143,7 @@ def figure_horizon(s: SideBySide, run, zoom: bool = False):
         ax.grid(alpha=0.3)
         ax.legend(loc="upper right", fontsize=8)
         ax = fig.add_subplot(2 * n, 1, 2 * i + 2)
-        sr, rlabel = RSCALE[k]
+        sr, rlabel = residual_scale(c0, k)
         for j, (lab, c) in enumerate(zip(s.labels, run)):
             ax.plot(t, sr * (c0.measured[k] - c.horizon_run.outputs[k]), color=_colour(j), lw=0.8, label=lab)
         ax.axhline(0.0, color="k", lw=0.5)
@@ -157,20 +174,31 @@ def _zoom(ax, t0: float, t1: float) -> None:
         ax.set_ylim(lo - pad, hi + pad)
 
 
+def scatter_axes(c: Comparison) -> list:
+    """``(label, values)`` the residual is plotted against: the measured rates, the periodic
+    positions wrapped to one turn, the input about its centre, the translations (for the
+    cart-pendulum dx, theta wrapped, u - V_off, x); those that vary in the run."""
+    sig = signals_of(c.model)
+    spec = sig.interface.input
+    against = [(f"{r} ({sig.unit(r)})", c.measured[r]) for r in sig.rates if r in c.measured]
+    against += [(f"{p} wrapped to ±π ({sig.unit(p)})", wrap_angle(c.measured[p], sig.period(p)))
+                for p in sig.periodic if p in c.measured]
+    centre = f"{spec.name} - V_off" if c.v_off else spec.name
+    against.append((f"{centre} ({spec.unit})", c.simulated.u - c.v_off))
+    against += [(f"{p} ({sig.unit(p)})", c.measured[p]) for p in sig.positions if sig.period(p) is None
+                and p in c.measured]
+    return [(name, v) for name, v in against if np.ptp(v) > 0]   # a held or absent signal shows nothing
+
+
 def figure_scatter(c: Comparison):
-    """Rows: each output's residual; columns: against dx, wrapped theta, u - V_off, x (those
-    that vary in the run)."""
+    """Rows: each output's residual; columns: against the signals of :func:`scatter_axes`."""
     n = len(c.simulated.t)
     pick = np.linspace(0, n - 1, min(n, MAX_SCATTER)).astype(int)   # even subsample keeps the time spread
-    theta = c.measured.get("theta", np.zeros(n))
-    x = c.measured.get("x", np.zeros(n))
-    against = [("dx (m/s)", c.measured["dx"]), ("theta wrapped to ±π (rad)", wrap_angle(theta)),
-               ("u - V_off (V)", c.simulated.u - c.v_off), ("x (m)", x)]
-    against = [(name, v) for name, v in against if np.ptp(v) > 0]   # a held or absent signal shows nothing
+    against = scatter_axes(c)
     rows, cols = len(c.outputs), max(1, len(against))
     fig = new_figure(14 if cols > 2 else 3.5 * cols + 1, 3 * rows, rows=rows, cols=cols)
     for i, k in enumerate(c.outputs):
-        sc, label = RSCALE[k]
+        sc, label = residual_scale(c, k)
         for j, (name, v) in enumerate(against):
             ax = fig.add_subplot(rows, cols, cols * i + j + 1)
             ax.scatter(np.asarray(v)[pick], sc * c.residual[k][pick], s=2, alpha=0.3, color=RESID, lw=0)

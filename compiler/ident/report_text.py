@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 
-from ..sim.encoders import THETA_COUNT, X_COUNT
+from ..sim.signals import signals_of
 from . import headline as hl
-from .compare import WINDOW, Comparison, model_name
+from .compare import WORST_WINDOW, Comparison, model_name
 from .sidebyside import SideBySide, as_side_by_side
+from .units import amount_in, unit_of
 
 FEW_COUNTS = 5           # rms residual (encoder counts) below which structure may be rounding
-COUNT = {"x": X_COUNT, "theta": THETA_COUNT}
 ALWAYS = 0.99            # a regime covering this much of the run tells nothing; the text skips it
 
 
@@ -29,13 +29,10 @@ def concentrated(regime: dict) -> bool:
     return f > 0 and regime["share"] >= 0.2 and regime["share"] / f >= 1.5
 
 
-def amount(output: str, value) -> str:
-    """A length in mm, an angle in mrad below 1 rad and in rad above."""
-    if value is None or not math.isfinite(value):
-        return "n/a"
-    if output == "theta" and abs(value) >= 1.0:
-        return f"{value:.3g} rad"
-    return f"{value * 1e3:.3g} {'mm' if output == 'x' else 'mrad'}"
+def amount(output: str, value, plant=None) -> str:
+    """A value of ``output`` (of ``plant``, default the default model) in its unit: a length in
+    mm, an angle in mrad below 1 rad and in rad above."""
+    return amount_in(unit_of(plant, output), value)
 
 
 def percent(value) -> str:
@@ -77,14 +74,16 @@ def _figures(c: Comparison) -> list:
     rms = c.rms_free_run()
     for k in c.outputs:
         spread = float(np.std(c.measured[k]))
-        free.append(f"  {k:5s} rms error {amount(k, rms[k])} (data spread {amount(k, spread)})")
+        free.append(f"  {k:5s} rms error {amount(k, rms[k], c.model)} (data spread {amount(k, spread, c.model)})")
+    a = c.angle
     if c.turns:
-        free.append(f"  theta: the simulated pendulum ends up {c.turns} whole turn{'s' if c.turns > 1 else ''} "
+        body = signals_of(c.model).body_of(a)
+        free.append(f"  {a}: the simulated {body} ends up {c.turns} whole turn{'s' if c.turns > 1 else ''} "
                     f"away from the measured one (first at t = {c.turn_time:.2f} s); the free-run fit counts "
                     f"each extra turn as 2π of error")
-    if "theta" in c.outputs and (c.turns or abs(c.fit_theta_wrapped - c.fit["theta"]) >= 0.005):
-        free.append(f"  theta with the angle error wrapped to (-π, π]: free-run fit {percent(c.fit_theta_wrapped)}, "
-                    f"rms error {amount('theta', rms['theta_wrapped'])}")
+    if a is not None and (c.turns or abs(c.fit_theta_wrapped - c.fit[a]) >= 0.005):
+        free.append(f"  {a} with the angle error wrapped to (-π, π]: free-run fit {percent(c.fit_theta_wrapped)}, "
+                    f"rms error {amount(a, rms[f'{a}_wrapped'], c.model)}")
     horizon = [f"{hl.horizon_label(c.horizon)} (restarting every {c.horizon:g} s from the measured state; the "
                f"figure diagnose and fit report): {fits_words(c.fit_horizon)}"]
     return horizon + free if h_is_horizon(c) else free + horizon
@@ -98,10 +97,10 @@ def h_is_horizon(c: Comparison) -> bool:
 def _analyses(c: Comparison) -> list:
     """Worst windows, regimes and whiteness of ``c.residual``, saying which residual that is."""
     of = f"(residual of the {c.residual_of})"
-    lines = [f"Worst {WINDOW:g} s windows {of}, largest rms error first:"]
+    lines = [f"Worst {WORST_WINDOW:g} s windows {of}, largest rms error first:"]
     for k in c.outputs:
         for w in (w for w in c.windows if w["output"] == k):
-            lines.append(f"  {k:5s} {w['t0']:8.2f} - {w['t1']:8.2f} s   rms {amount(k, w['rms']):>11s}   "
+            lines.append(f"  {k:5s} {w['t0']:8.2f} - {w['t1']:8.2f} s   rms {amount(k, w['rms'], c.model):>11s}   "
                          f"{100 * w['share']:5.1f} % of the {k} error")
     lines += ["", f"Where the error is {of}: share of the squared error vs share of time; "
               "a ratio well above 1 means the error concentrates there:"]
@@ -117,7 +116,8 @@ def _analyses(c: Comparison) -> list:
     notes = ([f"all or nearly all the run: {always}"] if always else []) + ([f"never: {never}"] if never else [])
     if notes:
         lines.append(f"  ({'; '.join(notes)})")
-    lines += ["", "Is what is left noise? (free-run residual, theta wrapped), 99 % bands, residual sampled every "
+    wrapped = f", {c.angle} wrapped" if c.angle else ""
+    lines += ["", f"Is what is left noise? (free-run residual{wrapped}), 99 % bands, residual sampled every "
               f"{1e3 * c.whiteness[c.outputs[0]]['lag_seconds']:.3g} ms"]
     if h_is_horizon(c):
         lines.append("  caution: the free run is not meaningful on these data (see the headline), so these "
@@ -125,12 +125,13 @@ def _analyses(c: Comparison) -> list:
     rms = c.rms_free_run()
     for k in c.outputs:
         lines += whiteness_words(k, c.whiteness[k], c.whiteness["xcorr"][k],
-                                 rms["theta_wrapped" if k == "theta" else k])
+                                 rms[f"{k}_wrapped" if k == c.angle else k], c.model)
     return lines
 
 
-def whiteness_words(k: str, a: dict, x: dict, rms: float) -> list:
-    """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``x``."""
+def whiteness_words(k: str, a: dict, x: dict, rms: float, plant=None) -> list:
+    """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``x``
+    (``plant``: whose encoder count on ``k`` says what is rounding; default the default model)."""
     step = 1e3 * a["lag_seconds"]
     if a["white"]:
         out = [f"  {k:5s} residual looks white: only noise is left to explain"]
@@ -139,7 +140,8 @@ def whiteness_words(k: str, a: dict, x: dict, rms: float) -> list:
         out = [f"  {k:5s} residual is not white: {len(a['outside'])} of {len(a['lags']) - 1} lags outside the band "
                f"(r = {a['acf'][lag]:+.2f} at {lag * step:.3g} ms): the error is systematic, the model misses or "
                "mis-sets some dynamics"]
-        counts = rms / COUNT[k]
+        count = signals_of(plant).resolution(k)
+        counts = rms / count if count else math.inf
         if counts < FEW_COUNTS:   # a whiteness test sees structure far below what matters
             out.append(f"        but it is only {counts:.1f} encoder counts rms: at this level the structure may be "
                        "the encoder's rounding or the integration step")

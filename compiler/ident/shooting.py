@@ -17,66 +17,93 @@ samples) for friction, damping, lags and delays to shape it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
+from ..sim.signals import signals_of
 from ..sim.simulator import Simulator
-from .outputs import experiment_of, plan_outputs
+from ..sim.experiment_axes import irrelevant_axes
+from .outputs import experiment_of, plan_outputs, signals_for
+from .smoothing import SAVGOL_WINDOW, estimate_velocities  # noqa: F401 (re-exported: the one derivative filter)
 
 HISTORY = 0.1          # s of input history handed to each segment (longest delay it can see)
-SAVGOL_WINDOW = 0.031   # s: smooths encoder quantisation, short against the pendulum period (~1 s)
-
-
-def estimate_velocities(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """dy/dt by a cubic Savitzky-Golay filter over ~31 ms (uniform sampling assumed)."""
-    h = float(np.median(np.diff(t)))
-    n = max(5, int(round(SAVGOL_WINDOW / h)) | 1)
-    if len(y) < n:
-        return np.gradient(y, t)
-    return savgol_filter(y, n, 3, deriv=1, delta=h)
 
 
 @dataclass(frozen=True)
 class Record:
-    """One data set prepared for shooting: samples, estimated velocities, segment bounds,
-    its experiment and the outputs compared on it."""
+    """One data set prepared for shooting: samples, per position its measured values
+    (``positions``) and velocities (``rates``, measured or estimated), segment bounds, its
+    experiment and the outputs compared on it."""
 
     t: np.ndarray
     u: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
-    dx: np.ndarray
-    dtheta: np.ndarray
+    positions: dict
+    rates: dict
     bounds: tuple      # (start, stop) sample indices of each segment (stop inclusive)
     experiment: str = "free"
-    outputs: tuple = ("x", "theta")
+    outputs: tuple = ()
     source: str = "<data>"
+    rate_names: tuple = ()   # (position, name of its rate state) pairs
+
+    def __getattr__(self, name: str):
+        """A position or its rate by the state's name (``rec.theta``, ``rec.dtheta``)."""
+        if name.startswith("_") or name in ("positions", "rates", "rate_names"):
+            raise AttributeError(name)
+        if name in self.positions:
+            return self.positions[name]
+        for position, rate in self.rate_names:
+            if rate == name:
+                return self.rates[position]
+        raise AttributeError(f"'Record' has no attribute or signal '{name}'")
 
 
-def prepare(data, segment: float, outputs: tuple = ("x", "theta")) -> Record:
-    """Cut ``data`` into segments of ``segment`` seconds and estimate the velocities."""
+def measured_motion(data, model=None) -> tuple[dict, dict]:
+    """``({position: values}, {position: velocities})`` of a run, for every position of its
+    plant: a position the file lacks is zeros (a held axis); velocities come from the data's
+    rate columns (``dx``, ``dtheta``), else the Savitzky-Golay derivative of the position,
+    and a position ``model``'s experiment holds has zero velocity. So every simulation that
+    starts from the data (free run, horizon segments, diagnose, fit) starts from the same state."""
+    sig = signals_for(data)
+    t = np.asarray(data.t, dtype=np.float64)
+    held = irrelevant_axes(model, experiment_of(data)) if model is not None else set()
+    measured, velocity = {}, {}
+    for pos in sig.positions:
+        column = data.columns.get(pos)
+        measured[pos] = np.zeros(len(t)) if column is None else np.asarray(data.column(pos), dtype=np.float64)
+        rate = sig.rate(pos)
+        given = data.columns.get(rate) if rate is not None else None
+        if pos in held:
+            velocity[pos] = np.zeros(len(t))
+        elif given is not None:
+            velocity[pos] = np.asarray(given, dtype=np.float64)
+        else:
+            velocity[pos] = estimate_velocities(t, measured[pos])
+    return measured, velocity
+
+
+def prepare(data, segment: float, outputs: tuple = None, model=None) -> Record:
+    """Cut ``data`` into segments of ``segment`` seconds and estimate the velocities
+    (``model``: which positions its experiment holds; default the default model)."""
+    from ..sim.experiment_axes import _model
+
     t, u = np.asarray(data.t, float), np.asarray(data.u, float)
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for identification ({len(t)} samples)")
-    x, th = np.asarray(data.column("x"), float), np.asarray(data.column("theta"), float)
-    dx = data.dx if data.dx is not None else estimate_velocities(t, x)
-    dth = data.dtheta if data.dtheta is not None else estimate_velocities(t, th)
+    sig = signals_for(data)
+    for pos in sig.positions:
+        data.column(pos)            # a position the file must have: a one-line error if it has not
+    positions, rates = measured_motion(data, _model(model))
     h = float(np.median(np.diff(t)))
     n = max(2, int(round(segment / h)))
     bounds = tuple((i, min(i + n, len(t) - 1)) for i in range(0, len(t) - 1, n) if min(i + n, len(t) - 1) - i >= 2)
     if not bounds:
         raise PendcError(f"{data.source}: too short for identification ({len(t)} samples)")
-    exp = experiment_of(data)
-    if exp == "cart_held":
-        dx = np.zeros_like(t)
-    elif exp == "pendulum_removed":
-        dth = np.zeros_like(t)
-    return Record(t=t, u=u, x=x, theta=th, dx=np.asarray(dx, float), dtheta=np.asarray(dth, float), bounds=bounds,
-                  experiment=exp, outputs=tuple(outputs), source=getattr(data, "source", "<data>"))
+    return Record(t=t, u=u, positions=positions, rates=rates, bounds=bounds, experiment=experiment_of(data),
+                  outputs=tuple(sig.positions if outputs is None else outputs),
+                  source=getattr(data, "source", "<data>"), rate_names=tuple((p, sig.rate(p)) for p in sig.positions))
 
 
 def _subset(record: Record, subset: str) -> Record:
@@ -87,10 +114,7 @@ def _subset(record: Record, subset: str) -> Record:
     if subset not in ("even", "odd"):
         raise ValueError(f"subset must be all, even or odd, got {subset!r}")
     keep = record.bounds[0 if subset == "even" else 1::2] or record.bounds
-    return Record(**{**record.__dict__, "bounds": keep})
-
-
-_COLUMN = {"x": 0, "theta": 2}
+    return replace(record, bounds=keep)
 
 
 class ShootingProblem:
@@ -106,11 +130,11 @@ class ShootingProblem:
                  segment: float = 0.5, subset: str = "all", outputs=None, scales: dict | None = None):
         self.model = model
         self.free = list(free)
-        plan = plan_outputs(datasets, outputs)
+        plan = plan_outputs(datasets, outputs, model)
         self.notes = plan.notes
         self.scales = dict(plan.scales, **(scales or {}))
         self.resolution = plan.resolution
-        self.records = [_subset(prepare(d, segment, o), subset) for d, o in zip(datasets, plan.outputs)]
+        self.records = [_subset(prepare(d, segment, o, model), subset) for d, o in zip(datasets, plan.outputs)]
         self.sims = {}
         for r in self.records:
             if r.experiment not in self.sims:
@@ -143,15 +167,15 @@ class ShootingProblem:
             off = sim.offset_values(p)
             segs = []
             for a, b in r.bounds:
-                s0 = sim.true_state(np.array([r.x[a], r.dx[a], r.theta[a], r.dtheta[a]]), p)
+                s0 = sim.true_state(sim.initial_vector(r.positions, r.rates, a), p)
                 h0 = max(0, a - self.history)
                 states, valid = sim.raw(r.t[h0:b + 1], r.u[h0:b + 1], s0, p, a - h0)
                 states, valid = states[a - h0:], valid - (a - h0)
                 if valid <= b - a:
                     segs.append(None)
                     continue
-                measured = {"x": r.x, "theta": r.theta}
-                segs.append({o: states[1:, _COLUMN[o]] + off[o] - measured[o][a + 1:b + 1] for o in r.outputs})
+                segs.append({o: states[1:, sim.signals.index(o)] + off[o] - r.positions[o][a + 1:b + 1]
+                             for o in r.outputs})
             out.append(segs)
         return out
 
@@ -193,7 +217,7 @@ def horizon_figures(model: PlantModel, datasets: list, horizon: float = 0.5, dt:
         fn, fd = {}, {}
         for (a, b), e in zip(rec.bounds, segs):
             for o in rec.outputs:
-                y = {"x": rec.x, "theta": rec.theta}[o]
+                y = rec.positions[o]
                 err = np.full(b - a, np.inf) if e is None else e[o]
                 fn[o] = fn.get(o, 0.0) + float(np.sum(err ** 2))
                 fd[o] = fd.get(o, 0.0) + float(np.sum((y[a + 1:b + 1] - np.mean(y)) ** 2))
@@ -216,9 +240,9 @@ def _percent(num: dict, den: dict) -> dict:
 
 
 def horizon_fit(model: PlantModel, datasets: list, horizon: float = 0.5, dt: float = 1e-4, outputs=None) -> dict:
-    """Pooled fit% of x and theta with a ``horizon`` prediction horizon (see :func:`horizon_figures`).
+    """Pooled fit% of each position with a ``horizon`` prediction horizon (see :func:`horizon_figures`).
     On this plant the free-run fit is dominated by chaos and stick-slip, not by the model;
     this one is what identification minimises and what tells two models apart. An output
     that is not compared (held, missing, outside the experiment) is NaN."""
     pooled = horizon_figures(model, datasets, horizon, dt, outputs)["pooled"]
-    return {o: pooled.get(o, float("nan")) for o in ("x", "theta")}
+    return {o: pooled.get(o, float("nan")) for o in signals_of(model).positions}

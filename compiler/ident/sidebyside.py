@@ -16,6 +16,7 @@ from ..errors import PendcError
 from . import headline as hl
 from .compare import Comparison, _clean, compare, model_name
 from .horizon import DEFAULT_HORIZON
+from .units import small_scale, unit_of
 
 
 @dataclass(frozen=True)
@@ -49,15 +50,17 @@ class SideBySide:
         free = [(f"free-run fit {k}", "%", [c.fit[k] for c in cs]) for k in outputs]
         horizon = [(f"{hl.horizon_label(cs[0].horizon)} {k}", "%", [c.fit_horizon[k] for c in cs]) for k in outputs]
         out = horizon + free if h.metric == hl.HORIZON else free + horizon
-        if "theta" in outputs:
-            out.append(("free-run fit theta, angle wrapped", "%", [c.fit_theta_wrapped for c in cs]))
-            out.append(("free-run theta, whole turns apart (max)", "turns", [float(c.turns) for c in cs]))
+        a = cs[0].angle
+        if a is not None:
+            out.append((f"free-run fit {a}, angle wrapped", "%", [c.fit_theta_wrapped for c in cs]))
+            out.append((f"free-run {a}, whole turns apart (max)", "turns", [float(c.turns) for c in cs]))
         for k in outputs:
-            scale, unit = (1e3, "mm") if k == "x" else (1e3, "mrad")
+            scale, unit = small_scale(unit_of(cs[0].model, k))
             out.append((f"free-run rms error {k}", unit, [scale * c.rms_free_run()[k] for c in cs]))
-        if "theta" in outputs:
-            out.append(("free-run rms error theta, wrapped", "mrad",
-                        [1e3 * c.rms_free_run()["theta_wrapped"] for c in cs]))
+        if a is not None:
+            scale, unit = small_scale(unit_of(cs[0].model, a))
+            out.append((f"free-run rms error {a}, wrapped", unit,
+                        [scale * c.rms_free_run()[f"{a}_wrapped"] for c in cs]))
         return out
 
     def notes(self) -> list:

@@ -27,16 +27,17 @@ def counts(value: np.ndarray, resolution: float) -> np.ndarray:
     return (grid - grid[0]).astype(np.int64)
 
 
-def _quantize(value, resolution):
+def quantize(value, resolution: float) -> np.ndarray:
+    """A position as a ×4 decoder with counts of ``resolution`` reports it (from its first sample)."""
     value = np.asarray(value, dtype=np.float64)
     return value[0] + counts(value, resolution) * resolution
 
 
 def quantize_x(x: np.ndarray) -> np.ndarray:
     """Cart position as a ×4 decoder on the drive's emulated encoder reports it (m)."""
-    return _quantize(x, X_COUNT)
+    return quantize(x, X_COUNT)
 
 
 def quantize_theta(theta: np.ndarray) -> np.ndarray:
     """Pendulum angle as a ×4 decoder on the ROD 420 reports it (rad)."""
-    return _quantize(theta, THETA_COUNT)
+    return quantize(theta, THETA_COUNT)

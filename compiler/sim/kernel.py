@@ -15,7 +15,7 @@ from __future__ import annotations
 from ..codegen import NumbaPrinter, load_source
 from ..model.plant import Equations
 
-KERNEL_FORMAT = 6  # bump when the generated source changes shape
+KERNEL_FORMAT = 7  # bump when the generated source changes shape
 
 
 def _tuple(items) -> str:
@@ -23,12 +23,39 @@ def _tuple(items) -> str:
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
 
 
-def kernel_source(eq: Equations) -> str:
-    """The Python source of the kernel module for ``eq`` (deterministic)."""
+def _clamped_index(eq: Equations, clamped) -> int | None:
+    """Index of the state the velocity bound holds: ``clamped`` (a state name) when given,
+    else the rate the first state's derivative is (the rigid bodies put the clamped
+    coordinate first); None without a bound or when that rate is held (a constant 0)."""
+    if eq.velocity_bound is None:
+        return None
+    names = [s.name for s in eq.states]
+    if clamped is not None:
+        return names.index(clamped)
+    first = eq.derivatives[0]
+    return names.index(first.name) if getattr(first, "name", None) in names else None
+
+
+def _needed_assignments(eq: Equations, exprs) -> list:
+    """The assignments ``exprs`` depend on, transitively, in evaluation order."""
+    need = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    keep = []
+    for sym, expr in reversed(eq.assignments):
+        if sym in need:
+            keep.append((sym, expr))
+            need |= expr.free_symbols
+    return keep[::-1]
+
+
+def kernel_source(eq: Equations, clamped: str | None = None) -> str:
+    """The Python source of the kernel module for ``eq`` (deterministic). ``clamped`` names
+    the state ``eq.velocity_bound`` holds (see :func:`_clamped_index` without it)."""
     pr = NumbaPrinter()
     names = [s.name for s in eq.states]
     pnames = [s.name for s in eq.params]
     ns = len(names)
+    nm = ns - len(eq.initial)          # mechanical states; the rest (lags) start from the input
+    mech = names[:nm]
     unpack_s = f"    {', '.join(names)}, = S\n"
     unpack_p = f"    {', '.join(pnames)}, = P\n"
 
@@ -36,16 +63,17 @@ def kernel_source(eq: Equations) -> str:
     rhs = ("@njit(cache=True)\ndef rhs(S, u, P):\n" + unpack_s + unpack_p + body
            + f"    return {_tuple(pr.doprint(d) for d in eq.derivatives)}\n")
 
-    clamped = list(names)
-    if eq.velocity_bound is not None:
-        clamped[1] = f"min(max(dx, -({pr.doprint(eq.velocity_bound)})), {pr.doprint(eq.velocity_bound)})"
-    bound = "@njit(cache=True)\ndef bound(S, P):\n" + unpack_s + unpack_p + f"    return {_tuple(clamped)}\n"
+    held = list(names)
+    index = _clamped_index(eq, clamped)
+    if index is not None:
+        limit = pr.doprint(eq.velocity_bound)
+        held[index] = f"min(max({names[index]}, -({limit})), {limit})"
+    bound = "@njit(cache=True)\ndef bound(S, P):\n" + unpack_s + unpack_p + f"    return {_tuple(held)}\n"
 
     inits = [f"float({pr.doprint(e)})" for e in eq.initial]  # a literal 0 would make the tuple mixed-type
-    force_body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in eq.assignments
-                         if sym.name in ("F_N", "F_in"))
-    init = ("@njit(cache=True)\ndef start(S4, u, P):\n    x, dx, theta, dtheta = S4\n" + unpack_p + force_body
-            + f"    return {_tuple(['x', 'dx', 'theta', 'dtheta'] + inits)}\n")
+    force_body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in _needed_assignments(eq, eq.initial))
+    init = (f"@njit(cache=True)\ndef start(SM, u, P):\n    {', '.join(mech)}, = SM\n" + unpack_p + force_body
+            + f"    return {_tuple(mech + inits)}\n")
 
     def combine(a, b, c):
         return _tuple(f"{a}[{i}] + {c}*{b}[{i}]" for i in range(ns))
@@ -60,8 +88,8 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
     P = {_tuple(f"p[{i}]" for i in range(len(pnames)))}
     n = t.shape[0]
     out = np.empty((n, {ns}))
-    k_first = {"0" if ns > 4 else "k0"}
-    S = start((s0[0], s0[1], s0[2], s0[3]), u[k_first], P)
+    k_first = {"0" if ns > nm else "k0"}
+    S = start({_tuple(f"s0[{i}]" for i in range(nm))}, u[k_first], P)
     tau = {f"P[{delay_index}]" if delay_index >= 0 else "0.0"}
     j = 0
     for r in range(k0 + 1):
@@ -71,7 +99,7 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
         if k == k0:
             # extra states (e.g. a motor lag) were pre-rolled over the input history;
             # the mechanical state starts here from s0
-            S = {_tuple(["s0[0]", "s0[1]", "s0[2]", "s0[3]"] + [f"S[{i}]" for i in range(4, ns)])}
+            S = {_tuple([f"s0[{i}]" for i in range(nm)] + [f"S[{i}]" for i in range(nm, ns)])}
             for i in range({ns}):
                 out[k0, i] = S[i]
         span = t[k + 1] - t[k]
@@ -109,6 +137,6 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
     return header + rhs + "\n\n" + bound + "\n\n" + init + "\n" + loop
 
 
-def load_kernel(eq: Equations):
+def load_kernel(eq: Equations, clamped: str | None = None):
     """Import (compiling on first use, from numba's disk cache later) the kernel of ``eq``."""
-    return load_source(kernel_source(eq), "pendc_kernel")
+    return load_source(kernel_source(eq, clamped), "pendc_kernel")

@@ -23,8 +23,9 @@ from ..atomic import write_atomic
 from ..errors import PendcError
 from .csvread import read_csv_table
 from .readers import ReadOptions, build_measurement, read_table
+from .signals import PlantSignals, signals_of
 
-REQUIRED = ("t", "u", "x", "theta")
+REQUIRED = None   # the plant's time, input and positions (t, u, x, theta for the cart-pendulum)
 _KEY = r"[A-Za-z_][\w.\-]*"
 FIT_WINDOW = 0.010  # s, for initial_state's velocity estimate
 
@@ -51,6 +52,12 @@ class Measurement:
     resolution: dict = field(default_factory=dict)  # column -> quantisation step (given or estimated)
     missing: tuple = ()         # axes absent from the file, filled with a constant
     notes: tuple = ()           # what was done to the data (resampling, filling), one line each
+    signals: PlantSignals = None  # the plant whose signals the columns are (None: the default model)
+
+    @property
+    def plant(self) -> PlantSignals:
+        """The signals of the plant the file was read for."""
+        return signals_of(self.signals)
 
     def column(self, name: str) -> np.ndarray:
         """The column called ``name``; PendcError if it is absent or not finite."""
@@ -65,36 +72,43 @@ class Measurement:
                              f"value(s); NaN and inf are not allowed)")
         return values
 
-    # Optional columns: the array, or None when the file has no such column.
-    x = property(lambda self: self.columns.get("x"), doc="Cart position (m) or None.")
-    theta = property(lambda self: self.columns.get("theta"), doc="Pendulum angle (rad) or None.")
-    dx = property(lambda self: self.columns.get("dx"), doc="Cart velocity (m/s) or None.")
-    dtheta = property(lambda self: self.columns.get("dtheta"), doc="Angular velocity (rad/s) or None.")
+    def __getattr__(self, name: str):
+        """A plant signal by name (``m.theta``): its column, or None when the file has none."""
+        if name.startswith("_") or name in ("columns", "signals"):
+            raise AttributeError(name)
+        if name in self.columns:
+            return self.columns[name]
+        if name in self.plant.all_columns:
+            return None
+        raise AttributeError(f"'Measurement' has no attribute or signal '{name}'")
 
-    def initial_state(self) -> tuple[float, float, float, float]:
-        """``(x, dx, theta, dtheta)`` at ``t[0]``, for starting a simulation from the data.
+    def initial_state(self) -> tuple:
+        """The plant's reported state at ``t[0]`` (``(x, dx, theta, dtheta)`` for the
+        cart-pendulum), for starting a simulation from the data.
 
         Positions come from the first row; an absent position column counts as 0 (the
-        spec's default initial state). Velocities come from their ``dx``/``dtheta``
-        columns when present; otherwise they are the slope of a least-squares line
+        spec's default initial state). Velocities come from their rate columns (``dx``,
+        ``dtheta``) when present; otherwise they are the slope of a least-squares line
         through the samples of the first ``FIT_WINDOW`` (10 ms) of the position, and at
         least 3 samples, which averages out the encoder quantisation that a plain
         first difference would amplify. With fewer than 2 samples the velocity is 0.
         """
         t = self.t
         n = max(3, int(np.searchsorted(t, t[0] + FIT_WINDOW, side="right")))
-        state = []
-        for pos, vel in (("x", "dx"), ("theta", "dtheta")):
+        sig = self.plant
+        state = dict.fromkeys(sig.mechanical, 0.0)
+        for pos in sig.positions:
+            vel = sig.rate(pos)
             p = self.columns.get(pos)
-            v = self.columns.get(vel)
-            state.append(float(p[0]) if p is not None else 0.0)
+            v = self.columns.get(vel) if vel is not None else None
+            state[pos] = float(p[0]) if p is not None else 0.0
+            if vel is None:
+                continue
             if v is not None:
-                state.append(float(v[0]))
-            elif p is None or len(t) < 2:
-                state.append(0.0)
-            else:
-                state.append(float(np.polyfit(t[:n] - t[0], p[:n], 1)[0]))
-        return tuple(state)
+                state[vel] = float(v[0])
+            elif p is not None and len(t) >= 2:
+                state[vel] = float(np.polyfit(t[:n] - t[0], p[:n], 1)[0])
+        return tuple(state.values())
 
 
 def read_measurements(path: str | os.PathLike, required=REQUIRED, options: ReadOptions | None = None) -> Measurement:

@@ -1,17 +1,20 @@
 """Plausibility checks on measured columns: say what looks wrong, in one line, by row.
 
-The limits are physical, from the rig (spec §1, thesis II.56):
+The checks are per signal, by its unit as the plant interface gives it (the limits are
+those of a laboratory rig, the SCT's in the thesis, spec §1 and II.56):
 
-- the track is 750 mm long (x = ±0.375 m from its middle), so no position, wherever
-  its zero is, lies ``X_LIMIT`` = 1 m from it: many rows beyond it mean millimetres or
-  centimetres, a few rows an outlier;
-- the drive takes 0-10 V: many rows beyond ``U_LIMIT`` = 100 V mean millivolts, a few
-  rows an outlier (between 10 V and 100 V is only a warning, as a clipped amplifier
-  can show);
-- the pendulum turns at most about 8π ≈ 25 rad/s, so a sample that jumps away from
-  both neighbours by more than ``THETA_SPIKE`` (1 rad, 40 ms at top speed) while they
-  agree with each other is an outlier; angles in degrees are caught by
-  :func:`check_radians`;
+- a position in metres lies within ``POSITION_LIMIT`` of its zero (the SCT track is
+  750 mm long, ±0.375 m from its middle, so 1 m), its plausible span ``POSITION_SPAN``:
+  many rows beyond the limit mean a smaller unit (the one in which the values span no
+  more than the span: centimetres or millimetres), a few rows an outlier;
+- an input lies within ``INPUT_MARGIN`` times its full scale (the SCT drive takes 0-10 V,
+  so 100 V): many rows beyond mean a smaller unit (millivolts), a few rows an outlier
+  (beyond the full scale is only a warning, as a clipped amplifier can show);
+- rates stay below ``RATE_LIMIT`` of their unit;
+- an angle (a periodic position in radians) turns at most about 8π ≈ 25 rad/s on the
+  SCT, so a sample that jumps away from both neighbours by more than ``ANGLE_SPIKE``
+  (1 rad, 40 ms at top speed) while they agree with each other is an outlier; angles in
+  degrees are caught by :func:`check_radians`;
 - a swing lasts about a second, so sampling slower than ``MIN_RATE`` (10 Hz) cannot
   record one: a median time step of 0.1 or more is taken as milliseconds (or
   microseconds) rather than seconds.
@@ -26,13 +29,15 @@ import numpy as np
 from ..errors import PendcError
 from .table import Table
 
-X_LIMIT = 1.0          # m
-U_LIMIT = 100.0        # V
-THETA_SPIKE = 1.0      # rad
-MAX_RAD_RATE = 60.0    # rad/s; the pendulum never exceeds ~8π ≈ 25 rad/s (II.56)
-MIN_RATE = 10.0        # Hz
-DX_LIMIT = 10.0        # m/s: the cart is clamped at 0.55 m/s
-DTHETA_LIMIT = 200.0   # rad/s
+POSITION_LIMIT = {"m": 1.0}     # per unit: no rig position lies farther from its zero
+POSITION_SPAN = {"m": 0.75}     # per unit: the longest travel (the SCT's track)
+INPUT_MARGIN = 10.0             # x full scale: beyond it, a unit mistake or an outlier
+U_LIMIT = 100.0                 # V: the SCT drive's INPUT_MARGIN x 10 V (the simulate command's check)
+ANGLE_SPIKE = 1.0               # rad
+MAX_RAD_RATE = 60.0             # rad/s; the pendulum never exceeds ~8π ≈ 25 rad/s (II.56)
+MIN_RATE = 10.0                 # Hz
+RATE_LIMIT = {"m/s": 10.0,      # the SCT cart is clamped at 0.55 m/s
+              "rad/s": 200.0}
 UNIT_FRACTION = 0.01   # more than this fraction of rows out of range -> a unit mistake
 _DEG_UNITS = {"deg", "degree", "degrees", "°"}
 
@@ -118,60 +123,62 @@ def _spike_error(table: Table, name: str, values: np.ndarray, k: int, limit: flo
                      f"{float(values[k - 1]):.6g} and {float(values[k + 1]):.6g})")
 
 
-def unwrap_if_wrapped(theta: np.ndarray) -> tuple[np.ndarray, int]:
-    """``(theta, count)``: an angle recorded modulo one turn, unwrapped, and its number of wraps.
+def unwrap_if_wrapped(angle: np.ndarray, period: float = 2 * math.pi) -> tuple[np.ndarray, int]:
+    """``(angle, count)``: a position recorded modulo one ``period``, unwrapped, and its number
+    of wraps.
 
-    A jump of more than pi between samples is a wrap when it is within 0.5 rad of one
-    turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample at 100 Hz);
-    angles in degrees jump by 360 and are left for :func:`check_radians`.
+    A jump of more than half a period between samples is a wrap when it is within 0.5 rad
+    (for a 2π period) of one turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample
+    at 100 Hz); angles in degrees jump by 360 and are left for :func:`check_radians`.
     """
-    d = np.diff(theta)
-    jumps = (d > math.pi) | (d < -math.pi)
+    d = np.diff(angle)
+    half = period / 2
+    jumps = (d > half) | (d < -half)
     if not jumps.any():
-        return theta, 0
-    if np.any(np.abs(np.abs(d[jumps]) - 2 * math.pi) > 0.5):  # a wrap is one turn, never several
-        return theta, 0
-    return np.unwrap(theta), int(jumps.sum())
+        return angle, 0
+    if np.any(np.abs(np.abs(d[jumps]) - period) > 0.5 * period / (2 * math.pi)):  # one turn, never several
+        return angle, 0
+    return np.unwrap(angle, period=period), int(jumps.sum())
 
 
-def degrees_suspected(names: list) -> list:
-    """Column names that announce degrees (theta_deg, 'theta (deg)', ...)."""
+def degrees_suspected(names: list, angle: str) -> list:
+    """Column names that announce ``angle`` in degrees (``<angle>_deg``, '<angle> (deg)', ...)."""
     import re
 
-    pattern = re.compile(r"theta\W*_?\W*deg(rees?)?\W*$", re.IGNORECASE)
+    pattern = re.compile(re.escape(angle) + r"\W*_?\W*deg(rees?)?\W*$", re.IGNORECASE)
     return [n for n in names if pattern.match(n)]
 
 
-def check_radians(table: Table, t: np.ndarray, theta: np.ndarray, given: bool) -> None:
-    """Reject angles that look like degrees.
+def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, name: str) -> None:
+    """Reject angles (column ``name``) that look like degrees.
 
-    theta is unwrapped radians from hanging-down, and the pendulum turns at most about
-    8π rad/s (II.56). So a swing beyond ±2π that also moves faster than ``MAX_RAD_RATE``
-    (60 rad/s) between consecutive samples, or any |theta| > 200, is taken as degrees
-    (a full turn is 360, and 180°/s is already 3.1 rad/s). A ``theta_unit: deg``
-    metadata entry is refused unless the unit was given (``--theta-unit``).
+    An angle is unwrapped radians, and the SCT pendulum turns at most about 8π rad/s (II.56).
+    So a swing beyond ±2π that also moves faster than ``MAX_RAD_RATE`` (60 rad/s) between
+    consecutive samples, or any |angle| > 200, is taken as degrees (a full turn is 360, and
+    180°/s is already 3.1 rad/s). A ``<name>_unit: deg`` metadata entry is refused unless the
+    unit was given (``--<name>-unit``).
     """
-    unit = table.meta.get("theta_unit", "").strip().lower()
-    peak = max(float(theta.max()), -float(theta.min()))
+    unit = table.meta.get(f"{name}_unit", "").strip().lower()
+    peak = max(float(angle.max()), -float(angle.min()))
     rate, block = 0.0, 1 << 20  # in blocks: no full-length temporaries on a 1e7-row file
     for start in range(0, len(t) - 1, block):
-        th, tt = theta[start:start + block + 1], t[start:start + block + 1]
+        th, tt = angle[start:start + block + 1], t[start:start + block + 1]
         with np.errstate(divide="ignore", invalid="ignore"):
             rate = max(rate, float(np.abs(np.diff(th) / np.diff(tt)).max()))
     if unit in _DEG_UNITS and not given:
-        why = f"metadata theta_unit: {unit}"
+        why = f"metadata {name}_unit: {unit}"
     elif peak > 200.0 or (peak > 2 * math.pi and rate > MAX_RAD_RATE):
-        why = f"max |theta| = {peak:.4g}, max |dtheta/dt| = {rate:.4g} between samples"
+        why = f"max |{name}| = {peak:.4g}, max |d{name}/dt| = {rate:.4g} between samples"
     else:
         return
-    fix = "check --theta-unit" if given else "convert the angles to radians, or give --theta-unit deg"
-    raise PendcError(f"{table.source}: column 'theta' looks like degrees ({why}): {fix}")
+    fix = f"check --{name}-unit" if given else f"convert the angles to radians, or give --{name}-unit deg"
+    raise PendcError(f"{table.source}: column '{name}' looks like degrees ({why}): {fix}")
 
 
-def voltage_warning(source: str, u: np.ndarray) -> list:
-    """A warning when some inputs lie outside the drive's 0-10 V."""
-    outside = (u < 0.0) | (u > 10.0)
+def input_warning(source: str, name: str, values: np.ndarray, low: float, high: float, unit: str) -> list:
+    """A warning when some inputs lie outside the range ``low``-``high`` the actuator takes."""
+    outside = (values < low) | (values > high)
     if not outside.any():
         return []
-    return [f"{source}: u outside 0-10 V in {int(outside.sum())} of {len(u)} samples "
-            f"(min {u.min():g} V, max {u.max():g} V)"]
+    return [f"{source}: {name} outside {low:g}-{high:g} {unit} in {int(outside.sum())} of {len(values)} samples "
+            f"(min {values.min():g} {unit}, max {values.max():g} {unit})"]

@@ -12,37 +12,40 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from ..errors import PendcError, open_input
 from . import plausibility as plaus
+from .signals import TIME, UNIT_SCALES, ZERO_NAMES, PlantSignals, signals_of, unit_scale
 from .table import Table
 
-UNITS = {
-    "t": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
-    "x": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
-    "u": {"V": 1.0, "mV": 1e-3},
-    "theta": {"rad": 1.0, "deg": math.pi / 180},
-}
-THETA_ZERO = ("hanging", "upright")
-AXES = ("x", "u", "theta")
-RESOLUTION_COLUMNS = ("x", "theta", "u")
-TIME_NAMES = ("t", "time", "tout")
+TIME_NAMES = (TIME, "time", "tout")
+# ReadOptions' older per-signal fields, named <signal>_<setting> (the cart-pendulum's spellings):
+# the setting's suffix -> the dict it fills
+LEGACY_SETTINGS = {"unit": "units", "zero": "zero", "sign": "sign"}
 
 
 @dataclass(frozen=True)
 class ReadOptions:
     """How to read another lab's file (every field has a ``--option`` of the same name).
 
-    ``columns`` maps a pendc name (t, u, x, theta, dx, dtheta) to the file's name;
+    ``plant`` is the model (or its plant interface) whose signals the file holds (None:
+    the default model, the SCT cart-pendulum): its interface names the columns (time, the
+    input, each position, optionally their rates) and their units. ``columns`` maps such
+    a name (for the cart-pendulum t, u, x, theta, dx, dtheta) to the file's name;
     ``separator`` and ``decimal`` are characters (None: whitespace) or ``...`` to
-    detect them. Units are a name of ``UNITS`` or a number (the SI value of one file
-    unit), None for pendc's own (s, V, m, rad): then the unit checks' hints name the
-    option to use. ``theta_zero='upright'`` with ``theta_sign`` s
-    gives theta = s * theta_file + pi. ``allow_missing`` axes (besides those the
-    experiment makes irrelevant) are filled with zeros, ``u`` with ``u_value``.
+    detect them. ``units`` maps a signal to its unit in the file: a name of
+    :data:`~pendc.sim.signals.UNIT_SCALES` for the signal's SI unit, or a number (the SI
+    value of one file unit); an absent signal is in its interface unit (s, V, m, rad...),
+    and the unit checks' hints name the option to use. ``zero`` maps a periodic position
+    to where the file's zero is (``upright``: half a period from the interface's zero) and
+    ``sign`` to -1 when the file counts it the other way: angle = sign * file + half a
+    period. The fields ``t_unit``, ``x_unit``, ``u_unit``, ``theta_unit``, ``theta_zero``
+    and ``theta_sign`` are the same settings under the cart-pendulum's older names.
+    ``allow_missing`` axes (besides those the experiment makes irrelevant) are filled with
+    zeros, the input with ``u_value``.
     ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
     :func:`pendc.sim.resample.regrid`) and ``plausible`` checks the values against the
     rig's limits (:mod:`pendc.sim.plausibility`); both are off by default, so a library
@@ -68,18 +71,55 @@ class ReadOptions:
     rate: float | None = None
     uniform: bool = False
     plausible: bool = False
+    units: dict = field(default_factory=dict)
+    zero: dict = field(default_factory=dict)
+    sign: dict = field(default_factory=dict)
+    plant: object = None
 
     def __post_init__(self):
-        for axis, unit in (("t", self.t_unit), ("x", self.x_unit), ("u", self.u_unit), ("theta", self.theta_unit)):
-            if unit is not None:
-                unit_factor(axis, unit)
-        if self.theta_zero not in THETA_ZERO:
-            raise PendcError(f"--theta-zero {self.theta_zero!r}: use hanging or upright")
-        if self.theta_sign not in (1.0, -1.0):
-            raise PendcError(f"--theta-sign {self.theta_sign!r}: use 1 or -1")
-        bad = [a for a in self.allow_missing if a not in AXES]
+        merged = {"units": dict(self.units), "zero": dict(self.zero), "sign": dict(self.sign)}
+        defaults = {"units": None, "zero": "hanging", "sign": 1.0}
+        for legacy in [f.name for f in fields(self) if "_" in f.name and f.name.rsplit("_", 1)[1] in LEGACY_SETTINGS]:
+            name, setting = legacy.rsplit("_", 1)
+            kind = LEGACY_SETTINGS[setting]
+            value = getattr(self, legacy)
+            if value is not None and value != defaults[kind]:
+                merged[kind].setdefault(name, value)
+        for kind, values in merged.items():
+            object.__setattr__(self, kind, values)
+        for name, where in self.zero.items():
+            if where not in ZERO_NAMES:
+                raise PendcError(f"--{name}-zero {where!r}: use {' or '.join(ZERO_NAMES)}")
+        for name, sign in self.sign.items():
+            if sign not in (1.0, -1.0):
+                raise PendcError(f"--{name}-sign {sign!r}: use 1 or -1")
+        if self.units or self.zero or self.sign or self.allow_missing or self.columns or self.resolution:
+            self._check_names()
+
+    @property
+    def signals(self) -> PlantSignals:
+        """The signals of the plant the file is read for (see ``plant``)."""
+        return signals_of(self.plant)
+
+    def _check_names(self) -> None:
+        sig = self.signals
+        known = (*sig.all_columns,)
+        for option, names in (("--columns", self.columns), ("--resolution", self.resolution)):
+            bad = [n for n in names if n not in known]
+            if bad:
+                raise PendcError(f"{option} {bad[0]}=...: '{bad[0]}' is not a signal of this plant "
+                                 f"({', '.join(known)})")
+        for name, unit in self.units.items():
+            unit_factor(name, unit, sig)
+        for kind, values in (("zero", self.zero), ("sign", self.sign)):
+            bad = [n for n in values if n not in sig.periodic]
+            if bad:
+                raise PendcError(f"--{bad[0]}-{kind}: only a periodic position has a {kind} to set "
+                                 f"({', '.join(sig.periodic) or 'this plant has none'})")
+        axes = (sig.input, *sig.positions)
+        bad = [a for a in self.allow_missing if a not in axes]
         if bad:
-            raise PendcError(f"--missing {','.join(bad)}: only x, u and theta can be missing")
+            raise PendcError(f"--missing {','.join(bad)}: only {', '.join(axes)} can be missing")
 
 
 def read_table(path: str, options: ReadOptions = ReadOptions()) -> Table:
@@ -129,14 +169,16 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
     """Give ``columns`` a ``t`` (in place): mapped, a time variable, a signal's own time, or
     ``sample_time``; signals with other time vectors are interpolated onto it. Returns notes."""
     notes = []
-    signals = [origin[n] for n in ("theta", "x", "u") if n in origin]
+    sig = options.signals
+    axes = (*reversed(sig.positions), sig.input)   # the lab story logs an angle alone: it leads
+    signals = [origin[n] for n in axes if n in origin]
     if "t" not in origin:
         own = [table.times[s] for s in signals if s in table.times]
         if own:
             columns["t"] = own[0]
             origin["t"] = f"the time of signal '{signals[0]}'"
         else:
-            length = len(columns[next(iter(n for n in ("theta", "x", "u") if n in origin))]) if signals else 0
+            length = len(columns[next(iter(n for n in axes if n in origin))]) if signals else 0
             found = [n for n in table.names() if n.lower() in TIME_NAMES or n.lower().endswith(".time")]
             found = [n for n in found if len(table.columns[table.lookup(n)]) == length]
             if found:
@@ -152,7 +194,7 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
         raise PendcError(f"{table.source}: no time column (names found: {', '.join(table.names())}): map one with "
                          f"--columns t=NAME, or give --sample-time S")
     t = np.asarray(t, dtype=np.float64)
-    mapped = [n for n in ("theta", "x", "u", "dx", "dtheta") if n in origin]
+    mapped = [n for n in (*axes, *sig.rates) if n in origin]
     others = [n for n in mapped if origin[n] in table.times and not np.array_equal(table.times[origin[n]], t)]
     if others:  # keep only the time span every signal covers: no extrapolation
         lo = max(float(table.times[origin[n]][0]) for n in others)
@@ -174,18 +216,20 @@ def resolve_time(table: Table, columns: dict, origin: dict, options: ReadOptions
     return notes
 
 
-def unit_factor(axis: str, unit: str) -> float:
-    """SI value of one file unit: a name of ``UNITS[axis]``, or a positive number (e.g. the
-    radians of one encoder count, 2*pi/20000 = 3.14159e-4, for angles logged in counts)."""
-    if unit in UNITS[axis]:
-        return UNITS[axis][unit]
-    try:
-        factor = float(unit)
-    except (TypeError, ValueError):
-        factor = -1.0
-    if not (factor > 0 and math.isfinite(factor)):
-        raise PendcError(f"--{axis}-unit {unit!r}: use one of {', '.join(UNITS[axis])}, or the size of one file "
-                         f"unit in {next(iter(UNITS[axis]))} (a positive number)")
+def unit_factor(axis: str, unit: str, plant=None) -> float:
+    """SI value of one file unit of signal ``axis`` (of ``plant``'s signals, default the default
+    model's): a unit name of its SI unit (:data:`~pendc.sim.signals.UNIT_SCALES`), or a positive
+    number (e.g. the radians of one encoder count, 2*pi/20000 = 3.14159e-4, for angles logged
+    in counts)."""
+    sig = signals_of(plant)
+    if axis not in sig.all_columns:
+        raise PendcError(f"--{axis}-unit: '{axis}' is not a signal of this plant ({', '.join(sig.all_columns)})")
+    si = sig.unit(axis)
+    factor = unit_scale(si, unit)
+    if factor is None:
+        names = UNIT_SCALES.get(si, {si: 1.0})
+        raise PendcError(f"--{axis}-unit {unit!r}: use one of {', '.join(names)}, or the size of one file "
+                         f"unit in {si} (a positive number)")
     return factor
 
 
@@ -199,16 +243,23 @@ def _positive(text) -> float | None:
 
 
 def convert_units(columns: dict, options: ReadOptions) -> None:
-    """Scale to s, m, V, rad (in place); theta from upright is shifted to pendc's hanging zero."""
-    scale = {axis: unit_factor(axis, unit) for axis, unit in (("t", options.t_unit), ("x", options.x_unit),
-             ("u", options.u_unit), ("theta", options.theta_unit)) if unit is not None}
-    scale["theta"] = scale.get("theta", 1.0) * options.theta_sign
-    rates = {"dx": scale.get("x", 1.0) / scale.get("t", 1.0), "dtheta": scale["theta"] / scale.get("t", 1.0)}
-    for name, factor in {**scale, **rates}.items():
+    """Scale to the interface's units (in place: s, V, m, rad for the cart-pendulum); a periodic
+    position with its zero ``upright`` is shifted by half a period to the interface's zero."""
+    sig = options.signals
+    scale = {axis: unit_factor(axis, unit, sig) for axis, unit in options.units.items() if unit is not None}
+    for name, sign in options.sign.items():
+        scale[name] = scale.get(name, 1.0) * sign
+    per_second = scale.get(TIME, 1.0)
+    for position in sig.positions:
+        rate = sig.rate(position)
+        if rate is not None and rate not in options.units:
+            scale[rate] = scale.get(position, 1.0) / per_second
+    for name, factor in scale.items():
         if name in columns and factor != 1.0:
             columns[name] = columns[name] * factor
-    if options.theta_zero == "upright" and "theta" in columns:
-        columns["theta"] = columns["theta"] + math.pi
+    for name, where in options.zero.items():
+        if where == "upright" and name in columns:
+            columns[name] = columns[name] + sig.period(name) / 2
 
 
 def estimate_resolution(values: np.ndarray, max_samples: int = 500_000) -> float | None:
@@ -237,68 +288,80 @@ def estimate_resolution(values: np.ndarray, max_samples: int = 500_000) -> float
 
 def missing_allowed(experiment: str, options: ReadOptions) -> set:
     """Axes that may be absent from the file: the experiment's irrelevant ones and the user's."""
-    from ..model.experiments import EXPERIMENTS
+    from .experiment_axes import irrelevant_axes
 
-    irrelevant = {"cart_held": {"x", "u"}, "pendulum_removed": {"theta"}}
-    if experiment not in EXPERIMENTS:
-        raise PendcError(f"unknown experiment '{experiment}' (known: {', '.join(EXPERIMENTS)})")
-    return irrelevant.get(experiment, set()) | set(options.allow_missing)
+    return irrelevant_axes(options.plant, experiment) | set(options.allow_missing)
 
 
-def build_measurement(table: Table, options: ReadOptions = ReadOptions(), required=("t", "u", "x", "theta")):
-    """Map, convert, check and (if ``options.uniform``) regrid a table (see the module docstring)."""
+def build_measurement(table: Table, options: ReadOptions = ReadOptions(), required=None):
+    """Map, convert, check and (if ``options.uniform``) regrid a table (see the module docstring).
+    ``required`` names the columns the file must have (default: the plant's time, input and
+    positions)."""
     from .measurements import Measurement
 
+    sig = options.signals
+    required = sig.columns if required is None else tuple(required)
     experiment = (options.experiment or table.meta.get("experiment") or "free").strip()
     try:
         allowed = missing_allowed(experiment, options)
     except PendcError as exc:
         raise PendcError(f"{table.source}: {exc}") from None
     if table.headerless and not options.columns:
+        example = ",".join(f"{n}={k}" for k, n in enumerate(sig.columns, 1))
         raise PendcError(f"{table.source}: line {table.first_line}: no header row (this line looks like data): add "
-                         f"one (t,u,x,theta), or map the columns by number, e.g. --columns t=1,u=2,x=3,theta=4")
-    wanted = tuple(dict.fromkeys(("t", "u", *required, "x", "theta", "dx", "dtheta")))
+                         f"one ({','.join(sig.columns)}), or map the columns by number, e.g. --columns {example}")
+    wanted = tuple(dict.fromkeys((TIME, sig.input, *required, *sig.all_columns)))
     columns, origin = map_columns(table, options, wanted)
-    need = [n for n in dict.fromkeys(("u", *required)) if n != "t"]
+    need = [n for n in dict.fromkeys((sig.input, *required)) if n != TIME]
     absent = [n for n in need if n not in columns]
     refused = [n for n in absent if n not in allowed]
     if refused:
         _missing_error(table, refused, options)
     notes = list(table.notes)
-    if "t" not in origin or table.times:
+    if TIME not in origin or table.times:
         notes += resolve_time(table, columns, origin, options)
     for name, values in list(columns.items()):
         if name in origin:
             plaus.check_finite(table, name, np.asarray(values))
     convert_units(columns, options)
     _check(table, columns, options, notes)
-    resolution = {n: estimate_resolution(columns[n]) for n in RESOLUTION_COLUMNS if n in columns}
+    resolution = {n: estimate_resolution(columns[n]) for n in (*sig.positions, sig.input) if n in columns}
     resolution = {n: q for n, q in resolution.items() if q is not None}
     resolution.update(options.resolution)
-    warnings = plaus.voltage_warning(table.source, columns["u"]) if "u" in columns else []
-    missing = tuple(n for n in ("x", "u", "theta") if n in absent)
+    warnings = _input_warning(table.source, sig, columns)
+    missing = tuple(n for n in (*sig.positions, sig.input) if n in absent)
+    fill = {n: options.u_value if n == sig.input else 0.0 for n in missing}
     for n in missing:
-        columns[n] = np.full(len(columns["t"]), options.u_value if n == "u" else 0.0)
+        columns[n] = np.full(len(columns[TIME]), fill[n])
     if missing:
         notes.append(f"{table.source}: no {', '.join(missing)} in the file ({experiment} experiment): filled with "
-                     + ", ".join(f"{n} = {options.u_value if n == 'u' else 0.0:g}" for n in missing))
+                     + ", ".join(f"{n} = {fill[n]:g}" for n in missing))
     first_line = table.first_line
     if options.uniform:
-        t = columns.pop("t")
+        t = columns.pop(TIME)
         numeric = {n: v for n, v in columns.items() if n in origin or n in missing}
         t, regridded, note = _regrid(table, t, numeric, options)
         if note:
             notes.append(note)
             first_line = 0
             columns = {n: regridded[n] for n in numeric}  # other columns are dropped with the old grid
-        columns = {"t": t, **columns}
+        columns = {TIME: t, **columns}
     else:
-        columns = {"t": columns.pop("t"), **columns}
-    ordered = {n: _frozen(columns[n]) for n in dict.fromkeys((*[n for n in ("t", "u", "x", "theta") if n in columns],
+        columns = {TIME: columns.pop(TIME), **columns}
+    ordered = {n: _frozen(columns[n]) for n in dict.fromkeys((*[n for n in sig.columns if n in columns],
                                                               *columns))}
-    return Measurement(t=ordered["t"], u=ordered.get("u"), columns=ordered, meta=dict(table.meta),
+    return Measurement(t=ordered[TIME], u=ordered.get(sig.input), columns=ordered, meta=dict(table.meta),
                        source=table.source, warnings=tuple(warnings), first_line=first_line,
-                       experiment=experiment, resolution=resolution, missing=missing, notes=tuple(notes))
+                       experiment=experiment, resolution=resolution, missing=missing, notes=tuple(notes),
+                       signals=sig)
+
+
+def _input_warning(source: str, sig: PlantSignals, columns: dict) -> list:
+    """Inputs beyond the interface's full scale: a warning (a clipped amplifier can show it)."""
+    if sig.input not in columns:
+        return []
+    spec = sig.interface.input
+    return plaus.input_warning(source, sig.input, columns[sig.input], -spec.full_scale, spec.full_scale, spec.unit)
 
 
 def _regrid(table: Table, t, columns: dict, options: ReadOptions):
@@ -314,15 +377,18 @@ def _frozen(values) -> np.ndarray:
 
 
 def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
+    from .experiment_axes import missing_hint
+
     names = table.names()
-    degrees = plaus.degrees_suspected(names)
-    if "theta" in refused and degrees:
-        raise PendcError(f"{table.source}: the angle column looks like degrees ({', '.join(degrees)}): map it with "
-                         f"--columns theta={degrees[0]} --theta-unit deg")
-    hints = {"x": "a clamped cart: --experiment cart_held", "u": "a free swing: --experiment cart_held or --missing u",
-             "theta": "the cart alone: --experiment pendulum_removed"}
-    found = [n for n in AXES if n not in refused]
-    why = f", or for {'; for '.join(hints[n] for n in refused)}" if found else ""
+    sig = options.signals
+    for angle in sig.periodic:
+        degrees = plaus.degrees_suspected(names, angle)
+        if angle in refused and degrees:
+            raise PendcError(f"{table.source}: the angle column looks like degrees ({', '.join(degrees)}): map it with "
+                             f"--columns {angle}={degrees[0]} --{angle}-unit deg")
+    found = [n for n in (*sig.positions, sig.input) if n not in refused]
+    hints = [missing_hint(options.plant, n) for n in refused]
+    why = f", or for {'; for '.join(hints)}" if found and all(hints) else ""
     if table.unreadable:
         why += f" (not readable here: {', '.join(table.unreadable)}: MATLAB objects or malformed structs)"
     raise PendcError(f"{table.source}: missing column(s) {', '.join(refused)} (columns: {', '.join(names)}); map "
@@ -334,40 +400,73 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
 
     Always: time order, wrapped angles, degrees. With ``options.plausible`` (reading a
     recording for identification) also the rig's physical limits: outliers and unit
-    mistakes in x, u, theta and t; a simulation's output may leave the track on purpose.
+    mistakes in the positions, the input, the rates and t; a simulation's output may leave
+    the track on purpose. Each check applies to the signals whose interface unit it knows.
     """
-    t = columns["t"]
+    sig = options.signals
+    t = columns[TIME]
     plaus.check_time(table, t)
-    if "theta" in columns:  # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
-        unwrapped, wraps = plaus.unwrap_if_wrapped(columns["theta"])
+    angles = [a for a in sig.periodic if a in columns and sig.unit(a) == "rad"]
+    for name in [p for p in sig.periodic if p in columns]:
+        # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
+        unwrapped, wraps = plaus.unwrap_if_wrapped(columns[name], sig.period(name))
         if wraps:
-            columns["theta"] = unwrapped
-            notes.append(f"{table.source}: theta was wrapped to one turn ({wraps} jumps of a whole turn between "
-                         f"samples, which the pendulum cannot make): unwrapped")
-        if options.plausible:
-            plaus.check_spikes(table, "theta", columns["theta"], plaus.THETA_SPIKE, "rad")
+            columns[name] = unwrapped
+            notes.append(f"{table.source}: {name} was wrapped to one turn ({wraps} jumps of a whole turn between "
+                         f"samples, which the {sig.body_of(name)} cannot make): unwrapped")
+        if options.plausible and name in angles:
+            plaus.check_spikes(table, name, columns[name], plaus.ANGLE_SPIKE, "rad")
     if options.plausible:
         _check_limits(table, columns, options)
-    if "theta" in columns:
-        plaus.check_radians(table, t, columns["theta"], options.theta_unit is not None)
-    if options.plausible and ("x" in columns or "theta" in columns):  # an input alone may be sparse steps
-        plaus.check_time_unit(table, t, options.t_unit is not None)
+    for name in angles:
+        plaus.check_radians(table, t, columns[name], name in options.units, name)
+    if options.plausible and any(p in columns for p in sig.positions):  # an input alone may be sparse steps
+        plaus.check_time_unit(table, t, TIME in options.units)
+
+
+def _unit_hint(options: ReadOptions, name: str, suggestion: str) -> str:
+    return f"check --{name}-unit" if name in options.units else f"use --{name}-unit {suggestion}"
 
 
 def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
-    """x, u and the velocities within the rig's limits: a few rows beyond are outliers, many a unit."""
-    if "u" in columns:
-        plaus.check_bounded(table, "u", columns["u"], plaus.U_LIMIT, "V", "the drive takes 0-10 V",
-                            ("millivolts", "check --u-unit" if options.u_unit else "use --u-unit mV"))
-    if "x" in columns:
-        # In centimetres no position reaches 75 (the track's length): beyond that, millimetres.
-        x = columns["x"]
-        mm = float(x.max()) > plaus.X_LIMIT or float(x.min()) < -plaus.X_LIMIT  # then, only, look closer
-        mm = mm and float(np.percentile(np.abs(x), 99)) > 75.0
-        plaus.check_bounded(table, "x", x, plaus.X_LIMIT, "m", "the track is 0.75 m long",
-                            ("millimetres" if mm else "centimetres",
-                             "check --x-unit" if options.x_unit else f"use --x-unit {'mm' if mm else 'cm'}"))
-    for name, limit in (("dx", plaus.DX_LIMIT), ("dtheta", plaus.DTHETA_LIMIT)):
-        if name in columns:
-            plaus.check_bounded(table, name, columns[name], limit, "per s", "faster than the rig can move",
-                                ("a unit mistake", "check its unit"))
+    """The input, the positions and the rates within a rig's limits (by unit): a few rows beyond
+    are outliers, many a unit mistake."""
+    sig = options.signals
+    spec = sig.interface.input
+    if spec.name in columns:
+        smaller = _smaller_units(spec.unit)
+        plaus.check_bounded(table, spec.name, columns[spec.name], plaus.INPUT_MARGIN * spec.full_scale, spec.unit,
+                            f"the {spec.meaning.split(' (')[0]} spans ±{spec.full_scale:g} {spec.unit}",
+                            (_spelled(smaller[-1]) if smaller else "a unit mistake",
+                             _unit_hint(options, spec.name, smaller[-1] if smaller else "...")))
+    for name in [p for p in sig.positions if p in columns and sig.unit(p) in plaus.POSITION_LIMIT]:
+        unit = sig.unit(name)
+        limit, span = plaus.POSITION_LIMIT[unit], plaus.POSITION_SPAN[unit]
+        values = columns[name]
+        smaller = _smaller_units(unit)
+        guess = smaller[0] if smaller else "..."
+        if float(values.max()) > limit or float(values.min()) < -limit:   # then, only, look closer
+            # the largest smaller unit in which the values span no more than the rig's travel
+            typical = float(np.percentile(np.abs(values), 99))
+            fitting = [u for u in smaller if typical * UNIT_SCALES[unit][u] <= span]
+            guess = fitting[0] if fitting else smaller[-1] if smaller else guess
+        plaus.check_bounded(table, name, values, limit, unit,
+                            f"the {sig.label(name)} spans {span:g} {unit} at most",
+                            (_spelled(guess), _unit_hint(options, name, guess)))
+    for name in [r for r in sig.rates if r in columns and sig.unit(r) in plaus.RATE_LIMIT]:
+        plaus.check_bounded(table, name, columns[name], plaus.RATE_LIMIT[sig.unit(name)], "per s",
+                            "faster than the rig can move", ("a unit mistake", "check its unit"))
+
+
+def _smaller_units(si_unit: str) -> list:
+    """Unit names smaller than ``si_unit``, the largest first (cm before mm)."""
+    scales = UNIT_SCALES.get(si_unit, {})
+    return sorted((u for u, f in scales.items() if f < 1.0), key=lambda u: -scales[u])
+
+
+_SPELLED = {"mm": "millimetres", "cm": "centimetres", "mV": "millivolts", "ms": "milliseconds",
+            "us": "microseconds", "deg": "degrees"}
+
+
+def _spelled(unit: str) -> str:
+    return _SPELLED.get(unit, unit)

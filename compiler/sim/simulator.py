@@ -14,8 +14,9 @@ import numpy as np
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
-from .encoders import quantize_theta, quantize_x
+from .encoders import quantize as to_counts
 from .kernel import load_kernel
+from .signals import PlantSignals, signals_of
 
 METHODS = ("euler", "rk4")
 MAX_STEPS = 1e10   # about ten minutes of compiled stepping
@@ -25,29 +26,33 @@ MAX_STEPS = 1e10   # about ten minutes of compiled stepping
 class SimResult:
     """Simulated trajectory at the input's sample times.
 
-    ``states`` maps each state name (``x``, ``dx``, ``theta``, ``dtheta`` and any
-    extra state such as ``F_m``) to an array the length of ``t``. ``outputs`` holds
-    what the sensors read (``x`` and ``theta`` plus any sensor offset of the model,
-    quantised when asked); without sensor effects or quantisation it equals the states.
+    ``states`` maps each state name (for the cart-pendulum ``x``, ``dx``, ``theta``,
+    ``dtheta`` and any extra state such as ``F_m``) to an array the length of ``t``.
+    ``outputs`` holds what the sensors read (each position plus any sensor offset of the
+    model, quantised when asked); without sensor effects or quantisation it equals the
+    states. ``signals`` names the plant's input, positions and rates (the default model's
+    when not given).
     """
 
     t: np.ndarray
     u: np.ndarray
     states: dict
     outputs: dict = None
+    signals: PlantSignals = None
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.states[name]
 
     def measured(self, name: str) -> np.ndarray:
-        """What the sensor of position ``name`` (x or theta) reads."""
+        """What the sensor of position ``name`` reads."""
         return (self.outputs or self.states)[name]
 
     def columns(self) -> dict:
-        """``t, u, x, theta, dx, dtheta`` in the column order of the CLI's output file
-        (positions as the sensors read them)."""
-        return {"t": self.t, "u": self.u, "x": self.measured("x"), "theta": self.measured("theta"),
-                "dx": self.states["dx"], "dtheta": self.states["dtheta"]}
+        """Time, the input, the positions (as the sensors read them), then their rates: the
+        column order of the CLI's output file (``t, u, x, theta, dx, dtheta`` for the cart-pendulum)."""
+        sig = signals_of(self.signals)
+        return {"t": self.t, sig.input: self.u, **{p: self.measured(p) for p in sig.positions},
+                **{r: self.states[r] for r in sig.rates}}
 
 
 class Simulator:
@@ -55,11 +60,11 @@ class Simulator:
 
     >>> sim = Simulator(load_model(), dt=1e-6, method="euler")
     >>> res = sim(t, u)                       # starts at rest in the centre
-    >>> res = sim(t, u, x0=(0, 0, 0.1, 0))    # (x, dx, theta, dtheta)
+    >>> res = sim(t, u, x0=(0, 0, 0.1, 0))    # the reported states: (x, dx, theta, dtheta)
     >>> res = sim(t, u, params={"b_x": 900})  # same compiled kernel, new values
 
-    ``quantize=True`` rounds x and theta to the ×4 encoder counts (2.5 um, 0.314 mrad),
-    counted from the initial state as the real encoders do. ``x0`` is the true state;
+    ``quantize=True`` rounds each position a sensor reads to its ×4 encoder counts (for
+    the cart-pendulum 2.5 um, 0.314 mrad), counted from the initial state as the real encoders do. ``x0`` is the true state;
     :meth:`true_state` turns measured positions into it (subtracting sensor offsets).
     The model's experiment (:meth:`PlantModel.for_experiment`) is part of its equations.
     """
@@ -75,14 +80,15 @@ class Simulator:
         self.state_names = tuple(s.name for s in model.equations.states)
         self.param_names = tuple(s.name for s in model.equations.params)
         self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
-        self._kernel = load_kernel(model.equations)
+        self.signals = signals_of(model)
+        self._kernel = load_kernel(model.equations, self.signals.clamped())
         eq = model.equations
         self._offsets = tuple((name, eq.params.index(expr) if expr in eq.params else None, expr)
                               for name, expr in eq.sensor_offsets)
 
     def offset_values(self, p: np.ndarray) -> dict:
         """``{state name: offset}`` of the sensor offsets for parameter vector ``p``."""
-        out = {"x": 0.0, "theta": 0.0}
+        out = dict.fromkeys(self.signals.positions, 0.0)
         for name, index, expr in self._offsets:
             if index is None:   # an offset that is an expression of parameters, not one of them
                 expr = expr.subs(dict(zip(self.model.equations.params, p)))
@@ -92,11 +98,23 @@ class Simulator:
         return out
 
     def true_state(self, measured: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
-        """The true ``(x, dx, theta, dtheta)`` whose sensors read ``measured`` (inverse of the output map)."""
+        """The true reported state (e.g. ``(x, dx, theta, dtheta)``) whose sensors read ``measured``
+        (inverse of the output map)."""
         off = self.offset_values(self.param_vector if p is None else p)
         s = np.array(measured, dtype=np.float64)
-        s[0] -= off["x"]
-        s[2] -= off["theta"]
+        for name, value in off.items():
+            s[self.signals.index(name)] -= value
+        return s
+
+    def initial_vector(self, positions: dict, rates: dict, k: int = 0) -> np.ndarray:
+        """The reported state at sample ``k`` from per-position arrays of measured positions and
+        of their rates (a position without a rate state contributes only itself)."""
+        s = np.zeros(len(self.signals.mechanical))
+        for p in self.signals.positions:
+            s[self.signals.index(p)] = positions[p][k]
+            r = self.signals.rate(p)
+            if r is not None:
+                s[self.signals.index(r)] = rates[p][k]
         return s
 
     def vector(self, params: dict | None = None) -> np.ndarray:
@@ -126,19 +144,22 @@ class Simulator:
         if (t[-1] - t[0]) / self.dt > MAX_STEPS:
             raise PendcError(f"{(t[-1] - t[0]) / self.dt:.3g} steps of {self.dt:g} s requested; "
                              f"the limit is {MAX_STEPS:.0e} (use a larger dt or a shorter input)")
-        s0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=np.float64)
-        if s0.shape != (4,) or not np.all(np.isfinite(s0)):
-            raise PendcError("initial state must be four finite numbers (x, dx, theta, dtheta)")
+        names = self.signals.mechanical
+        s0 = np.zeros(len(names)) if x0 is None else np.asarray(x0, dtype=np.float64)
+        if s0.shape != (len(names),) or not np.all(np.isfinite(s0)):
+            raise PendcError(f"initial state must be {len(names)} finite numbers ({', '.join(names)})")
         out, valid = self.raw(t, u, s0, self.vector(params))
         if valid < t.size:
             raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
         off = self.offset_values(self.vector(params))
-        outputs = {"x": states["x"] + off["x"], "theta": states["theta"] + off["theta"]}
+        outputs = {p: states[p] + off[p] for p in self.signals.positions}
         if quantize:
-            outputs = {"x": quantize_x(outputs["x"]), "theta": quantize_theta(outputs["theta"])}
-            states["x"], states["theta"] = quantize_x(states["x"]), quantize_theta(states["theta"])
-        return SimResult(t=t, u=u, states=states, outputs=outputs)
+            for p in self.signals.positions:
+                step = self.signals.resolution(p)
+                if step is not None:
+                    outputs[p], states[p] = to_counts(outputs[p], step), to_counts(states[p], step)
+        return SimResult(t=t, u=u, states=states, outputs=outputs, signals=self.signals)
 
     run = __call__
 

@@ -1,0 +1,124 @@
+"""Operating regimes: where in the plant's state and input space the residual concentrates.
+
+Each partition splits the run's samples into regimes that cover every sample exactly once,
+classified on the *measured* motion (a wrong model must not decide which regime the real
+rig was in). The partitions are read off the plant interface:
+
+* **<body> motion** for the first position (the cart, the arm): standing, moving + or - (its
+  rate below or beyond ``STANDSTILL`` of its unit: static friction's realm);
+* **<body> angle** for the last periodic position (the pendulum): small or large swing from
+  its zero (``SMALL_SWING``: sin(theta) ~ theta still holds within 1.5 %);
+* **drive**: the input near or far from its centre (the drive's offset V_off if the model has
+  one, else 0; ``LOW_DRIVE``: about the SCT's static break-away voltage, 0.40 V for Table 14);
+* **<position> position** for a translation (the cart on its track): centre or near an end
+  (``TRACK_END`` of its unit: the outer third of each half of the SCT's 750 mm track);
+* **input saturation**: the input within ``SATURATION_MARGIN`` of its full scale or not.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..sim.signals import signals_of
+
+STANDSTILL = {"m/s": 0.005, "rad/s": 0.05}   # per rate unit: below this the body counts as standing
+SMALL_SWING = 0.3            # rad from the angle's zero
+LOW_DRIVE = 0.5              # input units from its centre
+TRACK_END = {"m": 0.25}      # per position unit: beyond this the body is near an end of its travel
+SATURATION_MARGIN = 0.005    # fraction of the full scale
+DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's offset for models without a drive effect
+
+
+def wrap_angle(theta, period: float = 2 * math.pi):
+    """An angle folded into [-period/2, period/2): a whole turn is the same position again."""
+    return (np.asarray(theta, dtype=np.float64) + period / 2) % period - period / 2
+
+
+def input_centre(model) -> float:
+    """The input the plant rests at: the model's drive offset ``V_off``, the SCT's default
+    offset for a cart-pendulum model without a drive effect, else 0."""
+    values = model.parameter_values()
+    if "V_off" in values:
+        return float(values["V_off"])
+    knows_offset = any(p.name == "V_off" for cls in model.catalogue.values() for p in cls.params)
+    return DEFAULT_V_OFF if knows_offset else 0.0
+
+
+def _number(value: float, unit: str) -> str:
+    """``5 mm/s`` for small lengths, else the value in its own unit."""
+    if unit.startswith("m") and not unit.startswith("mm") and abs(value) < 0.1:
+        return f"{value * 1e3:g} m{unit}"
+    return f"{value:g} {unit}"
+
+
+def regime_partitions(plant, measured: dict, u, centre: float, skip=()) -> list:
+    """``[(partition, [(name, definition, mask), ...]), ...]``; each partition's masks cover
+    every sample exactly once. ``measured`` holds the data's positions and rates by state name
+    (absent ones are not partitioned); ``plant`` is a model or its interface; partitions named
+    in ``skip`` are left out."""
+    sig = signals_of(plant)
+    spec = sig.interface.input
+    u = np.asarray(u, dtype=np.float64)
+    out = []
+    lead = sig.positions[0]
+    rate = sig.rate(lead)
+    if rate is not None and rate in measured and sig.unit(rate) in STANDSTILL:
+        v, still = np.asarray(measured[rate], dtype=np.float64), STANDSTILL[sig.unit(rate)]
+        s = _number(still, sig.unit(rate))
+        out.append((f"{sig.body_of(lead)} motion", [
+            ("standstill", f"|{rate}| < {s}", np.abs(v) < still),
+            (f"moving +{lead}", f"{rate} >= {s}", v >= still),
+            (f"moving -{lead}", f"{rate} <= -{s}", v <= -still)]))
+    swing = sig.periodic[-1] if sig.periodic else None
+    if swing is not None and swing in measured:
+        th = np.abs(wrap_angle(measured[swing], sig.period(swing)))
+        zero = sig.spec(swing).meaning.split(" from ", 1)[1].split(" (")[0] if " from " in sig.spec(swing).meaning \
+            else "its zero"
+        out.append((f"{sig.body_of(swing)} angle", [
+            ("small swing", f"|{swing}| < {SMALL_SWING:g} {sig.unit(swing)} from {zero}", th < SMALL_SWING),
+            ("large swing", f"|{swing}| >= {SMALL_SWING:g} {sig.unit(swing)}", th >= SMALL_SWING)]))
+    e = np.abs(u - centre)
+    name = spec.name
+    offset = "V_off" if centre else "0"
+    out.append(("drive", [
+        ("weak drive", f"|{name} - {offset}| < {LOW_DRIVE:g} {spec.unit}, {offset} = {centre:.4g} {spec.unit}",
+         e < LOW_DRIVE),
+        ("strong drive", f"|{name} - {offset}| >= {LOW_DRIVE:g} {spec.unit}", e >= LOW_DRIVE)]))
+    for p in [p for p in sig.positions if sig.period(p) is None and p in measured and sig.unit(p) in TRACK_END]:
+        end = TRACK_END[sig.unit(p)]
+        x = np.abs(np.asarray(measured[p], dtype=np.float64))
+        out.append(("track position" if p == lead else f"{p} position", [
+            ("centre", f"|{p}| <= {end:g} {sig.unit(p)}", x <= end),
+            ("near an end", f"|{p}| > {end:g} {sig.unit(p)}", x > end)]))
+    limit = spec.full_scale * (1.0 - SATURATION_MARGIN)
+    sat = np.abs(u) >= limit
+    out.append(("input saturation", [
+        ("saturated", f"|{name}| >= {limit:g} {spec.unit}", sat),
+        ("in range", f"|{name}| < {limit:g} {spec.unit}", ~sat)]))
+    return [(p, members) for p, members in out if p not in skip]
+
+
+def regimes(residual: dict, partitions: list) -> list:
+    """Share of each output's squared residual per regime, next to the share of time.
+
+    Entries: ``partition, name, definition, output, share, rms, fraction_of_time,
+    samples``; within one partition and output the shares add up to 1 (all 0 when
+    the residual is exactly zero) and so do the time fractions. ``rms`` is None for
+    a regime the run never entered. Samples count equally (uniform sampling assumed,
+    as in fit%). ``partitions`` come from :func:`regime_partitions`.
+    """
+    out = []
+    for partition, members in partitions:
+        for output, r in residual.items():
+            sq = np.asarray(r, dtype=np.float64) ** 2
+            total, n = float(sq.sum()), sq.size
+            for name, definition, mask in members:
+                k = int(mask.sum())
+                part = float(sq[mask].sum())
+                out.append({"partition": partition, "name": name, "definition": definition, "output": output,
+                            "share": part / total if total > 0 else 0.0,
+                            "rms": math.sqrt(part / k) if k else None,
+                            "fraction_of_time": k / n, "samples": k})
+    return out

@@ -1,0 +1,69 @@
+"""Which signals an experiment makes irrelevant, read off the model's equations.
+
+An experiment holds or removes part of the plant (:mod:`pendc.model.experiments`): a position
+its equations no longer report is not measured (a clamped cart's position), and an input its
+equations no longer contain drives nothing (the drive of a clamped cart). A file of such an
+experiment may lack those columns; they are filled and listed as missing.
+"""
+
+from __future__ import annotations
+
+from ..errors import PendcError
+from ..model.experiments import DEFAULT_EXPERIMENT
+from .signals import signals_of
+
+
+def _model(plant):
+    """The plant model ``plant`` stands for (None: the default model; an interface: None)."""
+    if plant is None:
+        from ..model.modelfile import load_model
+
+        return load_model()
+    return plant if hasattr(plant, "for_experiment") else None
+
+
+def experiments_of(model) -> dict:
+    """The experiments ``model``'s body knows (the cart-pendulum's without a model)."""
+    from ..model.experiments import EXPERIMENTS
+
+    return dict(getattr(model, "experiments", None) or EXPERIMENTS)
+
+
+def _uses_input(equations) -> bool:
+    """Whether the state derivatives depend on the input (through any assignment)."""
+    need = set().union(*(d.free_symbols for d in equations.derivatives if hasattr(d, "free_symbols")))
+    for sym, expr in reversed(equations.assignments):
+        if sym in need:
+            need |= expr.free_symbols
+    return equations.input in need
+
+
+def irrelevant_axes(plant, experiment: str) -> set:
+    """Signals (positions, the input) that ``experiment`` of ``plant`` does not measure or use."""
+    model = _model(plant)
+    known = experiments_of(model)
+    if experiment not in known:
+        raise PendcError(f"unknown experiment '{experiment}' (known: {', '.join(known)})")
+    if model is None or experiment == DEFAULT_EXPERIMENT:
+        return set()
+    equations = model.for_experiment(experiment).equations
+    sig = signals_of(model)
+    out = {p for p in sig.positions if p not in equations.measured}
+    if not _uses_input(equations):
+        out.add(sig.input)
+    return out
+
+
+def missing_hint(plant, name: str) -> str:
+    """How to read a file without signal ``name``: the experiments that make it irrelevant, or
+    ``--missing`` for the input; empty when there is none."""
+    model = _model(plant)
+    if model is None:
+        return ""
+    sig = signals_of(model)
+    held = [e for e in experiments_of(model) if e != DEFAULT_EXPERIMENT and name in irrelevant_axes(model, e)]
+    ways = [f"--experiment {e}" for e in held] + ([f"--missing {name}"] if name == sig.input else [])
+    if not ways:
+        return ""
+    what = f"a run without {sig.label(name) if name != sig.input else 'the input'}"
+    return f"{what}: {' or '.join(ways)}"
