@@ -87,7 +87,10 @@ def cmd_hil(args) -> int:
         print(f"plant {summary['plant']}, {summary['rows']} periods in {summary['wall_s']:.2f} s wall")
         print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
               else "not upright at the end of the run")
-        print(f"max |x| = {summary['max_abs_x_m']:.4f} m, {summary['switches']} controller switches")
+        units = dict(run.units)
+        spans = [f"max |{state}| = {float(abs(column).max()):.4f} {units.get(state, '')}".rstrip()
+                 for state, column in run.positions if state != run.angle and column.size]
+        print(", ".join(spans + [f"{summary['switches']} controller switches"]))
         if args.out:
             print(f"wrote {args.out}/run.csv, summary.json, run.png")
     if run.stopped is not None:

@@ -43,8 +43,9 @@ def browser():
 def synthetic_run(tmp_path):
     """A swing: the cart moves 10 cm left while the pendulum turns from hanging to upright."""
     t = np.arange(0, 2.001, 0.001)
-    run = HilRun(t=t, u=5 + np.sin(3 * t), x=0.1 * t / 2, theta=math.pi * t / 2,
-                 mode=tuple("swing" if v < 1 else "balance" for v in t), plant="float", wall_s=0.0, seconds=2.0)
+    run = HilRun(t=t, u=5 + np.sin(3 * t), positions=(("x", 0.1 * t / 2), ("theta", math.pi * t / 2)),
+                 mode=tuple("swing" if v < 1 else "balance" for v in t), plant="float", wall_s=0.0, seconds=2.0,
+                 input_name="u", units=(("x", "m"), ("theta", "rad")), angle="theta")
     path = tmp_path / "run.csv"
     path.write_text(run_csv_text(run))
     return path

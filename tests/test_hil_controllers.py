@@ -12,6 +12,7 @@ from pendc.hil.controllers import (EnergySwingUp, FilteredDifference, LqrBalance
                                    PendulumConstants, Supervisor, wrap_upright)
 from pendc.hil.linearize import design_lqr, linearise_upright
 from pendc.hil.loop import dac, run_closed_loop, steps_per_period, upright_stretch
+from pendc.hil.core_ports import CorePorts
 from pendc.hil.plant import PlantState
 
 FINAL = "models/sct_thesis_final.toml"
@@ -87,8 +88,11 @@ def test_angles_and_measurements():
     assert wrap_upright(-math.pi) == pytest.approx(0.0)
     assert wrap_upright(3 * math.pi + 0.1) == pytest.approx(0.1)
     assert wrap_upright(0.0) == pytest.approx(math.pi)
-    meas = Measurement(t=0.5, enc_x=400, enc_theta=10000)
+    meas = _meas(0.5, 400, 10000)
     assert meas.x == pytest.approx(1e-3) and meas.theta == pytest.approx(math.pi)
+    assert meas.enc_x == 400 and meas.position("theta") == meas.theta and meas.count("enc_theta") == 10000
+    with pytest.raises(AttributeError):
+        meas.phi_r
 
 
 def test_filtered_difference_follows_a_ramp():
@@ -101,27 +105,37 @@ def test_swing_up_pushes_to_add_energy():
     consts = PendulumConstants.from_model(load_model(FINAL))
     ctl = EnergySwingUp(consts)
     # hanging (cos > 0), swinging clockwise: energy grows if the cart accelerates to +x, u > V_off
-    assert ctl.command(Measurement(0.0, 0, 0), 0.0, 2.0) > consts.lin.u0
-    assert ctl.command(Measurement(0.0, 0, 0), 0.0, -2.0) < consts.lin.u0
+    assert ctl.command(_meas(0.0, 0, 0), 0.0, 2.0) > consts.lin.u0
+    assert ctl.command(_meas(0.0, 0, 0), 0.0, -2.0) < consts.lin.u0
+
+
+PORTS = CorePorts.of_interface(load_model(FINAL).interface)
+
+
+def _meas(t, enc_x, enc_theta):
+    """A cart-pendulum measurement from its two counts."""
+    return Measurement(t, (("enc_x", enc_x), ("enc_theta", enc_theta)), PORTS.encoders)
 
 
 class ScriptedPlant:
     """A plant that fails after a few steps, to see the loop stop and keep its rows."""
 
     dt = 1e-6
+    ports = PORTS
 
     def __init__(self, fail_after):
         self.fail_after = fail_after
 
     def reset(self):
         self.calls = 0
-        return PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+        return PlantState.at_rest(self.ports)
 
     def step(self, u, n):
         self.calls += 1
         if self.calls > self.fail_after:
             raise PendcError("theta_turns left its range")
-        return PlantState(self.calls * n * self.dt, 0.0, 0.0, 0.0, 0.0, self.calls, 2 * self.calls)
+        return PlantState(self.calls * n * self.dt, tuple((s, 0.0) for s in self.ports.states),
+                          (("enc_x", self.calls), ("enc_theta", 2 * self.calls)))
 
 
 def test_loop_stops_on_a_plant_error_and_keeps_the_rows():
@@ -149,11 +163,11 @@ def test_supervisor_switches_with_hysteresis():
     sup = Supervisor(PendulumConstants.from_model(load_model(FINAL)))
     sup.reset()
     up = round(math.pi / (2 * math.pi / 20000))
-    sup.step(Measurement(0.0, 0, up))
+    sup.step(_meas(0.0, 0, up))
     assert sup.mode == "balance"
-    sup.step(Measurement(1e-3, 0, up + 2000))      # 0.63 rad: still inside the drop window
+    sup.step(_meas(1e-3, 0, up + 2000))      # 0.63 rad: still inside the drop window
     assert sup.mode == "balance"
-    sup.step(Measurement(2e-3, 0, up + 3000))      # 0.94 rad: fallen
+    sup.step(_meas(2e-3, 0, up + 3000))      # 0.94 rad: fallen
     assert sup.mode == "swing"
 
 

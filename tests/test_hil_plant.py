@@ -47,7 +47,7 @@ def test_step_size_does_not_change_the_trajectory(model):
 def test_reset_starts_over_from_rest(model):
     plant = FloatPlant(model)
     first = [plant.step(u, 500) for u in _switching_input(5, 50)]
-    assert plant.reset() == PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+    assert plant.reset() == PlantState.at_rest(plant.ports)
     again = [plant.step(u, 500) for u in _switching_input(5, 50)]
     assert first == again
     assert first[-1].enc_x != 0
@@ -117,7 +117,7 @@ def test_golden_plant_step_size_and_reset(model, build):
         for _ in range(4):
             many = b.step(u, 250)
         assert one == many and a.raw() == b.raw()
-    assert b.reset() == PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+    assert b.reset() == PlantState.at_rest(b.ports)
     assert b.step(10.0, 1000) == make_plant("golden", model, build=build).step(10.0, 1000)
 
 

@@ -87,8 +87,12 @@ def test_cpp_harness_rejects_a_bad_request(cpp):
 
 
 def test_ports_wider_than_64_bits_are_refused():
-    ports = {p: {"signed": True, "width": 40, "frac": 30} for p in ("u", "x", "dx", "theta", "dtheta")}
-    assert "sext(core->x, 40)" in main_source(ports, 14)     # signed ports sign-extend from their width
+    from pendc.hil.core_ports import CorePorts
+    core = CorePorts.of_interface(load_model().interface)
+    ports = {p: {"signed": True, "width": 40, "frac": 30} for p in (core.input, *core.states)}
+    src = main_source(core, ports, 14)
+    assert "sext(core->x, 40)" in src      # signed ports sign-extend from their width
+    assert f'#include "V{core.module}.h"' in src and "core->enc_theta_b" in src
     ports["theta"] = {"signed": True, "width": 65, "frac": 60}
     with pytest.raises(PendcError, match="theta"):
-        main_source(ports, 14)
+        main_source(core, ports, 14)

@@ -49,16 +49,27 @@ def read_run_input(path) -> RunRecord:
             raise PendcError(str(exc).replace(str(spool), STDIN_SOURCE)) from None
 
 
+def cart_and_angle(record: RunRecord) -> tuple[str, str]:
+    """The record's two measured positions, as the cart-pendulum drawing takes them: the
+    translation first, then the pendulum angle (the plant interface's encoder order)."""
+    if len(record.positions) != 2:
+        raise PendcError(f"the animation draws a cart and a pendulum: the run has {len(record.positions)} "
+                         f"measured positions ({', '.join(s for s, _ in record.positions)})")
+    return record.positions[0][0], record.positions[1][0]
+
+
 def resample(record: RunRecord, rate: float) -> dict:
-    """The run at (at most) ``rate`` samples per second: nearest earlier sample, so modes stay labels."""
+    """The run at (at most) ``rate`` samples per second: nearest earlier sample, so modes stay labels.
+    Keys: t, cart, angle, input, mode."""
+    cart, angle = cart_and_angle(record)
     t = record.t
     if t.size < 2:
         idx = np.arange(t.size)
     else:
         grid = np.arange(t[0], t[-1] + 0.5 / rate, 1.0 / rate)
         idx = np.unique(np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1))
-    return {"t": t[idx], "x": record.x[idx], "theta": record.theta[idx], "u": record.u[idx],
-            "mode": [record.mode[i] for i in idx]}
+    return {"t": t[idx], "cart": record.column(cart)[idx], "angle": record.column(angle)[idx],
+            "input": record.u[idx], "mode": [record.mode[i] for i in idx]}
 
 
 def html_page(record: RunRecord, title: str) -> str:
@@ -68,8 +79,11 @@ def html_page(record: RunRecord, title: str) -> str:
     def clean(values, digits):
         return [round(float(v), digits) if math.isfinite(v) else None for v in values]
 
-    data = {"t": clean(d["t"], 4), "x": clean(d["x"], 6), "theta": clean(d["theta"], 5),
-            "u": clean(d["u"], 4), "mode": d["mode"]}
+    cart, angle = cart_and_angle(record)
+    data = {"t": clean(d["t"], 4), "cart": clean(d["cart"], 6), "angle": clean(d["angle"], 5),
+            "input": clean(d["input"], 4), "mode": d["mode"],
+            "names": {"cart": cart, "angle": angle, "input": record.input_name},
+            "units": {"cart": "m", "angle": "rad"}}
     # JSON inside <script>: escape "</" so a mode label cannot close the element
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return PAGE.replace("__TITLE__", html.escape(title)).replace("__DATA__", payload)
@@ -114,15 +128,16 @@ def _write_movie(record: RunRecord, output: Path, fps: int, suffix: str) -> None
     (rod,) = ax.plot([], [], color="black", lw=3)
     (bob,) = ax.plot([], [], "o", color="chocolate", ms=12)
     stamp = ax.text(TRACK / 2, 0.26, "", fontsize=9)
-    axt.plot(d["t"], d["theta"], lw=0.8, label="theta (rad)")
-    axt.plot(d["t"], np.asarray(d["x"]) * 10, lw=0.8, label="10 x (m)")
+    cart_name, angle_name = cart_and_angle(record)
+    axt.plot(d["t"], d["angle"], lw=0.8, label=f"{angle_name} (rad)")
+    axt.plot(d["t"], np.asarray(d["cart"]) * 10, lw=0.8, label=f"10 {cart_name} (m)")
     cursor = axt.axvline(d["t"][0], color="tab:red", lw=0.8)
     axt.legend(loc="upper left", fontsize=8)
     axt.set_xlabel("t (s)")
     fig.tight_layout()
 
     def frame(k):
-        x, th = d["x"][k], d["theta"][k]
+        x, th = d["cart"][k], d["angle"][k]
         cart.set_x(x - 0.04)
         bx, by = x - ROD * math.sin(th), -ROD * math.cos(th)
         rod.set_data([x, bx], [0, by])

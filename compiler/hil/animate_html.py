@@ -2,7 +2,8 @@
 
 The page draws, from the run's samples, the cart on its 750 mm track and the pendulum in
 the plant's conventions (x positive to the left, theta from hanging), a time slider, a
-play/pause button and the traces of theta, x and u with a cursor. ``window.pendc`` exposes
+play/pause button and the traces of the angle, the cart position and the input (named in
+the page's data as the run names them) with a cursor. ``window.pendc`` exposes
 the current frame and the drawn positions so that a browser test can check them.
 """
 
@@ -53,7 +54,7 @@ window.pendc = state;
 
 function draw(k) {
   state.frame = k;
-  const x = D.x[k], th = D.theta[k];
+  const x = D.cart[k], th = D.angle[k];
   const px = CX - SCALE * x;                       // +x is to the left
   const bx = px + SCALE * ROD * Math.sin(th);      // bob at (x - l sin th, -l cos th), +x left
   const by = PY + SCALE * ROD * Math.cos(th);
@@ -95,9 +96,9 @@ function panel(name, values, top, colour) {
   Object.entries({y1: top, y2: top + h, stroke: "#b22", "stroke-width": 1}).forEach(([a, b]) => c.setAttribute(a, b));
   traces.appendChild(c); cursors.push(c);
 }
-panel("theta (rad)", D.theta, 8, "#1f77b4");
-panel("x (m)", D.x, 152, "#222");
-panel("u (V)", D.u, 296, "#2ca02c");
+panel(D.names.angle + " (" + D.units.angle + ")", D.angle, 8, "#1f77b4");
+panel(D.names.cart + " (" + D.units.cart + ")", D.cart, 152, "#222");
+panel(D.names.input + " (V)", D.input, 296, "#2ca02c");
 
 let last = null;
 function tick(now) {

@@ -2,8 +2,12 @@
 
 A controller is any object with ``reset()`` and ``step(measurement) -> volts``; it sees
 only what the rig's controller sees, a :class:`Measurement` (time and the ×4 encoder
-counts, also converted to x and theta). An optional ``mode`` attribute (a short word)
+counts, also converted to positions). An optional ``mode`` attribute (a short word)
 is logged per period. Velocities come from a filtered difference of the positions.
+
+The controllers here are the cart-pendulum's (energy swing-up, LQR about the upright):
+their physics is that plant's, but they name its states as its plant interface does
+(:attr:`PendulumConstants.cart`, :attr:`PendulumConstants.angle`), never by literals.
 
 Conventions (plant spec §1): x positive to the left, theta from hanging, clockwise
 positive, upright at theta = ±pi; u > V_off pushes the cart to +x.
@@ -17,7 +21,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.plant import PlantModel
-from ..sim.encoders import THETA_COUNT, X_COUNT
 from .linearize import DiscreteLqr, UprightLinearModel, design_lqr, linearise_upright
 
 U_MIN, U_MAX = 0.0, 10.0       # V, the driver's input range
@@ -33,21 +36,43 @@ CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
 
 @dataclass(frozen=True)
 class Measurement:
-    """What a controller gets each period: time and encoder counts since reset, converted."""
+    """What a controller gets each period: time and each encoder's ×4 count since reset.
+
+    ``counts`` are ``(encoder, count)`` pairs and ``encoders`` the encoders' descriptions
+    (:class:`~pendc.hil.core_ports.EncoderPorts`: the state each reads, its resolution), both
+    in the plant interface's order. :meth:`position` converts a count to its state's unit; an
+    encoder's name reads as its count and a measured state's name as its position
+    (``meas.<state>``), so a controller names the plant's states as its interface does."""
 
     t: float
-    enc_x: int
-    enc_theta: int
+    counts: tuple
+    encoders: tuple = ()
 
-    @property
-    def x(self) -> float:
-        """Cart position in m (counts × 2.5 µm)."""
-        return self.enc_x * X_COUNT
+    @classmethod
+    def of(cls, t: float, state, ports) -> "Measurement":
+        """The measurement of a plant state (:class:`~pendc.hil.plant.PlantState`) at time ``t``."""
+        return cls(t=t, counts=tuple((e.name, int(state.count(e.name))) for e in ports.encoders),
+                   encoders=ports.encoders)
 
-    @property
-    def theta(self) -> float:
-        """Pendulum angle in rad from hanging, unwrapped (counts × 0.314 mrad)."""
-        return self.enc_theta * THETA_COUNT
+    def count(self, encoder: str) -> int:
+        """The ×4 count since reset of the encoder called ``encoder``."""
+        return dict(self.counts)[encoder]
+
+    def position(self, state: str) -> float:
+        """The measured position of ``state``: its encoder's count times the encoder's resolution."""
+        for e in self.encoders:
+            if e.state == state:
+                return self.count(e.name) * e.resolution
+        raise KeyError(f"no encoder reads '{state}'")
+
+    def __getattr__(self, name: str):
+        # only reached when ordinary lookup fails: an encoder's count or a measured state's position
+        for e in self.__dict__.get("encoders", ()):
+            if e.name == name:
+                return self.count(name)
+            if e.state == name:
+                return self.position(name)
+        raise AttributeError(f"the measurement has no '{name}'")
 
 
 def wrap_upright(theta: float) -> float:
@@ -78,18 +103,35 @@ class FilteredDifference:
 
 @dataclass(frozen=True)
 class PendulumConstants:
-    """What the controllers need of the model: energy terms and the cart's linear response."""
+    """What the controllers need of the model: energy terms, the cart's linear response and the
+    names of the two measured positions (from the plant interface)."""
 
     mgl: float        # m g L, the potential energy from hanging to the pivot height (J)
     inertia: float    # m L^2 + I about the pivot (kg m^2)
     lin: UprightLinearModel
+    cart: str = ""    # the measured translation (the interface's encoder-read, non-periodic position)
+    angle: str = ""   # the measured pendulum angle (its encoder-read periodic position)
 
     @classmethod
     def from_model(cls, model: PlantModel) -> "PendulumConstants":
         """Read the constants and linearise the model at the upright."""
         p = model.parameter_values()
+        cart, angle = measured_positions(model.interface)
         return cls(mgl=p["m"] * p["g"] * p["L"], inertia=p["m"] * p["L"] ** 2 + p["I"],
-                   lin=linearise_upright(model))
+                   lin=linearise_upright(model), cart=cart, angle=angle)
+
+
+def measured_positions(iface) -> tuple[str, str]:
+    """(translation, angle): the encoder-read non-periodic and periodic states of a cart-pendulum
+    interface; a plant without exactly one of each is not one these controllers can drive."""
+    from ..errors import PendcError
+    read = [iface.state(s.state) for s in iface.sensors]
+    linear = [s.name for s in read if not s.periodic]
+    angles = [s.name for s in read if s.periodic]
+    if len(linear) != 1 or len(angles) != 1:
+        raise PendcError(f"the builtin controllers drive a cart-pendulum (one measured translation, one measured "
+                         f"angle); plant '{iface.name}' measures {', '.join(s.name for s in read) or 'nothing'}")
+    return linear[0], angles[0]
 
 
 class _VelocityObserver:
@@ -106,7 +148,7 @@ class _VelocityObserver:
 
     def observe(self, meas: Measurement) -> tuple[float, float]:
         """Update the velocity filters; return (dx, dtheta)."""
-        return self.vx.update(meas.x), self.vth.update(meas.theta)
+        return self.vx.update(meas.position(self.c.cart)), self.vth.update(meas.position(self.c.angle))
 
 
 class EnergySwingUp(_VelocityObserver):
@@ -131,12 +173,13 @@ class EnergySwingUp(_VelocityObserver):
 
     def command(self, meas: Measurement, dx: float, dtheta: float) -> float:
         """Volts for the filtered state (used by the supervisor too)."""
-        c = math.cos(meas.theta)
+        theta, x = meas.position(self.c.angle), meas.position(self.c.cart)
+        c = math.cos(theta)
         # at rest (dtheta = 0) push anyway: energy pumping needs a first swing to work on
         direction = -1.0 if dtheta * c < 0 else 1.0
-        pump = self.gain * (self.c.mgl - self.energy(meas.theta, dtheta)) * direction
+        pump = self.gain * (self.c.mgl - self.energy(theta, dtheta)) * direction
         pump = max(-self.accel_max, min(self.accel_max, pump))
-        accel = pump - self.centre_k * meas.x - self.centre_d * dx
+        accel = pump - self.centre_k * x - self.centre_d * dx
         a11, b1 = self.c.lin.A[1, 1], self.c.lin.B[1, 0]
         return self.c.lin.u0 + (accel - a11 * dx) / b1
 
@@ -163,7 +206,8 @@ class LqrBalance(_VelocityObserver):
 
     def command(self, meas: Measurement, dx: float, dtheta: float) -> float:
         """Volts for the filtered state."""
-        err = np.array([meas.x - self.x_ref(meas.t), dx, wrap_upright(meas.theta), dtheta])
+        err = np.array([meas.position(self.c.cart) - self.x_ref(meas.t), dx,
+                        wrap_upright(meas.position(self.c.angle)), dtheta])
         du = -float(self.lqr.K @ err)
         # dry friction compensation: add the volts that the friction eats in the commanded direction
         return self.lqr.u0 + du + self.c.lin.u_coulomb * math.tanh(du / FRICTION_SMOOTHING)
@@ -196,7 +240,7 @@ class Supervisor:
         """One control period: update the filters, pick the controller, command."""
         dx, dtheta = self.swing.observe(meas)
         self.balance.observe(meas)
-        phi = wrap_upright(meas.theta)
+        phi = wrap_upright(meas.position(self.swing.c.angle))
         if self.mode == "swing" and abs(phi) < self.catch_angle and abs(dtheta) < self.catch_rate:
             self.mode = "balance"
         elif self.mode == "balance" and abs(phi) > self.drop_angle:

@@ -12,10 +12,8 @@ import numpy as np
 from ..errors import PendcError
 from ..golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
 from ..model.plant import PlantModel
+from .core_ports import CorePorts
 from .plant import PlantState, check_step_request, x4_count_delta
-
-STATE_PORTS = ("x", "dx", "theta", "dtheta")
-ENCODER_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
 
 
 def build_for(model: PlantModel, dt: float, build=None):
@@ -29,13 +27,25 @@ def build_for(model: PlantModel, dt: float, build=None):
     return build
 
 
+def check_initial(ports: CorePorts, initial) -> tuple | None:
+    """``initial`` as floats, one per reported state (None stays None); a wrong count is an error."""
+    if initial is None:
+        return None
+    values = tuple(float(v) for v in initial)
+    if len(values) != len(ports.states):
+        raise PendcError(f"initial state needs {len(ports.states)} values ({', '.join(ports.states)}), "
+                         f"got {len(values)}")
+    return values
+
+
 class GoldenPlant:
     """Stateful, bit-exact plant over the compiled golden kernel.
 
     ``on_overflow="error"`` (default) raises :class:`~pendc.golden.OverflowStop` naming the node
     and the time at the step a node leaves its range; ``"mark"`` carries on and lists the nodes
-    in ``overflows`` ({node: first step}). ``initial`` (x, dx, theta, dtheta) starts the
-    registers elsewhere than at reset (the encoders then count from there, as at power-on)."""
+    in ``overflows`` ({node: first step}). ``initial`` (one value per reported state, in the
+    plant interface's order) starts the registers elsewhere than at reset (the encoders then
+    count from there, as at power-on)."""
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
                  initial: tuple | None = None):
@@ -44,14 +54,15 @@ class GoldenPlant:
         self.build = build_for(model, dt, build)
         self.model, self.dt, self.on_overflow = model, float(dt), on_overflow
         graph = self.build.graph
-        missing = [p for p in STATE_PORTS + ENCODER_PORTS if p not in dict(graph.outputs)]
-        if missing:
-            raise PendcError(f"the core has no output port(s) {', '.join(missing)}")
+        try:
+            self.ports = CorePorts.of_graph(graph)
+        except ValueError as exc:
+            raise PendcError(str(exc)) from None
         self.stepper = GoldenStepper(graph)
-        self._col = {p: self.stepper.ports.index(p) for p in STATE_PORTS + ENCODER_PORTS}
-        self._lsb = {p: graph.output(p).qformat.lsb for p in STATE_PORTS}
-        self._u_format = graph["u"].qformat
-        self.initial = initial
+        self._col = {p: self.stepper.ports.index(p) for p in self.ports.outputs}
+        self._lsb = {p: graph.output(p).qformat.lsb for p in self.ports.states}
+        self._u_format = graph[self.ports.input].qformat
+        self.initial = check_initial(self.ports, initial)
         self.reset()
 
     @property
@@ -72,7 +83,7 @@ class GoldenPlant:
             raise PendcError(f"a core state has {self.stepper.state.size} registers, got {values.size}")
         self.stepper.reset()
         self.stepper.state = values
-        self._counts = [0, 0]
+        self._counts = [0] * len(self.ports.encoders)
         self._state = self._from_row(self._outputs_now())
         return self._state
 
@@ -81,9 +92,9 @@ class GoldenPlant:
         return self._u_format.from_float(u)
 
     def reset(self) -> PlantState:
-        start = {} if self.initial is None else dict(zip(STATE_PORTS, self.initial))
+        start = {} if self.initial is None else dict(zip(self.ports.states, self.initial))
         self.stepper.reset(start)
-        self._counts = [0, 0]
+        self._counts = [0] * len(self.ports.encoders)
         self._levels = None
         self._state = self._from_row(self._outputs_now())
         return self._state
@@ -97,9 +108,9 @@ class GoldenPlant:
         return row
 
     def _from_row(self, row) -> PlantState:
-        v = {p: int(row[self._col[p]]) * self._lsb[p] for p in STATE_PORTS}
-        return PlantState(t=self.stepper.k * self.dt, x=v["x"], dx=v["dx"], theta=v["theta"], dtheta=v["dtheta"],
-                          enc_x=self._counts[0], enc_theta=self._counts[1])
+        return PlantState(t=self.stepper.k * self.dt,
+                          states=tuple((p, int(row[self._col[p]]) * self._lsb[p]) for p in self.ports.states),
+                          counts=tuple((e.name, c) for e, c in zip(self.ports.encoders, self._counts)))
 
     def raw(self) -> dict:
         """The output ports' integers after the last step (what the RTL must show bit for bit)."""
@@ -114,8 +125,8 @@ class GoldenPlant:
             node, step = first_overflow(new)
             raise OverflowStop(node, step, self.dt, len(new))
         c = self._col
-        self._counts[0] += x4_count_delta(out[:, c["enc_x_a"]], out[:, c["enc_x_b"]])
-        self._counts[1] += x4_count_delta(out[:, c["enc_theta_a"]], out[:, c["enc_theta_b"]])
+        for i, e in enumerate(self.ports.encoders):
+            self._counts[i] += x4_count_delta(out[:, c[e.channel_a]], out[:, c[e.channel_b]])
         self._levels = out[-1]
         self._state = self._from_row(out[-1])
         return self._state

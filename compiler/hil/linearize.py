@@ -55,12 +55,34 @@ def _no_delta(expr: sp.Expr) -> sp.Expr:
     return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
 
 
+def mechanical_order(model: PlantModel) -> list:
+    """Indices into the model's states of (translation, its rate, angle, its rate), from the
+    plant interface (:func:`pendc.hil.controllers.measured_positions` names the two positions),
+    followed by every other state (a motor lag...)."""
+    from .controllers import measured_positions
+
+    iface = model.interface
+    cart, angle = measured_positions(iface)
+    names = [s.name for s in model.equations.states]
+
+    def rate_of(position):
+        rate = next((s.name for s in iface.states if s.derivative_of == position), None)
+        if rate is None:
+            raise PendcError(f"the plant interface names no rate of '{position}'")
+        return rate
+    main = [names.index(n) for n in (cart, rate_of(cart), angle, rate_of(angle))]
+    return main + [i for i in range(len(names)) if i not in main]
+
+
 def linearise_upright(model: PlantModel) -> UprightLinearModel:
-    """The model's linearisation at x = 0, theta = pi, at rest, with the input that holds it there."""
+    """The model's linearisation at rest with the translation at 0 and the angle at pi (upright),
+    with the input that holds it there; states ordered (translation, rate, angle, rate)."""
     eq = model.equations
-    states = list(eq.states)
+    order = mechanical_order(model)
+    states = [list(eq.states)[i] for i in order]
+    derivatives = [list(eq.derivatives)[i] for i in order]
     values = dict(zip(eq.params, model.parameter_vector()))
-    rhs = [eq.inline(d).subs(values) for d in eq.derivatives]
+    rhs = [eq.inline(d).subs(values) for d in derivatives]
     u = eq.input
     variables = states + [u]
     jac = [[_no_delta(sp.diff(f, v)) for v in variables] for f in rhs]

@@ -1,7 +1,8 @@
 """The lockstep loop: measure, ask the controller, hold its volts for one period, repeat.
 
-One row per control period: the time, the encoder-derived x and theta the controller
-saw, the volts it answered (after the 12-bit DAC) and its mode. A run ends early, with
+One row per control period: the time, the encoder-derived positions the controller saw
+(one per encoder of the plant interface, named by the state it reads), the volts it
+answered (after the 12-bit DAC) and its mode. A run ends early, with
 the rows so far and the reason, when the plant or the controller fails; the caller
 writes that partial record, it never silently continues.
 """
@@ -32,35 +33,62 @@ def dac(volts: float, bits: int = DAC_BITS) -> float:
 
 @dataclass(frozen=True)
 class HilRun:
-    """A closed-loop run: per-period columns and how it ended (``stopped`` is None if complete)."""
+    """A closed-loop run: per-period columns and how it ended (``stopped`` is None if complete).
+
+    ``u`` is the plant input the controller answered (the interface's input, named
+    ``input_name``), ``positions`` the measured positions ``(state, column)`` in the interface's
+    encoder order (each also reads as ``run.<state>``), ``units`` their units and ``angle`` the
+    measured periodic state whose upright the summary reports (None: no such state)."""
 
     t: np.ndarray
     u: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
+    positions: tuple
     mode: tuple
     plant: str
     wall_s: float
     seconds: float
     stopped: str | None = None
     extra: dict = field(default_factory=dict)
+    input_name: str = ""
+    units: tuple = ()
+    angle: str | None = None
+
+    def __getattr__(self, name: str):
+        # only reached when ordinary lookup fails: a measured state's column
+        for key, column in self.__dict__.get("positions", ()):
+            if key == name:
+                return column
+        raise AttributeError(f"the run has no column '{name}'")
+
+    def column(self, state: str) -> np.ndarray:
+        """The measured position of ``state`` per period."""
+        return dict(self.positions)[state]
 
     def summary(self) -> dict:
-        """The figures of merit written to summary.json."""
-        phi = np.array([wrap_upright(th) for th in self.theta])
-        up_at, rms = upright_stretch(self.t, phi)
+        """The figures of merit written to summary.json: the upright stretch of ``angle``,
+        ``max_abs_<state>_<unit>`` of every measured state, controller switches, timing."""
+        angle = self.column(self.angle) if self.angle else np.zeros(0)
+        phi = np.array([wrap_upright(th) for th in angle])
+        up_at, rms = upright_stretch(self.t, phi) if self.angle else (None, None)
         switches = sum(1 for a, b in zip(self.mode, self.mode[1:]) if a != b)
+        units = dict(self.units)
         out = {
             "upright_at_s": up_at,
             "balance_rms_rad": rms,
-            "max_abs_x_m": float(np.max(np.abs(self.x))) if self.x.size else None,
+        }
+        for state, column in self.positions:
+            if state == self.angle:
+                continue
+            key = f"max_abs_{state}_{units.get(state, '').replace('/', '_per_')}".rstrip("_")
+            out[key] = float(np.max(np.abs(column))) if column.size else None
+        out.update({
             "switches": switches,
             "plant": self.plant,
             "wall_s": round(self.wall_s, 3),
             "seconds": self.seconds,
             "rows": int(self.t.size),
             "completed": self.stopped is None,
-        }
+        })
         if self.stopped is not None:
             out["stopped"] = self.stopped
         out.update(self.extra)
@@ -101,10 +129,10 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     n_sub = steps_per_period(plant.dt, period)
     n_rows = int(round(seconds / period)) + 1
     step = answer if answer is not None else controller.step
+    ports = plant.ports
     t = np.empty(n_rows)
     u = np.empty(n_rows)
-    x = np.empty(n_rows)
-    theta = np.empty(n_rows)
+    pos = np.empty((len(ports.encoders), n_rows))
     modes = []
     stopped = None
     start = time.perf_counter()
@@ -115,9 +143,11 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     report_every = max(1, n_rows // 100)
     try:
         for k in range(n_rows):
-            meas = Measurement(t=k * period, enc_x=int(state.enc_x), enc_theta=int(state.enc_theta))
+            meas = Measurement.of(k * period, state, ports)
             volts = dac(float(step(meas)))
-            t[k], u[k], x[k], theta[k] = meas.t, volts, meas.x, meas.theta
+            t[k], u[k] = meas.t, volts
+            for i, e in enumerate(ports.encoders):
+                pos[i, k] = meas.position(e.state)
             modes.append(str(getattr(controller, "mode", "user")) if controller is not None else "external")
             if progress is not None and k % report_every == 0:
                 progress(k / n_rows)
@@ -131,7 +161,17 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     if progress is not None:
         progress(1.0)
     rows = len(modes)
-    return HilRun(t=t[:rows].copy(), u=u[:rows].copy(), x=x[:rows].copy(), theta=theta[:rows].copy(),
+    return HilRun(t=t[:rows].copy(), u=u[:rows].copy(),
+                  positions=tuple((e.state, pos[i, :rows].copy()) for i, e in enumerate(ports.encoders)),
                   mode=tuple(modes), plant=plant_name, wall_s=time.perf_counter() - start,
                   seconds=float(seconds), stopped=stopped,
-                  extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {})
+                  extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {},
+                  input_name=ports.input, units=tuple((e.state, e.unit) for e in ports.encoders),
+                  angle=upright_angle(ports))
+
+
+def upright_angle(ports) -> str | None:
+    """The measured angle whose upright a run's summary reports: the last encoder-read periodic
+    state (the pendulum, after any arm), or None."""
+    angles = [e.state for e in ports.encoders if e.periodic]
+    return angles[-1] if angles else None

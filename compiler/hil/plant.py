@@ -21,7 +21,6 @@ import numpy as np
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
-from ..sim.encoders import THETA_COUNT, X_COUNT
 
 PLANT_KINDS = ("float", "golden", "verilator", "icarus")
 MAX_STEPS_PER_CALL = 100_000_000   # 100 s at 1 us: a larger request is a caller's mistake
@@ -29,15 +28,38 @@ MAX_STEPS_PER_CALL = 100_000_000   # 100 s at 1 us: a larger request is a caller
 
 @dataclass(frozen=True)
 class PlantState:
-    """The plant after a step: time since reset, true states (SI) and ×4 encoder counts since reset."""
+    """The plant after a step: time since reset, its reported states in SI units and each
+    encoder's ×4 count since reset.
+
+    ``states`` and ``counts`` are ``(name, value)`` pairs in the plant interface's order (its
+    reported states; its sensors). A state or an encoder also reads as an attribute under its
+    interface name (``state.<name>``), so code written for one plant reads naturally."""
 
     t: float
-    x: float
-    dx: float
-    theta: float
-    dtheta: float
-    enc_x: int
-    enc_theta: int
+    states: tuple
+    counts: tuple
+
+    def __getattr__(self, name: str):
+        # only reached when ordinary lookup fails: the plant's own names
+        for key, value in (*self.__dict__.get("states", ()), *self.__dict__.get("counts", ())):
+            if key == name:
+                return value
+        raise AttributeError(f"the plant state has no '{name}' (states: "
+                             f"{', '.join(k for k, _ in self.__dict__.get('states', ()))}; encoders: "
+                             f"{', '.join(k for k, _ in self.__dict__.get('counts', ()))})")
+
+    def value(self, name: str) -> float:
+        """The state called ``name`` (SI units)."""
+        return dict(self.states)[name]
+
+    def count(self, encoder: str) -> int:
+        """The ×4 count since reset of the encoder called ``encoder``."""
+        return dict(self.counts)[encoder]
+
+    @classmethod
+    def at_rest(cls, ports, t: float = 0.0) -> "PlantState":
+        """Every state 0 and every count 0 (power-on) for a core with these ports."""
+        return cls(t, tuple((s, 0.0) for s in ports.states), tuple((e.name, 0) for e in ports.encoders))
 
 
 @runtime_checkable
@@ -47,7 +69,7 @@ class Plant(Protocol):
     dt: float
 
     def reset(self) -> PlantState:
-        """Back to power-on: hanging at rest in the centre, encoders at zero."""
+        """Back to power-on: every state at rest, encoders at zero."""
         ...
 
     def step(self, u_volts: float, n_steps: int) -> PlantState:
@@ -93,8 +115,9 @@ def x4_count_delta(a: np.ndarray, b: np.ndarray) -> int:
     return int(np.count_nonzero(moves == 1) - np.count_nonzero(moves == 3))
 
 
-def _step_source(n_states: int, n_params: int) -> str:
-    """A stepping loop appended to the float kernel's module (it uses its ``rhs``/``bound``/``start``)."""
+def _step_source(n_states: int, n_params: int, n_start: int) -> str:
+    """A stepping loop appended to the float kernel's module (it uses its ``rhs``/``bound``/``start``);
+    ``start`` takes the first ``n_start`` states (the mechanical ones) and makes the rest."""
     ns = n_states
 
     def tup(items):
@@ -108,10 +131,10 @@ def _step_source(n_states: int, n_params: int) -> str:
     return f'''
 
 @njit(cache=True)
-def plant_start(s4, u0, p):
-    """All states at power-on from the four mechanical ones (extra states from the input)."""
+def plant_start(s0, u0, p):
+    """All states at power-on from the mechanical ones (extra states from the input)."""
     P = {tup(f"p[{i}]" for i in range(n_params))}
-    S = start((s4[0], s4[1], s4[2], s4[3]), u0, P)
+    S = start({tup(f"s0[{i}]" for i in range(n_start))}, u0, P)
     out = np.empty({ns})
     for i in range({ns}):
         out[i] = S[i]
@@ -164,7 +187,15 @@ class FloatPlant:
         self.method = method
         self._params = sim.param_vector
         eq = model.equations
-        self._module = load_source(kernel_source(eq) + _step_source(len(eq.states), len(self._params)),
+        from .core_ports import CorePorts
+        self.ports = CorePorts.of_interface(model.interface)
+        names = [s.name for s in eq.states]
+        self._index = {name: names.index(name) for name in self.ports.states}
+        n_start = len(self.ports.states)
+        if names[:n_start] != list(self.ports.states):
+            raise PendcError(f"the model's first states {names[:n_start]} are not its reported states "
+                             f"{list(self.ports.states)}")
+        self._module = load_source(kernel_source(eq) + _step_source(len(eq.states), len(self._params), n_start),
                                    "pendc_plant")
         values = model.parameter_values()
         self._delay_steps = (float(eq.delay.subs({s: values[s.name] for s in eq.delay.free_symbols}))
@@ -175,8 +206,7 @@ class FloatPlant:
         self._k = 0
         self._state = None            # all states; made at the first step, when u is known
         self._history = []            # (first step index, u) of each request, for an input delay
-        self._origin = (0.0, 0.0)
-        return PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+        return PlantState.at_rest(self.ports)
 
     def _inputs(self, u: float, n: int) -> np.ndarray:
         """The input the plant sees at each of the next n steps (delayed if the model says so)."""
@@ -194,7 +224,7 @@ class FloatPlant:
     def step(self, u_volts: float, n_steps: int) -> PlantState:
         u, n = check_step_request(u_volts, n_steps)
         if self._state is None:
-            self._state = self._module.plant_start(np.zeros(4), u, self._params)
+            self._state = self._module.plant_start(np.zeros(len(self.ports.states)), u, self._params)
         self._history.append((self._k, u))
         new, ok = self._module.plant_advance(self._state, self._inputs(u, n), self._params, self.dt,
                                              self.method == "rk4")
@@ -202,17 +232,18 @@ class FloatPlant:
             raise PendcError(f"float plant diverged (non-finite state) before t = {(self._k + n) * self.dt:.6g} s")
         self._state = new
         self._k += n
-        x, dx, theta, dtheta = (float(v) for v in new[:4])
-        return PlantState(t=self._k * self.dt, x=x, dx=dx, theta=theta, dtheta=dtheta,
-                          enc_x=encoder_counts(x, self._origin[0], X_COUNT),
-                          enc_theta=encoder_counts(theta, self._origin[1], THETA_COUNT))
+        values = {name: float(new[i]) for name, i in self._index.items()}
+        # the plant starts at rest at 0, so the encoders count from the grid's origin
+        return PlantState(t=self._k * self.dt, states=tuple(values.items()),
+                          counts=tuple((e.name, encoder_counts(values[e.state], 0.0, e.resolution))
+                                       for e in self.ports.encoders))
 
 
 def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **options) -> Plant:
     """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
 
     ``options`` go to the plant's constructor: ``method`` for float; ``build`` (reuse a compiled
-    build), ``on_overflow`` ("error" or "mark") and ``initial`` (x, dx, theta, dtheta) for golden
+    build), ``on_overflow`` ("error" or "mark") and ``initial`` (the reported states, in order) for golden
     and the RTL plants; ``bus`` and ``schedule`` (the build request; verilator defaults to the
     comb schedule, the fastest to simulate and bit-exact like every schedule) for the RTL plants;
     ``loadable`` for verilator (a harness whose registers ``load`` can write)."""

@@ -2,7 +2,8 @@
 
 ``run.csv`` follows the measurement-file format (plant spec §6) with a text column
 ``mode``: ``# key: value`` comment lines first, among them ``# status: complete`` or
-``# status: stopped at t = ... s: <reason>`` for a partial run, then ``t,u,x,theta,mode``.
+``# status: stopped at t = ... s: <reason>`` for a partial run, then ``t``, the plant's input,
+each measured position (named by the states the plant interface's encoders read) and ``mode``.
 It holds nothing that depends on the plant kind or the wall clock, so two bit-exact
 plants give byte-identical files.
 """
@@ -23,17 +24,32 @@ from ..atomic import write_atomic
 from ..errors import PendcError
 from .loop import HilRun
 
-RUN_COLUMNS = ("t", "u", "x", "theta", "mode")
+TIME, MODE = "t", "mode"
 
 
-def run_csv_text(run: HilRun, meta: dict | None = None) -> str:
-    """The text of run.csv (deterministic: fixed decimals, no timings)."""
+# decimals of a position column of run.csv: far below one encoder count of either kind
+DECIMALS_LINEAR, DECIMALS_ANGLE = 7, 9
+
+
+def run_columns(run: HilRun) -> tuple:
+    """The header of run.csv: time, the input, the measured positions, the mode."""
+    return (TIME, run.input_name, *(state for state, _ in run.positions), MODE)
+
+
+def run_csv_text(run: HilRun, meta: dict | None = None, digits: dict | None = None) -> str:
+    """The text of run.csv (deterministic: fixed decimals, no timings). ``digits``: decimals per
+    position column (default: :data:`DECIMALS_ANGLE` for the run's upright angle, else
+    :data:`DECIMALS_LINEAR`)."""
     lines = ["# generator: pendc hil"]
     lines += [f"# {k}: {v}" for k, v in (meta or {}).items()]
     lines.append("# status: complete" if run.stopped is None else f"# status: stopped at {run.stopped}")
-    lines.append(",".join(RUN_COLUMNS))
-    lines += [f"{t:.6f},{u:.6f},{x:.7f},{th:.9f},{m}"
-              for t, u, x, th, m in zip(run.t, run.u, run.x, run.theta, run.mode)]
+    lines.append(",".join(run_columns(run)))
+    decimals = [(digits or {}).get(state, DECIMALS_ANGLE if state == run.angle else DECIMALS_LINEAR)
+                for state, _ in run.positions]
+    columns = [c for _, c in run.positions]
+    for k in range(run.t.size):
+        cells = [f"{run.t[k]:.6f}", f"{run.u[k]:.6f}"] + [f"{c[k]:.{d}f}" for c, d in zip(columns, decimals)]
+        lines.append(",".join(cells + [run.mode[k]]))
     return "\n".join(lines) + "\n"
 
 
@@ -51,52 +67,53 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
         raise
 
 
-def write_run(folder, run: HilRun, meta: dict | None = None, plot: bool = True) -> dict:
-    """Write run.csv, summary.json and (``plot``) run.png into ``folder``; the summary."""
+def write_run(folder, run: HilRun, meta: dict | None = None, plot: bool = True, digits: dict | None = None) -> dict:
+    """Write run.csv, summary.json and (``plot``) run.png into ``folder``; the summary.
+    ``digits``: decimals per position column of run.csv (see :func:`run_csv_text`)."""
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise PendcError(f"{folder}: cannot create the output folder ({exc.strerror or exc})") from None
     summary = run.summary()
-    write_atomic(folder / "run.csv", run_csv_text(run, meta))
+    write_atomic(folder / "run.csv", run_csv_text(run, meta, digits))
     if plot:
-        write_bytes_atomic(folder / "run.png", plot_png(run.t, run.u, run.x, run.theta, run.mode,
-                                                         title=f"pendc hil ({run.plant} plant)"))
+        write_bytes_atomic(folder / "run.png", plot_png(run, title=f"pendc hil ({run.plant} plant)"))
     write_atomic(folder / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary
 
 
-def plot_png(t, u, x, theta, mode, title: str = "") -> bytes:
-    """Angle from upright, cart position and input over time, balance periods shaded."""
+def plot_png(run: HilRun, title: str = "") -> bytes:
+    """Each measured position and the input over time (a periodic angle with its upright
+    positions dotted and the upright periods marked), balance periods shaded."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from .controllers import wrap_upright
 
-    phi = np.array([wrap_upright(v) for v in theta])
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    axes[0].plot(t, theta, lw=0.8, color="tab:blue")
-    turns = int(np.max(np.abs(theta)) // (2 * math.pi)) + 1 if len(theta) else 1
-    for k in range(-turns, turns + 1):   # the upright positions within the run's range
-        axes[0].axhline((2 * k + 1) * math.pi, color="grey", lw=0.5, ls=":")
-    axes[0].set_ylabel("theta (rad)\n(±pi upright)")
-    axes[1].plot(t, x, lw=0.8, color="black")
-    axes[1].axhline(0.375, color="tab:red", lw=0.6, ls="--")
-    axes[1].axhline(-0.375, color="tab:red", lw=0.6, ls="--")
-    axes[1].set_ylabel("x (m)\n(track ends dashed)")
-    axes[2].plot(t, u, lw=0.5, color="tab:green")
-    axes[2].set_ylabel("u (V)")
-    axes[2].set_xlabel("t (s)")
+    t, mode = run.t, run.mode
+    units = dict(run.units)
+    fig, axes = plt.subplots(len(run.positions) + 1, 1, figsize=(8, 2.3 * (len(run.positions) + 1)), sharex=True)
+    axes = list(np.atleast_1d(axes))
+    for ax, (state, column) in zip(axes, run.positions):
+        ax.plot(t, column, lw=0.8)
+        ax.set_ylabel(f"{state} ({units.get(state, '')})")
+        if state == run.angle:
+            turns = int(np.max(np.abs(column)) // (2 * math.pi)) + 1 if len(column) else 1
+            for k in range(-turns, turns + 1):   # the upright positions within the run's range
+                ax.axhline((2 * k + 1) * math.pi, color="grey", lw=0.5, ls=":")
+            upright = np.abs(np.array([wrap_upright(v) for v in column])) < 0.05
+            if upright.any():
+                ax.plot(t[upright], column[upright], ".", ms=1, color="tab:orange")
+    axes[-1].plot(t, run.u, lw=0.5, color="tab:green")
+    axes[-1].set_ylabel(f"{run.input_name} (V)")
+    axes[-1].set_xlabel("t (s)")
     balancing = np.array([m == "balance" for m in mode])
     if balancing.any():
         for ax in axes:
             ax.fill_between(t, 0, 1, where=balancing, transform=ax.get_xaxis_transform(),
                             color="tab:orange", alpha=0.12, lw=0)
-    upright = np.abs(phi) < 0.05
-    if upright.any():
-        axes[0].plot(t[upright], theta[upright], ".", ms=1, color="tab:orange")
     if title:
         axes[0].set_title(title)
     fig.tight_layout()
@@ -108,18 +125,37 @@ def plot_png(t, u, x, theta, mode, title: str = "") -> bytes:
 
 @dataclass(frozen=True)
 class RunRecord:
-    """run.csv read back: columns, metadata and the status line."""
+    """run.csv read back: time, input (NaN if the file has none), the measured positions
+    ``(state, column)`` (each also reads as ``record.<state>``), mode, metadata and the input's name."""
 
     t: np.ndarray
     u: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
+    positions: tuple
     mode: tuple
     meta: dict
+    input_name: str = ""
+
+    def __getattr__(self, name: str):
+        # only reached when ordinary lookup fails: a measured state's column
+        for key, column in self.__dict__.get("positions", ()):
+            if key == name:
+                return column
+        raise AttributeError(f"the run record has no column '{name}'")
+
+    def column(self, state: str) -> np.ndarray:
+        """The measured position of ``state`` per row."""
+        return dict(self.positions)[state]
 
 
-def read_run(path) -> RunRecord:
-    """Read a run.csv (or any CSV with t, x, theta; u and mode optional)."""
+def read_run(path, ports=None) -> RunRecord:
+    """Read a run.csv (or any CSV with t and the measured positions; the input and mode optional).
+    ``ports`` (:class:`~pendc.hil.core_ports.CorePorts`) names the input and the positions
+    (default: the default model's plant interface)."""
+    if ports is None:
+        from ..model.modelfile import load_model
+        from .core_ports import CorePorts
+        ports = CorePorts.of_interface(load_model().interface)
+    measured = [e.state for e in ports.encoders]
     path = Path(path)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -134,7 +170,7 @@ def read_run(path) -> RunRecord:
     if k == len(lines):
         raise PendcError(f"{path}: no header row")
     names = [n.strip() for n in lines[k].split(",")]
-    for need in ("t", "x", "theta"):
+    for need in (TIME, *measured):
         if need not in names:
             raise PendcError(f"{path}: line {k + 1}: no column '{need}' (columns: {', '.join(names)})")
     cols = {n: [] for n in names}
@@ -146,7 +182,7 @@ def read_run(path) -> RunRecord:
             raise PendcError(f"{path}: line {j}: {len(cells)} fields, the header has {len(names)}")
         for n, c in zip(names, cells):
             cols[n].append(c.strip())
-    if not cols["t"]:
+    if not cols[TIME]:
         raise PendcError(f"{path}: no data rows")
 
     def numbers(name):
@@ -158,9 +194,10 @@ def read_run(path) -> RunRecord:
             raise PendcError(f"{path}: column '{name}' has a non-finite value")
         return v
 
-    t = numbers("t")
+    t = numbers(TIME)
     if t.size > 1 and not np.all(np.diff(t) > 0):
-        raise PendcError(f"{path}: column 't' is not strictly increasing")
-    u = numbers("u") if "u" in cols else np.full(t.size, np.nan)
-    mode = tuple(cols["mode"]) if "mode" in cols else ("",) * t.size
-    return RunRecord(t=t, u=u, x=numbers("x"), theta=numbers("theta"), mode=mode, meta=meta)
+        raise PendcError(f"{path}: column '{TIME}' is not strictly increasing")
+    u = numbers(ports.input) if ports.input in cols else np.full(t.size, np.nan)
+    mode = tuple(cols[MODE]) if MODE in cols else ("",) * t.size
+    return RunRecord(t=t, u=u, positions=tuple((s, numbers(s)) for s in measured), mode=mode, meta=meta,
+                     input_name=ports.input)

@@ -11,8 +11,8 @@ harness, whose clock schedule it reproduces edge for edge:
   :func:`pendc.hil.plant.x4_count_delta` (Gray index difference mod 4: +1, -1, or 2 = lost);
 * ``2 i v``: ``step`` low, the integer ``v`` written into state register ``i`` (made public
   through a Verilator configuration file, so the core's text is unchanged), one idle cycle;
-* each answer: ``x dx theta dtheta enc_x enc_theta enc_x_a enc_x_b enc_theta_a enc_theta_b
-  overflow lost``, flushed at once.
+* each answer: the reported states, one count per encoder, the channel levels, ``overflow`` and
+  ``lost`` (as :mod:`pendc.hil.rtl_harness` answers), flushed at once.
 
 The C++ ``main`` toggles ``clk`` and calls ``eval()`` itself, which runs several hundred
 times faster than the event-driven ``--timing`` harness. Each design (core files + main) is
@@ -25,13 +25,12 @@ from pathlib import Path
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
-from .golden_plant import STATE_PORTS
+from .core_ports import CorePorts
 from .rtl_build import VERILATOR_MAKE_VARS, find_tool, build_cached
 from .rtl_plant import RtlPlant
 
-CORE = "pendulum_core"
 EXECUTABLE = "pendc_hil_cpp"
-MAIN_FORMAT = 4          # bump when the C++ main changes shape
+MAIN_FORMAT = 5          # bump when the C++ main changes shape
 MAX_PORT_WIDTH = 64      # every port must fit one C++ integer (Verilator's QData)
 # -O2 rather than verilated.mk's -Os: about 15 % more steps per second on this core, where
 # the core's own clocked logic takes over 80 % of the time
@@ -43,19 +42,21 @@ def _cpp_int_type(width: int) -> str:
     return "CData" if width <= 8 else "SData" if width <= 16 else "IData" if width <= 32 else "QData"
 
 
-def config_source(deposit: tuple) -> str:
-    """Verilator configuration making the deposit registers writable from C++ (and only them)."""
-    return "`verilator_config\n" + "".join(f'public_flat_rw -module "{CORE}" -var "{reg}"\n' for reg, _ in deposit)
+def config_source(module: str, deposit: tuple) -> str:
+    """Verilator configuration making the deposit registers of core ``module`` writable from C++
+    (and only them)."""
+    return "`verilator_config\n" + "".join(f'public_flat_rw -module "{module}" -var "{reg}"\n' for reg, _ in deposit)
 
 
-def main_source(ports: dict, ii: int, deposit: tuple = ()) -> str:
-    """The C++ ``main`` around Verilator's ``V{CORE}`` model (ports: report.json's "ports");
-    ``deposit``: ``(core register, width)`` pairs a ``2 i v`` request writes."""
-    too_wide = [p for p in ("u",) + STATE_PORTS if ports[p]["width"] > MAX_PORT_WIDTH]
+def main_source(core: CorePorts, ports: dict, ii: int, deposit: tuple = ()) -> str:
+    """The C++ ``main`` around Verilator's model of the core ``core`` names (ports: report.json's
+    "ports"); ``deposit``: ``(core register, width)`` pairs a ``2 i v`` request writes."""
+    CORE = core.module
+    too_wide = [p for p in (core.input,) + core.states if ports[p]["width"] > MAX_PORT_WIDTH]
     if too_wide:
         raise PendcError(f"the C++ Verilator plant handles ports of up to {MAX_PORT_WIDTH} bits; "
                          f"{', '.join(too_wide)} is wider (use --plant golden)")
-    uw = ports["u"]["width"]
+    uw = ports[core.input]["width"]
     wide = [reg for reg, w in deposit if w > MAX_PORT_WIDTH]
     if wide:
         raise PendcError(f"the C++ Verilator plant deposits registers of up to {MAX_PORT_WIDTH} bits; "
@@ -63,7 +64,19 @@ def main_source(ports: dict, ii: int, deposit: tuple = ()) -> str:
     loads = "".join(f"        case {i}: core->rootp->{CORE}__DOT__{reg} = ({_cpp_int_type(w)})((uint64_t)v & "
                     f"{hex((1 << w) - 1)}ULL); break;\n" for i, (reg, w) in enumerate(deposit))
     value = {p: (f"sext(core->{p}, {ports[p]['width']})" if ports[p]["signed"]
-                 else f"(long long)(uint64_t)core->{p}") for p in STATE_PORTS}
+                 else f"(long long)(uint64_t)core->{p}") for p in core.states}
+    enc = list(enumerate(core.encoders))
+    counters = "".join(f"    long long cnt{i} = 0;\n    int prev{i} = 0;\n" for i, _ in enc)
+
+    def restart(pad):
+        return "".join(f"{pad}prev{i} = gray(core->{e.channel_a}, core->{e.channel_b});\n" for i, e in enc)
+    count = "".join(f"        {{ const int g = gray(core->{e.channel_a}, core->{e.channel_b}), d = (g - prev{i}) & 3;\n"
+                    f"          cnt{i} += (d == 1) - (d == 3); if (d == 2) lost = 1; prev{i} = g; }}\n"
+                    for i, e in enc)
+    zero = "".join(f"        cnt{i} = 0;\n" for i, _ in enc)
+    shown = ([value[p] for p in core.states] + [f"cnt{i}" for i, _ in enc]
+             + [f"(long long)core->{c}" for c in core.channels] + ["(long long)core->overflow", "(long long)lost"])
+    fmt = " ".join(["%lld"] * len(shown))
     return f"""// pendc HIL plant (pendc.hil.rtl_cpp, format {MAIN_FORMAT}): lockstep over stdin/stdout.
 #include "V{CORE}.h"
 #include "V{CORE}___024root.h"
@@ -98,14 +111,13 @@ static inline int gray(int a, int b) {{ return a ? (b ? 2 : 1) : (b ? 3 : 0); }}
 struct Harness {{
     std::unique_ptr<VerilatedContext> ctx;
     std::unique_ptr<V{CORE}> core;
-    long long cnt_x = 0, cnt_t = 0;
-    int lost = 0, px = 0, pt = 0;
+{counters}    int lost = 0;
 
     Harness() : ctx(new VerilatedContext), core(new V{CORE}(ctx.get())) {{
         core->clk = 0;
         core->rst = 1;
         core->step = 0;
-        core->u = 0;
+        core->{core.input} = 0;
         core->eval();
     }}
 
@@ -122,28 +134,18 @@ struct Harness {{
 
     // after a falling edge: the channel lines change only when a step's update lands
     void count() {{
-        const int gx = gray(core->enc_x_a, core->enc_x_b), gt = gray(core->enc_theta_a, core->enc_theta_b);
-        const int dxg = (gx - px) & 3, dtg = (gt - pt) & 3;
-        cnt_x += (dxg == 1) - (dxg == 3);
-        cnt_t += (dtg == 1) - (dtg == 3);
-        if (dxg == 2 || dtg == 2) lost = 1;
-        px = gx;
-        pt = gt;
-    }}
+{count}    }}
 
     void reset() {{
         core->step = 0;
         core->rst = 1;
         for (int i = 0; i < 3; ++i) cycle();
         core->rst = 0;
-        cnt_x = cnt_t = 0;
-        lost = 0;
-        px = gray(core->enc_x_a, core->enc_x_b);
-        pt = gray(core->enc_theta_a, core->enc_theta_b);
-    }}
+{zero}        lost = 0;
+{restart("        ")}    }}
 
     void run(long long u, long long n) {{
-        core->u = ({_cpp_int_type(uw)})((uint64_t)u & {hex((1 << uw) - 1)}ULL);
+        core->{core.input} = ({_cpp_int_type(uw)})((uint64_t)u & {hex((1 << uw) - 1)}ULL);
         core->step = 1;
         core->eval();
         for (long long c = n * {ii}LL; c > 0; --c) {{
@@ -160,14 +162,11 @@ struct Harness {{
         }}
         core->eval();
         cycle();
-        px = gray(core->enc_x_a, core->enc_x_b);   // a deposited encoder phase is no movement
-        pt = gray(core->enc_theta_a, core->enc_theta_b);
-    }}
+        // a deposited encoder phase is no movement
+{restart("        ")}    }}
 
     void answer() {{
-        std::printf("%lld %lld %lld %lld %lld %lld %d %d %d %d %d %d\\n", {", ".join(value[p] for p in STATE_PORTS)},
-                    cnt_x, cnt_t, (int)core->enc_x_a, (int)core->enc_x_b, (int)core->enc_theta_a,
-                    (int)core->enc_theta_b, (int)core->overflow, lost);
+        std::printf("{fmt}\\n", {", ".join(shown)});
         std::fflush(stdout);
     }}
 }};
@@ -198,18 +197,18 @@ int main(int argc, char** argv) {{
 """
 
 
-def _build_command(work: Path, sources: list) -> list:
-    return [find_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", CORE,
+def _build_command(module: str, work: Path, sources: list) -> list:
+    return [find_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", module,
             "-Mdir", str(work / "obj_dir"), "-o", EXECUTABLE, "-O3", "--x-assign", "fast", "--x-initial", "fast",
             "--noassert", "-Wno-fatal", "-Wno-lint", "-MAKEFLAGS", MAKE_VARS] + [str(s) for s in sources]
 
 
-def build_cpp_harness(files: dict, ports: dict, ii: int, deposit: tuple = ()) -> Path:
+def build_cpp_harness(files: dict, core: CorePorts, ports: dict, ii: int, deposit: tuple = ()) -> Path:
     """The Verilator C++ plant executable for these HDL files, built once per design hash and cached."""
     def commands_for(folder: Path, sources: list):
-        return [_build_command(folder, sources)], folder / "obj_dir" / EXECUTABLE
-    return build_cached("verilator-cpp", files, {"deposit.vlt": config_source(deposit),
-                                                 "main.cpp": main_source(ports, ii, deposit)},
+        return [_build_command(core.module, folder, sources)], folder / "obj_dir" / EXECUTABLE
+    return build_cached("verilator-cpp", files, {"deposit.vlt": config_source(core.module, deposit),
+                                                 "main.cpp": main_source(core, ports, ii, deposit)},
                         MAKE_VARS, commands_for, "C++ Verilator plant")
 
 
@@ -236,9 +235,9 @@ class VerilatorCppPlant(RtlPlant):
                                       FASTEST_SCHEDULE if schedule is None else schedule)
         # registers made writable from C++ cost speed: only when a state is to be loaded
         self._deposit_ok = loadable or initial is not None
-        self.executable = build_cpp_harness(files, report["ports"], self.ii,
+        self.executable = build_cpp_harness(files, self.ports, report["ports"], self.ii,
                                             self._deposit if self._deposit_ok else ())
-        self._proc = None
+        self._link = None
         self.overflow_at = None
         self.reset()
 

@@ -41,16 +41,17 @@ class ScenarioResult:
         return not self.failures
 
 
-def _phi(run: HilRun) -> np.ndarray:
-    return np.array([wrap_upright(v) for v in run.theta])
+def _phi(run: HilRun, consts: PendulumConstants) -> np.ndarray:
+    return np.array([wrap_upright(v) for v in run.column(consts.angle)])
 
 
-def _common_failures(run: HilRun) -> list:
+def _common_failures(run: HilRun, consts: PendulumConstants) -> list:
     out = []
     if run.stopped is not None:
         out.append(f"the run stopped early: {run.stopped}")
-    if run.x.size and np.max(np.abs(run.x)) >= TRACK_LIMIT:
-        out.append(f"|x| reached {np.max(np.abs(run.x)):.3f} m (limit {TRACK_LIMIT} m)")
+    cart = run.column(consts.cart)
+    if cart.size and np.max(np.abs(cart)) >= TRACK_LIMIT:
+        out.append(f"|{consts.cart}| reached {np.max(np.abs(cart)):.3f} m (limit {TRACK_LIMIT} m)")
     return out
 
 
@@ -61,12 +62,12 @@ def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design
     designed on (default: the plant's own model)."""
     consts = PendulumConstants.from_model(design or model)
     run = run_closed_loop(plant, Supervisor(consts, period), seconds, period=period, plant_name=plant_name)
-    phi = _phi(run)
+    phi = _phi(run, consts)
     last = run.t >= run.t[-1] - HOLD_SECONDS + 1e-9 if run.t.size else np.zeros(0, bool)
     worst = float(np.max(np.abs(phi[last]))) if last.any() else float("inf")
-    failures = _common_failures(run)
+    failures = _common_failures(run, consts)
     if worst >= UPRIGHT_TOLERANCE:
-        failures.append(f"|theta - pi| reached {worst:.3f} rad in the last {HOLD_SECONDS:g} s")
+        failures.append(f"|{consts.angle} - pi| reached {worst:.3f} rad in the last {HOLD_SECONDS:g} s")
     figures = {**run.summary(), "worst_last_3s_rad": worst}
     return ScenarioResult("swing-up and balance (Fig. IV.23)",
                           "|theta - pi| < 0.05 rad for the last 3 s of the run, |x| < 0.3 m throughout",
@@ -78,11 +79,11 @@ def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float 
     """Fig. IV.22: the energy swing-up alone brings the pendulum into the supervisor's catch
     window (|theta - pi| < 0.4 rad) within 5 s, with |x| < 0.3 m throughout. It does not
     hold it there: energy pumping keeps it swinging about the upright."""
-    run = run_closed_loop(plant, EnergySwingUp(PendulumConstants.from_model(model), period), seconds,
-                          period=period, plant_name=plant_name)
-    phi = np.abs(_phi(run))
+    consts = PendulumConstants.from_model(model)
+    run = run_closed_loop(plant, EnergySwingUp(consts, period), seconds, period=period, plant_name=plant_name)
+    phi = np.abs(_phi(run, consts))
     near = np.flatnonzero(phi < CATCH_ANGLE)
-    failures = _common_failures(run)
+    failures = _common_failures(run, consts)
     if not near.size:
         failures.append(f"the pendulum came no closer than {phi.min():.3f} rad to the upright")
     elif run.t[near[0]] > within:
@@ -103,19 +104,21 @@ def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name:
         return STEP_SIZE if t >= STEP_AT else 0.0
 
     seconds = STEP_AT + 2 * SETTLE_LIMIT
-    run = run_closed_loop(plant, Supervisor(PendulumConstants.from_model(model), period, x_ref=x_ref),
-                          seconds, period=period, plant_name=plant_name)
-    phi = _phi(run)
+    consts = PendulumConstants.from_model(model)
+    run = run_closed_loop(plant, Supervisor(consts, period, x_ref=x_ref), seconds, period=period,
+                          plant_name=plant_name)
+    phi = _phi(run, consts)
+    cart = run.column(consts.cart)
     after = run.t >= STEP_AT
-    off = after & ((np.abs(run.x - STEP_SIZE) >= SETTLE_BAND * STEP_SIZE) | (np.abs(phi) >= UPRIGHT_TOLERANCE))
+    off = after & ((np.abs(cart - STEP_SIZE) >= SETTLE_BAND * STEP_SIZE) | (np.abs(phi) >= UPRIGHT_TOLERANCE))
     settle = float(run.t[np.flatnonzero(off)[-1]] - STEP_AT + period) if off.any() else 0.0
     before = (run.t >= STEP_AT - 1.0) & ~after
-    failures = _common_failures(run)
+    failures = _common_failures(run, consts)
     if not (before.any() and np.all(np.abs(phi[before]) < UPRIGHT_TOLERANCE)):
         failures.append("the pendulum was not balanced in the second before the step")
     if settle > SETTLE_LIMIT:
         failures.append(f"settled {settle:.3f} s after the step (limit {SETTLE_LIMIT:g} s)")
-    overshoot = float(np.max(run.x[after]) - STEP_SIZE) if after.any() else None
+    overshoot = float(np.max(cart[after]) - STEP_SIZE) if after.any() else None
     figures = {**run.summary(), "settle_s": settle, "overshoot_m": overshoot}
     return ScenarioResult("4 cm set-point step while balancing (Fig. IV.21)",
                           "settled (|x - x_ref| < 4 mm, |theta - pi| < 0.05 rad) within 2 s of the step",
@@ -123,12 +126,16 @@ def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name:
 
 
 def balance_activity(run: HilRun) -> dict:
-    """Input and cart activity while balancing (from 1 s after the balance starts)."""
+    """Input and translation activity while balancing (from 1 s after the balance starts):
+    ``u_std_v`` and ``<state>_peak_to_peak_<unit>`` of every measured state but the angle."""
     up_at = run.summary()["upright_at_s"]
     mask = np.array([m == "balance" for m in run.mode]) & (run.t > (up_at if up_at is not None else np.inf) + 1.0)
-    if not mask.any():
-        return {"u_std_v": None, "x_peak_to_peak_m": None}
-    return {"u_std_v": float(np.std(run.u[mask])), "x_peak_to_peak_m": float(np.ptp(run.x[mask]))}
+    units = dict(run.units)
+    others = [(s, c) for s, c in run.positions if s != run.angle]
+    out = {"u_std_v": float(np.std(run.u[mask])) if mask.any() else None}
+    for state, column in others:
+        out[f"{state}_peak_to_peak_{units.get(state, '')}"] = float(np.ptp(column[mask])) if mask.any() else None
+    return out
 
 
 def model_mismatch(make, design: PlantModel, truth: PlantModel, seconds: float = 12.0,

@@ -2,14 +2,18 @@
 
 Protocol (ASCII lines ending in ``\\n``; see docs/hil.md):
 
-    server: PENDC-HIL 1 period=0.001 periods=12001 x_count=2.5e-06 theta_count=0.000314159...
-    server: S <k> <t> <enc_x> <enc_theta>       one line per control period, k = 0, 1, ...
+    server: PENDC-HIL 1 period=0.001 periods=12001 <state>_count=<resolution> ...
+                                                one <state>_count per encoder, in the plant
+                                                interface's order (cart-pendulum: x_count=2.5e-06
+                                                theta_count=0.000314159...)
+    server: S <k> <t> <count> ...               one line per control period, k = 0, 1, ...:
+                                                every encoder's count, in the same order
     client: <volts>                             one decimal number per S line
     server: END complete                        after the last period, then the server closes
             END stopped <reason>                on a timeout, a malformed answer or a plant error
 
-Counts are the ×4 encoder counts since reset (x positive to the left, theta from hanging,
-clockwise positive). The answer is clamped to 0-10 V and quantised by the 12-bit DAC.
+Counts are the ×4 encoder counts since reset (signs as the plant interface's states: for the
+cart-pendulum x positive to the left, theta from hanging, clockwise positive). The answer is clamped to 0-10 V and quantised by the 12-bit DAC.
 Every wait is bounded by the timeout; the server accepts one client and stops by itself.
 """
 
@@ -20,7 +24,6 @@ import math
 import socket
 
 from ..errors import PendcError
-from ..sim.encoders import THETA_COUNT, X_COUNT
 from .loop import HilRun, run_closed_loop
 
 PROTOCOL_VERSION = 1
@@ -69,7 +72,7 @@ class ClientLink:
 
     def answer(self, meas) -> float:
         """The volts the client answers to this period's measurement."""
-        self.send(f"S {self.k} {meas.t:.6f} {meas.enc_x} {meas.enc_theta}")
+        self.send(f"S {self.k} {meas.t:.6f} " + " ".join(str(c) for _, c in meas.counts))
         self.k += 1
         try:
             raw = self.reader.readline(MAX_LINE + 1)
@@ -131,7 +134,7 @@ def serve_loop(plant, address: tuple[str, int], seconds: float, period: float = 
     link = ClientLink(conn, timeout)
     n_rows = int(round(seconds / period)) + 1
     link.send(f"PENDC-HIL {PROTOCOL_VERSION} period={period:g} periods={n_rows} "
-              f"x_count={X_COUNT!r} theta_count={THETA_COUNT!r}")
+              + " ".join(f"{e.state}_count={e.resolution!r}" for e in plant.ports.encoders))
     run = run_closed_loop(plant, None, seconds, period=period, plant_name=plant_name, progress=progress,
                           answer=link.answer)
     link.close(run)

@@ -1,0 +1,112 @@
+"""The generated core's ports as the plant interface names them: one place for every harness.
+
+The HIL plants (:mod:`pendc.hil.rtl_plant`, :mod:`pendc.hil.rtl_cpp`), the golden plant and the
+cocotb testbench (``tb/``) all talk to the same module: ``clk``, ``rst``, ``step``, ``ready``,
+the plant's one input, its reported states, two channel lines per encoder and ``overflow``.
+:class:`CorePorts` reads those names from the plant interface carried on the graph
+(:func:`pendc.model.interface.require_interface`), so no harness spells a state of a plant;
+:func:`core_instance` is the Verilog that declares and instantiates the core, shared by every
+Verilog harness.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..model.interface import require_interface
+
+
+@dataclass(frozen=True)
+class EncoderPorts:
+    """One quadrature encoder of the core: its name, the state it reads, its two channel
+    outputs (A leads when the state grows), one ×4 count's motion in the state's unit, that
+    unit, and whether the state is periodic (an angle)."""
+
+    name: str
+    state: str
+    channel_a: str
+    channel_b: str
+    resolution: float
+    unit: str = ""
+    periodic: bool = False
+
+    @property
+    def channels(self) -> tuple:
+        """``(channel_a, channel_b)``."""
+        return (self.channel_a, self.channel_b)
+
+
+@dataclass(frozen=True)
+class CorePorts:
+    """Module and data-port names of a generated core, in the core's port order."""
+
+    module: str
+    input: str
+    states: tuple
+    encoders: tuple
+
+    @classmethod
+    def of_interface(cls, iface) -> "CorePorts":
+        """The ports of the core built from plant interface ``iface``."""
+        encoders = tuple(EncoderPorts(s.name, s.state, *s.channels, s.resolution, iface.state(s.state).unit,
+                                      iface.state(s.state).periodic) for s in iface.sensors)
+        return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders)
+
+    @classmethod
+    def of_graph(cls, graph) -> "CorePorts":
+        """The ports of the core compiled from ``graph`` (its plant interface); checked against
+        the graph's output nodes."""
+        ports = cls.of_interface(require_interface(graph))
+        have = [name for name, _ in graph.outputs]
+        if list(ports.outputs) != have:
+            raise ValueError(f"graph '{graph.name}' has outputs {have}, its plant interface names "
+                             f"{list(ports.outputs)}")
+        return ports
+
+    @property
+    def channels(self) -> tuple:
+        """Every encoder channel output, encoder by encoder (A then B)."""
+        return tuple(c for e in self.encoders for c in e.channels)
+
+    @property
+    def outputs(self) -> tuple:
+        """States then channels: the order of a golden row and of the graph's outputs."""
+        return self.states + self.channels
+
+    def encoder_of(self, state: str) -> EncoderPorts | None:
+        """The encoder that reads ``state``, or None."""
+        return next((e for e in self.encoders if e.state == state), None)
+
+
+def _decl(fmt: dict) -> str:
+    return f"{'signed ' if fmt['signed'] else ''}[{fmt['width'] - 1}:0]"
+
+
+def core_instance(ports: CorePorts, formats: dict, input_reg: bool = True, indent: str = "    ") -> str:
+    """Verilog declaring the core's data wires and instantiating it as ``core``.
+
+    ``formats``: report.json's "ports" (width, signedness per data port). With ``input_reg``
+    the input is a ``reg`` driven by the harness (initially 0), else a wire the caller declares
+    (a module port)."""
+    lines = []
+    if input_reg:
+        w = formats[ports.input]["width"]
+        lines.append(f"reg {_decl(formats[ports.input])} {ports.input} = {w}'sd0;")
+    lines.append("wire ready, overflow;")
+    lines += [f"wire {_decl(formats[p])} {p};" for p in ports.states]
+    if ports.channels:
+        lines.append(f"wire {', '.join(ports.channels)};")
+    lines.append(instance_line(ports))
+    return "\n".join(indent + ln for ln in lines)
+
+
+def instance_line(ports: CorePorts) -> str:
+    """``<module> core (.clk(clk), ...);``: the core instantiated as ``core``, every port on the
+    signal of its own name."""
+    conns = ["clk", "rst", "step", "ready", ports.input, *ports.outputs, "overflow"]
+    return f"{ports.module} core (" + ", ".join(f".{c}({c})" for c in conns) + ");"
+
+
+def verilog_decl(fmt: dict) -> str:
+    """The ``signed [w-1:0]`` part of a declaration of a port of format ``fmt`` (report.json)."""
+    return _decl(fmt)
