@@ -243,8 +243,8 @@ class GoldenStepper:
         st = np.empty(len(self.state_idx), np.int64)
         for p, i in enumerate(self.state_idx):
             n = self.graph.nodes[i]
-            st[p] = (n.param("states").index(n.param("reset")) if n.kind is Kind.FSM
-                     else n.qformat.from_float(float(n.param("reset", 0.0))))
+            st[p] = (n.params.reset_index if n.kind is Kind.FSM
+                     else n.qformat.from_float(float(n.params.reset)))
         return st
 
     def reset(self, registers: dict | None = None) -> None:

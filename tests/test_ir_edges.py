@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from pendc.ir import fsm as fsm_sem
+from pendc.ir.compare_ops import ORDERING_OPS
 from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph, GraphError
 from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
@@ -51,8 +52,9 @@ def test_a_threshold_beyond_the_input_range_is_clamped_one_step_outside(threshol
 def test_constant_outcomes_of_a_test_beyond_the_range():
     for v in range(U8.min_int, U8.max_int + 1, 17):
         for t in (U8.max_int + 1, U8.min_int - 1):
-            for op in ("lt", "le", "gt", "ge"):
-                assert fsm_sem.constant_outcome(op, t, U8) == fsm_sem._OPS[op](v, t)
+            for op in ORDERING_OPS:
+                assert fsm_sem.constant_outcome(op, t, U8) == op.apply(v, t)
+                assert fsm_sem.constant_outcome(op.value, t, U8) == (v < t if op.value in ("lt", "le") else v > t)
     assert fsm_sem.constant_outcome("lt", 5, U8) is None
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from pendc.ir import lut as lut_sem
 from pendc.ir.graph import Graph, GraphError
-from pendc.ir.nodes import Kind, make
+from pendc.ir.compare_ops import CompareOp
+from pendc.ir.nodes import ConstParams, GainParams, Kind, SliceParams, make
 from pendc.ir.qformat import QFormat, Rounding
 from pendc.ir.verify import verify
 
@@ -85,6 +86,17 @@ def without(n, key):
     return replace(n, params=tuple((k, v) for k, v in n.params if k != key))
 
 
+def refused(build_node, name: str, *words: str) -> str:
+    """A node with a missing or malformed param cannot be built: GraphError names it."""
+    with pytest.raises(GraphError) as e:
+        build_node()
+    msg = str(e.value)
+    assert f"'{name}'" in msg and "\n" not in msg, msg
+    for w in words:
+        assert w in msg, msg
+    return msg
+
+
 def test_base_graphs_pass():
     verify(build(False))
     verify(build(True), typed=True)
@@ -119,7 +131,7 @@ def test_mux_needs_two_data_inputs():
                                        ("big", "op"), ("f", "states"), ("f", "reset"), ("f", "transitions"),
                                        ("f", "outputs"), ("f", "lo"), ("f", "hi")])
 def test_missing_param(name, key):
-    fails(build(False, without(node(False, name), key)), name, f"missing param '{key}'")
+    refused(lambda: without(node(False, name), key), name, f"missing param '{key}'")
 
 
 @pytest.mark.parametrize("name, changes, words", [
@@ -143,9 +155,40 @@ def test_missing_param(name, key):
     ("f", dict(outputs=(0,)), ["outputs"]),
     ("f", dict(states=("A", "A")), ["distinct"]),
     ("f", dict(lo=1.0, hi=-1.0), ["empty"]),
+    ("k", dict(cfmt="FIX32"), ["cfmt", "not a Q-format"]),
+    ("k", dict(gain=2.0), ["unknown param 'gain'"]),
+    ("sgn", dict(sign_bit="yes"), ["sign_bit"]),
+    ("u", dict(max_abs=float("inf")), ["max_abs", "finite"]),
 ])
 def test_bad_param(name, changes, words):
-    fails(build(False, node(False, name).with_params(**changes)), name, *words)
+    refused(lambda: node(False, name).with_params(**changes), name, *words)
+    kind, inputs = node(False, name).kind, node(False, name).inputs
+    refused(lambda: make(name, kind, inputs, **{**dict(node(False, name).params), **changes}), name, *words)
+
+
+def test_verifier_refuses_params_of_another_kind():
+    # Node.__post_init__ makes this impossible through the constructors; the verifier still
+    # checks it for nodes patched behind their back
+    bad = node(False, "k")
+    object.__setattr__(bad, "params", ConstParams(value=0.5))
+    fails(build(False, bad), "k", "ConstParams", "GainParams")
+
+
+def test_typed_params_read_back_in_legacy_form():
+    k = node(True, "k")
+    assert k.params.cfmt == Q("FIX32_31") and k.param("cfmt") == "FIX32_31"
+    sgn, bits = node(False, "sgn"), node(False, "bits")
+    assert sgn.params.sign_bit and (sgn.param("hi"), sgn.param("lo")) == (-1, -1)
+    assert sgn.params.bits(24) == (23, 23) and bits.params.bits(24) == (1, 0) and bits.params.width == 2
+    assert node(False, "big").params.op is CompareOp.GT and node(False, "big").param("op") == "gt"
+    f = node(False, "f")
+    assert f.params.transitions[0].op is CompareOp.GE and f.param("transitions") == FSM_PARAMS["transitions"]
+    # typed and keyword construction give one node
+    assert make("k", Kind.GAIN, ["u"], params=GainParams(0.5, cfmt=Q("FIX32_31")),
+                qformat=Q("FIX16_12")) == k
+    assert make("sgn", Kind.SLICE, ["x"], params=SliceParams.sign()) == sgn
+    with pytest.raises(GraphError, match="not both"):
+        make("k", Kind.GAIN, ["u"], params=GainParams(0.5), value=0.5)
 
 
 def test_untabulated_lut_domain_may_be_open():
@@ -221,7 +264,6 @@ def test_untyped_node_in_typed_graph():
     ("bits", dict(qformat="UFIX2_1"), ["UFIX2_0"]),
     ("bits", dict(hi=5, lo=0, qformat="UFIX6_0"), ["outside", "2-bit"]),
     ("f", dict(qformat="UFIX3_0"), ["UFIX2_0"]),
-    ("k", dict(cfmt="FIX32"), ["cfmt", "not a Q-format"]),
     ("k", dict(cfmt="FIX40_39"), ["constant", "40 bits"]),
     ("k", dict(value=3.0), ["does not fit", "FIX32_31"]),
     ("t", dict(table=(0,) * 16), ["17 entries"]),

@@ -57,14 +57,14 @@ class CompiledGraph:
         self.graph, self.mode = graph, mode
         self.index = {n.name: i for i, n in enumerate(graph.nodes)}
         self.source, offsets = kernel_source(graph, mode)
-        tables = [np.asarray(graph[name].param("table"), dtype=np.int64) for name in offsets]
+        tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
         self.tables.setflags(write=False)
         self._kernel = load_source(self.source, "pendc_ir").kernel
 
     def _input_matrix(self, inputs: dict, steps: int | None) -> tuple[np.ndarray, int]:
         nodes = [n for n in self.graph.nodes if n.kind is Kind.INPUT]
-        ports = {n.param("port") for n in nodes}
+        ports = {n.params.port for n in nodes}
         missing = ports - set(inputs)
         if missing:
             raise ValueError(f"no values for input port(s) {', '.join(sorted(missing))}")
@@ -74,7 +74,7 @@ class CompiledGraph:
         dtype = np.int64 if self.mode == "fixed" else np.float64
         ins = np.empty((len(nodes), steps), dtype)
         for j, node in enumerate(nodes):
-            a = arrays[node.param("port")][:steps]
+            a = arrays[node.params.port][:steps]
             if self.mode == "float":
                 ins[j] = a.astype(np.float64)
             elif a.dtype.kind in "iu":

@@ -25,13 +25,14 @@ from ..codegen import NumbaPrinter
 from . import fsm as fsm_sem
 from . import lut as lut_sem
 from .graph import Graph
-from .nodes import Kind
+from .compare_ops import CompareOp
+from .nodes import SOURCE_KINDS, Kind
 from .qformat import QFormat, Rounding, Overflow, shift_round
+from .visitor import NodeVisitor
 
 SOURCE_FORMAT = 1  # bump when the generated source changes shape
 I64_MIN, I64_MAX = -(1 << 63), (1 << 63) - 1
 UNKNOWN = (I64_MIN, I64_MAX)
-_CMP = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
 
 
 class _ExprPrinter(NumbaPrinter):
@@ -76,53 +77,63 @@ def _union(*ranges) -> tuple:
     return min(r[0] for r in ranges), max(r[1] for r in ranges)
 
 
-def _slice_bits(node, fin: QFormat) -> tuple:
-    hi, lo = node.param("hi"), node.param("lo")
-    return (fin.width - 1, fin.width - 1) if hi == lo == -1 else (hi, lo)
-
-
 def lut_table_ok(node) -> bool:
-    t = node.param("table")
+    """True if every entry of the LUT's table lies in the node's own format."""
+    t = node.params.table
     return bool(t) and all(node.qformat.min_int <= int(x) <= node.qformat.max_int for x in t)
 
 
-class _Gen:
-    def __init__(self, graph: Graph, mode: str):
-        self.g, self.mode, self.fixed = graph, mode, mode == "fixed"
+class _Bounds(NodeVisitor):
+    """Integer range a node's value provably stays in (fixed mode): ``visit_<kind>(node, gen, seen)``."""
+
+    def _own(self, n, gen, seen):
+        return _frange(n.qformat)
+
+    visit_gain = visit_add = visit_sub = visit_neg = visit_mul = visit_mux = visit_cast = _own
+
+    def visit_input(self, n, gen, seen):
+        return UNKNOWN          # a raw integer port is not checked against the format
+
+    def visit_const(self, n, gen, seen):
+        c = n.qformat.from_float(float(n.params.value))
+        return (c, c)
+
+    def visit_register(self, n, gen, seen):
+        r = n.qformat.from_float(float(n.params.reset))
+        src = n.inputs[0]
+        return (r, r) if src in seen else _union((r, r), gen.bounds(src, seen + (n.name,)))
+
+    def visit_fsm(self, n, gen, seen):
+        return min(n.params.outputs), max(n.params.outputs)
+
+    def visit_compare(self, n, gen, seen):
+        return (0, 1)
+
+    def visit_slice(self, n, gen, seen):
+        return (0, (1 << n.params.width) - 1)
+
+    def visit_lut(self, n, gen, seen):
+        return _frange(n.qformat) if lut_table_ok(n) else UNKNOWN
+
+
+class _Gen(NodeVisitor, abstract=True, elsewhere=SOURCE_KINDS):
+    """Printer of one kernel: ``visit_<kind>(node, i)`` returns the lines computing ``v<i>``
+    (sources and state elements are printed by :func:`kernel_source` itself)."""
+
+    fixed = False
+
+    def __init__(self, graph: Graph):
+        self.g = graph
         self.idx = {n.name: i for i, n in enumerate(graph.nodes)}
         self.offsets, self.tab_len = {}, 0
         self._bounds: dict = {}
+        self._bounder = _Bounds()
 
-    # -- static value bounds (fixed mode) -------------------------------------------------
     def bounds(self, name: str, seen=()) -> tuple:
         """Integer range a node's value provably stays in."""
-        if name in self._bounds:
-            return self._bounds[name]
-        n = self.g[name]
-        k = n.kind
-        if k is Kind.INPUT:
-            b = UNKNOWN
-        elif k is Kind.CONST:
-            c = n.qformat.from_float(float(n.param("value")))
-            b = (c, c)
-        elif k is Kind.REGISTER:
-            r = n.qformat.from_float(float(n.param("reset", 0.0)))
-            src = n.inputs[0]
-            b = (r, r) if src in seen else _union((r, r), self.bounds(src, seen + (name,)))
-        elif k is Kind.FSM:
-            outs = [int(o) for o in n.param("outputs")]
-            b = (min(outs), max(outs))
-        elif k is Kind.COMPARE:
-            b = (0, 1)
-        elif k is Kind.SLICE:
-            hi, lo = _slice_bits(n, self.g[n.inputs[0]].qformat)
-            b = (0, (1 << (hi - lo + 1)) - 1)
-        elif k is Kind.LUT:
-            b = _frange(n.qformat) if lut_table_ok(n) else UNKNOWN
-        else:
-            b = _frange(n.qformat)
-        self._bounds[name] = b
-        return b
+        if name not in self._bounds:
+            self._bounds[name] = self._bounder.visit(self.g[name], self, seen)
+        return self._bounds[name]
 
     # -- fixed-point requantisation ----------------------------------------------------------
     def requant(self, i: int, node, expr: str, rng: tuple, frac: int) -> list:
@@ -189,54 +200,121 @@ class _Gen:
         v = f"v{self.idx[name]}"
         return (f"({v} << {n})" if n else v), (lo << n, hi << n)
 
-    # -- one node ----------------------------------------------------------------------------
-    def fixed_node(self, i: int, node) -> list:
-        k, ins = node.kind, node.inputs
-        a = [f"v{self.idx[x]}" for x in ins]
-        fr = [self.g[x].qformat.frac for x in ins]
-        if k is Kind.GAIN:
-            cfmt = QFormat.parse(node.param("cfmt"))
-            c = cfmt.from_float(float(node.param("value")))
-            lo, hi = self.bounds(ins[0])
-            return self.requant(i, node, f"{a[0]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
-                                fr[0] + cfmt.frac)
-        if k in (Kind.ADD, Kind.SUB, Kind.COMPARE):
-            frac = max(fr)
-            (x, (xl, xh)), (y, (yl, yh)) = self.aligned(ins[0], frac), self.aligned(ins[1], frac)
-            if k is Kind.COMPARE:
-                return [f"v{i} = 1 if {x} {_CMP[node.param('op')]} {y} else 0"]
-            if k is Kind.ADD:
-                return self.requant(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
-            return self.requant(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
-        if k is Kind.NEG:
-            lo, hi = self.bounds(ins[0])
-            return self.requant(i, node, f"-{a[0]}", (-hi, -lo), fr[0])
-        if k is Kind.MUL:
-            (al, ah), (bl, bh) = self.bounds(ins[0]), self.bounds(ins[1])
-            p = [al * bl, al * bh, ah * bl, ah * bh]
-            return self.requant(i, node, f"{a[0]} * {a[1]}", (min(p), max(p)), fr[0] + fr[1])
-        if k is Kind.CAST:
-            return self.requant(i, node, a[0], self.bounds(ins[0]), fr[0])
-        if k is Kind.MUX:       # a select beyond the data inputs picks the last one (pendc.ir.nodes)
-            lines = []
-            for j in range(1, len(ins)):
-                last = j == len(ins) - 1
-                lines.append("else:" if last else f"{'if' if j == 1 else 'elif'} {a[0]} == {j - 1}:")
-                lines += ["    " + s for s in self.requant(i, node, a[j], self.bounds(ins[j]), fr[j])]
-            return lines
-        if k is Kind.SLICE:
-            hi, lo = _slice_bits(node, self.g[ins[0]].qformat)
-            if hi - lo + 1 > 63 or lo < 0:
-                raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
-            return [f"v{i} = ({a[0]} >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)}"]
-        if k is Kind.LUT:
-            return self.fixed_lut(i, node, a[0])
-        raise ValueError(f"cannot compile node kind {k}")
+    # -- state -------------------------------------------------------------------------------
+    def num(self, x) -> str:
+        return _i(x) if self.fixed else _f(x)
 
-    def fixed_lut(self, i: int, node, a: str) -> list:
-        p = dict(node.params)
+    def reset(self, node) -> str:
+        if node.kind is Kind.FSM:
+            return str(node.params.reset_index)
+        value = float(node.params.reset)
+        return _i(node.qformat.from_float(value)) if self.fixed else _f(value)
+
+    def fsm_output(self, i: int, node) -> list:
+        outs = node.params.outputs
+        lines = []
+        for s, o in enumerate(outs):
+            head = "if" if s == 0 else "elif" if s < len(outs) - 1 else "else"
+            lines += [f"{head} s{i} == {s}:" if head != "else" else "else:", f"    v{i} = {self.num(int(o))}"]
+        return lines if len(outs) > 1 else [f"v{i} = {self.num(int(outs[0]))}"]
+
+    def fsm_update(self, i: int, node) -> list:
+        src = node.inputs[0]
+        v = f"v{self.idx[src]}"
+        p = node.params
+        if self.fixed:      # thresholds on the input's grid; beyond its range a test is a constant
+            fin = self.g[src].qformat
+
+            def test(op, x):
+                t = fsm_sem.threshold_int(x, fin)
+                fixed = fsm_sem.constant_outcome(op, t, fin)
+                return f"{v} {op.symbol} {_i(t)}" if fixed is None else str(fixed)
+        else:
+            def test(op, x):
+                return f"{v} {op.symbol} {_f(x)}"
+        outside = (f"{test(CompareOp.LT, p.lo)} or {test(CompareOp.GT, p.hi)}" if self.fixed
+                   else f"not ({_f(p.lo)} <= {v} <= {_f(p.hi)})")   # NaN is outside
+        lines = [f"if {outside}:",
+                 f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
+        per_state = [p.rules_from(s) for s in range(len(p.states))]
+        shared = all(r == per_state[0] for r in per_state)   # only "*" rules: no dispatch on the state
+        dispatch = [(None, per_state[0])] if shared else [(s, r) for s, r in enumerate(per_state) if r]
+        for d, (s, rules) in enumerate(dispatch):
+            pad = "" if shared else "    "
+            if not shared:
+                lines.append(f"{'if' if d == 0 else 'elif'} s{i} == {s}:")
+            for r, rule in enumerate(rules):
+                lines += [f"{pad}{'if' if r == 0 else 'elif'} {test(rule.op, rule.threshold)}:",
+                          f"{pad}    s{i} = {p.states.index(rule.target)}"]
+        return lines
+
+
+class _FixedGen(_Gen):
+    """Bit-accurate int64 kernel: ``requantize`` printed inline per node."""
+
+    fixed = True
+
+    def visit_gain(self, node, i):
+        a = node.inputs[0]
+        c = node.params.constant
+        lo, hi = self.bounds(a)
+        return self.requant(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
+                            self.g[a].qformat.frac + node.params.cfmt.frac)
+
+    def _pair(self, node) -> tuple:
+        frac = max(self.g[x].qformat.frac for x in node.inputs)
+        return self.aligned(node.inputs[0], frac), self.aligned(node.inputs[1], frac), frac
+
+    def visit_add(self, node, i):
+        (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
+        return self.requant(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
+
+    def visit_sub(self, node, i):
+        (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
+        return self.requant(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
+
+    def visit_compare(self, node, i):
+        (x, _), (y, _), _ = self._pair(node)
+        return [f"v{i} = 1 if {x} {node.params.op.symbol} {y} else 0"]
+
+    def visit_neg(self, node, i):
+        a = node.inputs[0]
+        lo, hi = self.bounds(a)
+        return self.requant(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)
+
+    def visit_mul(self, node, i):
+        a, b = node.inputs
+        (al, ah), (bl, bh) = self.bounds(a), self.bounds(b)
+        p = [al * bl, al * bh, ah * bl, ah * bh]
+        return self.requant(i, node, f"v{self.idx[a]} * v{self.idx[b]}", (min(p), max(p)),
+                            self.g[a].qformat.frac + self.g[b].qformat.frac)
+
+    def visit_cast(self, node, i):
+        a = node.inputs[0]
+        return self.requant(i, node, f"v{self.idx[a]}", self.bounds(a), self.g[a].qformat.frac)
+
+    def visit_mux(self, node, i):
+        # a select beyond the data inputs picks the last one (pendc.ir.nodes)
+        ins = node.inputs
+        lines = []
+        for j in range(1, len(ins)):
+            last = j == len(ins) - 1
+            lines.append("else:" if last else f"{'if' if j == 1 else 'elif'} v{self.idx[ins[0]]} == {j - 1}:")
+            lines += ["    " + s for s in self.requant(i, node, f"v{self.idx[ins[j]]}", self.bounds(ins[j]),
+                                                       self.g[ins[j]].qformat.frac)]
+        return lines
+
+    def visit_slice(self, node, i):
+        hi, lo = node.params.bits(self.g[node.inputs[0]].qformat.width)
+        if hi - lo + 1 > 63 or lo < 0:
+            raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
+        return [f"v{i} = (v{self.idx[node.inputs[0]]} >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)}"]
+
+    def visit_lut(self, node, i):
+        p = node.params
+        a = f"v{self.idx[node.inputs[0]]}"
         fin = self.g[node.inputs[0]].qformat
-        table, shift, bits, interp = p.get("table"), p.get("shift"), p["addr_bits"], bool(p["interpolate"])
+        table, shift, bits, interp = p.table, p.shift, p.addr_bits, bool(p.interpolate)
         seg = 1 << bits
         if table is None or shift is None:
             raise ValueError(f"LUT '{node.name}' has no table yet (run fill_lut_tables)")
@@ -245,10 +323,10 @@ class _Gen:
         off = self.offsets[node.name] = self.tab_len
         self.tab_len += len(table)
         d, j, f = f"d{i}", f"j{i}", f"f{i}"
-        lines = [f"{d} = {a} - {_i(lut_sem.lo_int(p['lo'], fin))}", f"{j} = {d} >> {shift}",
+        lines = [f"{d} = {a} - {_i(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {shift}",
                  f"{f} = {d} & {_i((1 << shift) - 1)}"]
         flag = [f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
-        if p["periodic"]:
+        if p.periodic:
             lines.append(f"{j} = {j} & {seg - 1}")
         else:
             lines += [f"if {j} < 0:"] + flag + [f"    {j} = 0", f"    {f} = 0", f"elif {j} >= {seg}:"]
@@ -260,98 +338,70 @@ class _Gen:
         rnd = f"({step} + {_i(1 << (shift - 1))})" if node.rounding is Rounding.NEAREST else step
         return lines + [f"v{i} = tab[{off} + {j}]", f"if {f} != 0:", f"    v{i} = v{i} + ({rnd} >> {shift})"]
 
-    def float_node(self, i: int, node) -> list:
-        k, ins = node.kind, node.inputs
-        a = [f"v{self.idx[x]}" for x in ins]
-        if k is Kind.GAIN:
-            return [f"v{i} = {a[0]} * {_f(node.param('value'))}"]
-        if k in (Kind.ADD, Kind.SUB, Kind.MUL):
-            return [f"v{i} = {a[0]} {dict(add='+', sub='-', mul='*')[k.value]} {a[1]}"]
-        if k is Kind.NEG:
-            return [f"v{i} = -{a[0]}"]
-        if k is Kind.CAST:
-            return [f"v{i} = {a[0]}"]
-        if k is Kind.COMPARE:
-            return [f"v{i} = 1.0 if {a[0]} {_CMP[node.param('op')]} {a[1]} else 0.0"]
-        if k is Kind.MUX:
-            lines = [f"m{i} = int({a[0]})"]
-            for j in range(1, len(ins)):
-                last = j == len(ins) - 1
-                lines += ["else:" if last else f"{'if' if j == 1 else 'elif'} m{i} == {j - 1}:", f"    v{i} = {a[j]}"]
-            return lines
-        if k is Kind.SLICE:
-            hi, lo = node.param("hi"), node.param("lo")
-            if hi == lo == -1:
-                return [f"v{i} = 1.0 if {a[0]} < 0 else 0.0"]
-            return [f"v{i} = float((int({a[0]}) >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)})"]
-        if k is Kind.LUT:
-            lo, hi, x = node.param("lo"), node.param("hi"), f"x{i}"
-            lines = [f"{x} = {a[0]}"]
-            if node.param("periodic"):
-                lines.append(f"{x} = {_f(lo)} + ({x} - {_f(lo)}) % {_f(hi - lo)}")
-            elif lo is not None:
-                lines += [f"if not ({_f(lo)} <= {x} <= {_f(hi)}):", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                          f"    if {_f(lo)} > {x}:", f"        {x} = {_f(lo)}",
-                          f"    if {_f(hi)} < {x}:", f"        {x} = {_f(hi)}"]
-            return lines + [f"v{i} = float({lut_expr_source(node.param('expr'), x)})"]
-        raise ValueError(f"cannot compile node kind {k}")
 
-    # -- state -------------------------------------------------------------------------------
-    def num(self, x) -> str:
-        return _i(x) if self.fixed else _f(x)
+class _FloatGen(_Gen):
+    """float64 kernel mirroring ``FloatInterpreter``."""
 
-    def reset(self, node) -> str:
-        if node.kind is Kind.FSM:
-            return str(node.param("states").index(node.param("reset")))
-        value = float(node.param("reset", 0.0))
-        return _i(node.qformat.from_float(value)) if self.fixed else _f(value)
+    def _a(self, node) -> list:
+        return [f"v{self.idx[x]}" for x in node.inputs]
 
-    def fsm_output(self, i: int, node) -> list:
-        outs = node.param("outputs")
-        lines = []
-        for s, o in enumerate(outs):
-            head = "if" if s == 0 else "elif" if s < len(outs) - 1 else "else"
-            lines += [f"{head} s{i} == {s}:" if head != "else" else "else:", f"    v{i} = {self.num(int(o))}"]
-        return lines if len(outs) > 1 else [f"v{i} = {self.num(int(outs[0]))}"]
+    def visit_gain(self, node, i):
+        return [f"v{i} = {self._a(node)[0]} * {_f(node.params.value)}"]
 
-    def fsm_update(self, i: int, node) -> list:
-        src = node.inputs[0]
-        v = f"v{self.idx[src]}"
-        states, trans = node.param("states"), node.param("transitions")
-        if self.fixed:      # thresholds on the input's grid; beyond its range a test is a constant
-            fin = self.g[src].qformat
+    def visit_add(self, node, i):
+        a = self._a(node)
+        return [f"v{i} = {a[0]} + {a[1]}"]
 
-            def test(op, x):
-                t = fsm_sem.threshold_int(x, fin)
-                fixed = fsm_sem.constant_outcome(op, t, fin)
-                return f"{v} {_CMP[op]} {_i(t)}" if fixed is None else str(fixed)
-        else:
-            def test(op, x):
-                return f"{v} {_CMP[op]} {_f(x)}"
-        outside = (f"{test('lt', node.param('lo'))} or {test('gt', node.param('hi'))}" if self.fixed
-                   else f"not ({_f(node.param('lo'))} <= {v} <= {_f(node.param('hi'))})")   # NaN is outside
-        lines = [f"if {outside}:",
-                 f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
-        per_state = [[t for t in trans if t[0] in ("*", name)] for name in states]
-        shared = all(r == per_state[0] for r in per_state)   # only "*" rules: no dispatch on the state
-        dispatch = [(None, per_state[0])] if shared else [(s, r) for s, r in enumerate(per_state) if r]
-        for d, (s, rules) in enumerate(dispatch):
-            pad = "" if shared else "    "
-            if not shared:
-                lines.append(f"{'if' if d == 0 else 'elif'} s{i} == {s}:")
-            for r, (_, op, threshold, dst) in enumerate(rules):
-                if op not in ("lt", "le", "gt", "ge"):
-                    raise ValueError(f"FSM '{node.name}': unknown transition op {op!r}")
-                lines += [f"{pad}{'if' if r == 0 else 'elif'} {test(op, threshold)}:",
-                          f"{pad}    s{i} = {states.index(dst)}"]
+    def visit_sub(self, node, i):
+        a = self._a(node)
+        return [f"v{i} = {a[0]} - {a[1]}"]
+
+    def visit_mul(self, node, i):
+        a = self._a(node)
+        return [f"v{i} = {a[0]} * {a[1]}"]
+
+    def visit_neg(self, node, i):
+        return [f"v{i} = -{self._a(node)[0]}"]
+
+    def visit_cast(self, node, i):
+        return [f"v{i} = {self._a(node)[0]}"]
+
+    def visit_compare(self, node, i):
+        a = self._a(node)
+        return [f"v{i} = 1.0 if {a[0]} {node.params.op.symbol} {a[1]} else 0.0"]
+
+    def visit_mux(self, node, i):
+        a = self._a(node)
+        lines = [f"m{i} = int({a[0]})"]
+        for j in range(1, len(a)):
+            last = j == len(a) - 1
+            lines += ["else:" if last else f"{'if' if j == 1 else 'elif'} m{i} == {j - 1}:", f"    v{i} = {a[j]}"]
         return lines
+
+    def visit_slice(self, node, i):
+        p, a = node.params, self._a(node)[0]
+        if p.sign_bit:
+            return [f"v{i} = 1.0 if {a} < 0 else 0.0"]
+        return [f"v{i} = float((int({a}) >> {min(p.lo, 63)}) & {_i((1 << p.width) - 1)})"]
+
+    def visit_lut(self, node, i):
+        p, x = node.params, f"x{i}"
+        lo, hi = p.lo, p.hi
+        lines = [f"{x} = {self._a(node)[0]}"]
+        if p.periodic:
+            lines.append(f"{x} = {_f(lo)} + ({x} - {_f(lo)}) % {_f(hi - lo)}")
+        elif lo is not None:
+            lines += [f"if not ({_f(lo)} <= {x} <= {_f(hi)}):", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
+                      f"    if {_f(lo)} > {x}:", f"        {x} = {_f(lo)}",
+                      f"    if {_f(hi)} < {x}:", f"        {x} = {_f(hi)}"]
+        return lines + [f"v{i} = float({lut_expr_source(p.expr, x)})"]
 
 
 def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
     """(source of the kernel module, {LUT node name: offset into the table array})."""
     if mode not in ("fixed", "float"):
         raise ValueError(f"mode must be 'fixed' or 'float', got {mode!r}")
-    gen = _Gen(graph, mode)
+    gen = (_FixedGen if mode == "fixed" else _FloatGen)(graph)
     nodes = graph.nodes
     dtype = "np.int64" if gen.fixed else "np.float64"
     head, body, update = [], [], []
@@ -362,7 +412,7 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
         comment = " ".join(f"# {n.name} = {k.value}({', '.join(n.inputs)})".split())
         comment += f" : {n.qformat}" if gen.fixed else ""
         if k is Kind.CONST:
-            value = float(n.param("value"))
+            value = float(n.params.value)
             head += [comment, f"v{i} = {_i(n.qformat.from_float(value)) if gen.fixed else _f(value)}",
                      f"buf[{i}] = v{i}"]
         elif k in (Kind.REGISTER, Kind.FSM):
@@ -372,7 +422,7 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
         elif k is Kind.INPUT:
             body += [comment, f"v{i} = ins[{inputs.index(i)}, k]"]
         else:
-            body += [comment] + (gen.fixed_node(i, n) if gen.fixed else gen.float_node(i, n))
+            body += [comment] + gen.visit(n, i)
     varying = [i for i in range(len(nodes)) if i not in const_idx]
     if gen.fixed:
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        if x > mx[i]:",

@@ -4,7 +4,8 @@ Params of an FSM node:
   ``states``       state names; the state register holds the index
   ``reset``        name of the state after reset
   ``transitions``  ``(from, op, threshold, to)`` rules tried in order; ``from`` is a
-                   state name or ``"*"``; ``op`` one of lt le gt ge; the threshold is a
+                   state name or ``"*"``; ``op`` an ordering CompareOp (lt le gt ge, by
+                   enum or name; typed nodes hold :class:`pendc.ir.nodes.Transition`); the threshold is a
                    real number compared with the input's real value. If no rule
                    matches, the state is kept.
   ``outputs``      Moore output word per state (unsigned integers)
@@ -21,12 +22,8 @@ from __future__ import annotations
 
 import math
 
+from .compare_ops import CompareOp
 from .qformat import QFormat
-
-_OPS = {
-    "lt": lambda a, b: a < b, "le": lambda a, b: a <= b,
-    "gt": lambda a, b: a > b, "ge": lambda a, b: a >= b,
-}
 
 
 def threshold_int(threshold: float, fin: QFormat) -> int:
@@ -43,20 +40,20 @@ def threshold_int(threshold: float, fin: QFormat) -> int:
     return min(max(math.floor(scaled + 0.5), lo), hi)
 
 
-def constant_outcome(op: str, t: int, fin: QFormat) -> bool | None:
+def constant_outcome(op, t: int, fin: QFormat) -> bool | None:
     """``v op t`` for every value ``v`` of ``fin`` when the threshold integer ``t`` lies outside
     the input's range (the comparison does not depend on ``v``), else None."""
     if fin.min_int <= t <= fin.max_int:
         return None
     above = t > fin.max_int
-    return above if op in ("lt", "le") else not above
+    return above if CompareOp.parse(op) in (CompareOp.LT, CompareOp.LE) else not above
 
 
 def next_state(state: int, v: int, fin: QFormat, states: tuple, transitions: tuple) -> int:
     """The state after one step with input integer ``v`` (format ``fin``)."""
     name = states[state]
     for src, op, threshold, dst in transitions:
-        if src in ("*", name) and _OPS[op](v, threshold_int(threshold, fin)):
+        if src in ("*", name) and CompareOp.parse(op).apply(v, threshold_int(threshold, fin)):
             return states.index(dst)
     return state
 
@@ -65,7 +62,7 @@ def next_state_float(state: int, value: float, states: tuple, transitions: tuple
     """Float counterpart of :func:`next_state` (range analysis)."""
     name = states[state]
     for src, op, threshold, dst in transitions:
-        if src in ("*", name) and _OPS[op](value, threshold):
+        if src in ("*", name) and CompareOp.parse(op).apply(value, threshold):
             return states.index(dst)
     return state
 

@@ -11,11 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
-from .nodes import Kind, Node
+from .nodes import SOURCE_KINDS, GraphError, Kind, Node
 
-
-class GraphError(ValueError):
-    """A structural defect in an IR graph (the verifier's findings, or a bad rewrite)."""
+__all__ = ["Graph", "GraphError"]
 
 
 @dataclass(frozen=True)
@@ -43,7 +41,7 @@ class Graph:
                     raise GraphError(f"node '{n.name}' reads undefined node '{i}'")
         placed, order = set(), []
         for n in nodes:
-            if n.kind in (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM):
+            if n.kind in SOURCE_KINDS:
                 order.append(n)
                 placed.add(n.name)
         pending = [n for n in nodes if n.name not in placed]
@@ -103,12 +101,15 @@ class Graph:
         return replace(self, nodes=tuple(fn(n) for n in self.nodes))
 
     def text(self) -> str:
-        """Deterministic text form, one node per line, in evaluation order."""
+        """Deterministic text form, one node per line, in evaluation order; params print in
+        their legacy key=value form, sorted by key (a table as its size)."""
         lines = [f"graph {self.name}"]
         for n in self.nodes:
-            params = "".join(f" {k}={_fmt(v)}" for k, v in n.params if k != "table")
-            if n.param("table") is not None:
-                params += f" table=<{len(n.param('table'))} entries>"
+            items = n.params.items()
+            params = "".join(f" {k}={_fmt(v)}" for k, v in items if k != "table")
+            table = dict(items).get("table")
+            if table is not None:
+                params += f" table=<{len(table)} entries>"
             fmt = f" : {n.qformat} {n.rounding.value} {n.overflow.value}" if n.qformat else " : ?"
             meaning = f"  # {n.meaning}" if n.meaning else ""
             lines.append(f"  {n.name} = {n.kind.value}({', '.join(n.inputs)}){params}{fmt}{meaning}")

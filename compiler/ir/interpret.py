@@ -18,8 +18,9 @@ import numpy as np
 from . import fsm as fsm_sem
 from . import lut as lut_sem
 from .graph import Graph
-from .nodes import Kind, Node
-from .qformat import QFormat, requantize
+from .nodes import SOURCE_KINDS, Kind
+from .qformat import requantize
+from .visitor import NodeVisitor
 
 
 @dataclass(frozen=True)
@@ -39,13 +40,16 @@ def _aligned(v: int, f_from: int, f_to: int) -> int:
     return v << (f_to - f_from)
 
 
-class _Base:
+class _Base(NodeVisitor, abstract=True, elsewhere=SOURCE_KINDS):
+    """Shared run loop; subclasses evaluate one node per kind (``visit_<kind>``) and return
+    (value, left its range). Sources and state elements are valued by the loop itself."""
+
     def __init__(self, graph: Graph):
         self.graph = graph
         self.index = {n.name: i for i, n in enumerate(graph.nodes)}
 
     def _inputs(self, inputs: dict, steps: int | None) -> tuple[dict, int]:
-        ports = {n.param("port"): n for n in self.graph.of_kind(Kind.INPUT)}
+        ports = {n.params.port: n for n in self.graph.of_kind(Kind.INPUT)}
         missing = set(ports) - set(inputs)
         if missing:
             raise ValueError(f"no values for input port(s) {', '.join(sorted(missing))}")
@@ -65,15 +69,15 @@ class _Base:
         rows = {p: [] for p, _ in out_idx}
         max_abs = np.zeros(len(nodes)) if track_max else None
         overflows: dict = {}
-        input_nodes = [(i, n.param("port")) for i, n in enumerate(nodes) if n.kind is Kind.INPUT]
+        input_nodes = [(i, n.params.port) for i, n in enumerate(nodes) if n.kind is Kind.INPUT]
+        evaluated = [(i, node, self._dispatch[node.kind], [idx[x] for x in node.inputs])
+                     for i, node in enumerate(nodes) if node.kind not in SOURCE_KINDS]
         for k in range(steps):
             for i, port in input_nodes:
                 vals[i] = self._input_value(nodes[i], arrays[port][k])
             self._load_state(vals, state)
-            for i, node in enumerate(nodes):
-                if node.kind in _SOURCES:
-                    continue
-                vals[i], ovf = self._eval(node, vals)
+            for i, node, method, ins in evaluated:
+                vals[i], ovf = method(self, node, vals, ins)
                 if ovf and node.name not in overflows:
                     overflows[node.name] = k
             if k % every == 0:
@@ -91,15 +95,15 @@ class _Base:
         state = {}
         for n in self.graph.nodes:
             if n.kind is Kind.REGISTER:
-                state[n.name] = self._const(n, n.param("reset", 0.0))
+                state[n.name] = self._const(n, n.params.reset)
             elif n.kind is Kind.FSM:
-                state[n.name] = n.param("states").index(n.param("reset"))
+                state[n.name] = n.params.reset_index
         return state
 
     def _load_state(self, vals, state):
         for name, s in state.items():
             node = self.graph[name]
-            vals[self.index[name]] = node.param("outputs")[s] if node.kind is Kind.FSM else s
+            vals[self.index[name]] = node.params.outputs[s] if node.kind is Kind.FSM else s
 
     def _next_state(self, vals, state, overflows, k):
         new = {}
@@ -118,17 +122,15 @@ class _Base:
         vals = [0] * len(self.graph.nodes)
         for i, n in enumerate(self.graph.nodes):
             if n.kind is Kind.CONST:
-                vals[i] = self._const(n, n.param("value"))
+                vals[i] = self._const(n, n.params.value)
         return vals
-
-
-_SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
 
 
 class FloatInterpreter(_Base):
     """Real-number semantics: every node computes its exact real result (LUTs evaluate
     their expression, no quantisation). Used for range analysis and as the float twin
-    of the bit-accurate model."""
+    of the bit-accurate model. Each ``visit_<kind>(node, vals, ins)`` reads its inputs'
+    values ``vals[j]`` for ``j`` in ``ins``."""
 
     def _const(self, node, value):
         return float(value)
@@ -137,53 +139,53 @@ class FloatInterpreter(_Base):
         return float(v)
 
     def _fsm_step(self, node, s, v):
-        nxt = fsm_sem.next_state_float(s, v, node.param("states"), node.param("transitions"))
-        return nxt, not node.param("lo") <= v <= node.param("hi")
+        p = node.params
+        return fsm_sem.next_state_float(s, v, p.states, p.transitions), not p.lo <= v <= p.hi
 
-    def _eval(self, node: Node, vals):
-        a = [vals[self.index[i]] for i in node.inputs]
-        k = node.kind
-        if k is Kind.GAIN:
-            return a[0] * node.param("value"), False
-        if k is Kind.ADD:
-            return a[0] + a[1], False
-        if k is Kind.SUB:
-            return a[0] - a[1], False
-        if k is Kind.NEG:
-            return -a[0], False
-        if k is Kind.MUL:
-            return a[0] * a[1], False
-        if k is Kind.CAST:
-            return a[0], False
-        if k is Kind.COMPARE:
-            return float(_CMP[node.param("op")](a[0], a[1])), False
-        if k is Kind.MUX:       # a select beyond the data inputs picks the last one
-            return a[1 + min(int(a[0]), len(a) - 2)], False
-        if k is Kind.SLICE:
-            hi, lo = node.param("hi"), node.param("lo")
-            if hi == lo == -1:
-                return float(a[0] < 0), False
-            return float((int(a[0]) >> lo) & ((1 << (hi - lo + 1)) - 1)), False
-        if k is Kind.LUT:
-            v = a[0]
-            lo, hi = node.param("lo"), node.param("hi")
-            outside = False
-            if node.param("periodic"):
-                v = lo + (v - lo) % (hi - lo)
-            elif lo is not None and not lo <= v <= hi:  # no domain yet: before tabulation
-                outside, v = True, min(max(v, lo), hi)
-            return float(lut_sem.evaluate(node.param("expr"), v)), outside
-        raise ValueError(f"cannot evaluate node kind {k}")
+    def visit_gain(self, node, vals, ins):
+        return vals[ins[0]] * node.params.value, False
 
+    def visit_add(self, node, vals, ins):
+        return vals[ins[0]] + vals[ins[1]], False
 
-_CMP = {
-    "lt": lambda a, b: a < b, "le": lambda a, b: a <= b, "gt": lambda a, b: a > b,
-    "ge": lambda a, b: a >= b, "eq": lambda a, b: a == b, "ne": lambda a, b: a != b,
-}
+    def visit_sub(self, node, vals, ins):
+        return vals[ins[0]] - vals[ins[1]], False
+
+    def visit_neg(self, node, vals, ins):
+        return -vals[ins[0]], False
+
+    def visit_mul(self, node, vals, ins):
+        return vals[ins[0]] * vals[ins[1]], False
+
+    def visit_cast(self, node, vals, ins):
+        return vals[ins[0]], False
+
+    def visit_compare(self, node, vals, ins):
+        return float(node.params.op.apply(vals[ins[0]], vals[ins[1]])), False
+
+    def visit_mux(self, node, vals, ins):
+        # a select beyond the data inputs picks the last one
+        return vals[ins[1 + min(int(vals[ins[0]]), len(ins) - 2)]], False
+
+    def visit_slice(self, node, vals, ins):
+        p, a = node.params, vals[ins[0]]
+        if p.sign_bit:
+            return float(a < 0), False
+        return float((int(a) >> p.lo) & ((1 << p.width) - 1)), False
+
+    def visit_lut(self, node, vals, ins):
+        p, v = node.params, vals[ins[0]]
+        outside = False
+        if p.periodic:
+            v = p.lo + (v - p.lo) % (p.hi - p.lo)
+        elif p.lo is not None and not p.lo <= v <= p.hi:  # no domain yet: before tabulation
+            outside, v = True, min(max(v, p.lo), p.hi)
+        return float(lut_sem.evaluate(p.expr, v)), outside
 
 
 class FixedInterpreter(_Base):
-    """Bit-accurate semantics on Python integers, exactly as documented in pendc.ir.nodes."""
+    """Bit-accurate semantics on Python integers, exactly as documented in pendc.ir.nodes.
+    Each ``visit_<kind>(node, vals, ins)`` returns (integer in the node's format, overflowed)."""
 
     def __init__(self, graph: Graph):
         untyped = [n.name for n in graph.nodes if n.qformat is None]
@@ -202,45 +204,54 @@ class FixedInterpreter(_Base):
 
     def _fsm_step(self, node, s, v):
         fin = self.graph[node.inputs[0]].qformat
-        nxt = fsm_sem.next_state(s, v, fin, node.param("states"), node.param("transitions"))
-        lo, hi = fsm_sem.threshold_int(node.param("lo"), fin), fsm_sem.threshold_int(node.param("hi"), fin)
-        return nxt, not lo <= v <= hi
+        p = node.params
+        nxt = fsm_sem.next_state(s, v, fin, p.states, p.transitions)
+        return nxt, not fsm_sem.threshold_int(p.lo, fin) <= v <= fsm_sem.threshold_int(p.hi, fin)
 
-    def _eval(self, node: Node, vals):
-        ins = [self.index[i] for i in node.inputs]
-        a = [vals[i] for i in ins]
-        f = [self.fmt[i].frac for i in ins]
-        out: QFormat = node.qformat
-        k = node.kind
-        if k is Kind.GAIN:
-            cfmt = QFormat.parse(node.param("cfmt"))
-            exact, frac = a[0] * cfmt.from_float(node.param("value")), f[0] + cfmt.frac
-        elif k in (Kind.ADD, Kind.SUB):
-            frac = max(f)
-            x, y = _aligned(a[0], f[0], frac), _aligned(a[1], f[1], frac)
-            exact = x + y if k is Kind.ADD else x - y
-        elif k is Kind.NEG:
-            exact, frac = -a[0], f[0]
-        elif k is Kind.MUL:
-            exact, frac = a[0] * a[1], f[0] + f[1]
-        elif k is Kind.CAST:
-            exact, frac = a[0], f[0]
-        elif k is Kind.COMPARE:
-            frac = max(f)
-            x, y = _aligned(a[0], f[0], frac), _aligned(a[1], f[1], frac)
-            return int(_CMP[node.param("op")](x, y)), False
-        elif k is Kind.MUX:     # a select beyond the data inputs picks the last one
-            j = 1 + min(a[0], len(a) - 2)
-            exact, frac = a[j], f[j]
-        elif k is Kind.SLICE:
-            hi, lo = node.param("hi"), node.param("lo")
-            width = self.fmt[ins[0]].width
-            hi, lo = (width - 1, width - 1) if hi == lo == -1 else (hi, lo)
-            return (a[0] >> lo) & ((1 << (hi - lo + 1)) - 1), False
-        elif k is Kind.LUT:
-            p = dict(node.params)
-            return lut_sem.lookup(a[0], self.fmt[ins[0]], out, p["lo"], p["addr_bits"], p["shift"], p["table"],
-                                  p["interpolate"], p["periodic"], node.rounding)
-        else:
-            raise ValueError(f"cannot evaluate node kind {k}")
-        return requantize(exact, frac, out, node.rounding, node.overflow)
+    def _requant(self, node, exact: int, frac: int):
+        return requantize(exact, frac, node.qformat, node.rounding, node.overflow)
+
+    def _pair(self, vals, ins) -> tuple:
+        """Both operands aligned to the larger fraction, and that fraction."""
+        fa, fb = self.fmt[ins[0]].frac, self.fmt[ins[1]].frac
+        frac = max(fa, fb)
+        return _aligned(vals[ins[0]], fa, frac), _aligned(vals[ins[1]], fb, frac), frac
+
+    def visit_gain(self, node, vals, ins):
+        p = node.params
+        return self._requant(node, vals[ins[0]] * p.constant, self.fmt[ins[0]].frac + p.cfmt.frac)
+
+    def visit_add(self, node, vals, ins):
+        x, y, frac = self._pair(vals, ins)
+        return self._requant(node, x + y, frac)
+
+    def visit_sub(self, node, vals, ins):
+        x, y, frac = self._pair(vals, ins)
+        return self._requant(node, x - y, frac)
+
+    def visit_neg(self, node, vals, ins):
+        return self._requant(node, -vals[ins[0]], self.fmt[ins[0]].frac)
+
+    def visit_mul(self, node, vals, ins):
+        return self._requant(node, vals[ins[0]] * vals[ins[1]], self.fmt[ins[0]].frac + self.fmt[ins[1]].frac)
+
+    def visit_cast(self, node, vals, ins):
+        return self._requant(node, vals[ins[0]], self.fmt[ins[0]].frac)
+
+    def visit_compare(self, node, vals, ins):
+        x, y, _ = self._pair(vals, ins)
+        return int(node.params.op.apply(x, y)), False
+
+    def visit_mux(self, node, vals, ins):
+        # a select beyond the data inputs picks the last one
+        j = ins[1 + min(vals[ins[0]], len(ins) - 2)]
+        return self._requant(node, vals[j], self.fmt[j].frac)
+
+    def visit_slice(self, node, vals, ins):
+        hi, lo = node.params.bits(self.fmt[ins[0]].width)
+        return (vals[ins[0]] >> lo) & ((1 << (hi - lo + 1)) - 1), False
+
+    def visit_lut(self, node, vals, ins):
+        p = node.params
+        return lut_sem.lookup(vals[ins[0]], self.fmt[ins[0]], node.qformat, p.lo, p.addr_bits, p.shift, p.table,
+                              p.interpolate, p.periodic, node.rounding)

@@ -1,108 +1,545 @@
-"""IR node kinds and the immutable node record.
+"""IR node kinds, their typed parameters and the immutable node record.
 
 Every node computes one value per model step. Its *exact* result (before it is
 fitted into the node's own Q-format) follows the rule in the table below; then
 ``requantize`` (pendc.ir.qformat) rounds it per ``rounding`` and fits the range per
 ``overflow``, raising the sticky overflow flag if it did not fit.
 
-| kind     | inputs                 | params                                 | exact result (fraction bits f)                     |
-|----------|------------------------|----------------------------------------|----------------------------------------------------|
-| CONST    | -                      | value, (qformat = its own)             | value quantised to nearest (the stored constant)   |
-| INPUT    | -                      | port                                   | the port's integer, already in the node's format    |
-| GAIN     | a                      | value, cfmt (constant's format)        | a * c, f = fa + fc                                  |
-| ADD      | a, b                   | -                                      | a + b aligned, f = max(fa, fb)                      |
-| SUB      | a, b                   | -                                      | a - b aligned, f = max(fa, fb)                      |
-| NEG      | a                      | -                                      | -a, f = fa                                          |
-| MUL      | a, b                   | -                                      | a * b, f = fa + fb                                  |
-| REGISTER | next                   | reset (real value)                     | last step's ``next`` (format must equal next's)     |
-| LUT      | a                      | expr, lo, hi, periodic, addr_bits,     | table[addr] (+ slope * offset if interpolating),    |
-|          |                        | interpolate, table (filled late)       | f = output frac; see pendc.ir.lut                   |
-| MUX      | sel, in0, in1, ...     | -                                      | in_sel aligned to the output, f = output frac;      |
-|          |                        |                                        | a select beyond the last input picks the last one   |
-| SLICE    | a                      | hi, lo (bit positions)                 | bits hi..lo of a's integer, unsigned, f = 0         |
-| COMPARE  | a, b                   | op (lt le gt ge eq ne)                 | 1 if real(a) op real(b) else 0, UFIX1_0             |
-| CAST     | a                      | -                                      | a, f = fa (only requantised into the node's format) |
-| FSM      | a                      | states, transitions, outputs, reset,   | Moore output word of the state after this step      |
-|          |                        | lo, hi (valid input range)             | (see pendc.ir.fsm)                                  |
+| kind     | inputs             | params (class below)                        | exact result (fraction bits f)                     |
+|----------|--------------------|---------------------------------------------|----------------------------------------------------|
+| CONST    | -                  | ConstParams(value)                          | value quantised to nearest (the stored constant)   |
+| INPUT    | -                  | InputParams(port)                           | the port's integer, already in the node's format    |
+| GAIN     | a                  | GainParams(value, cfmt = constant's format) | a * c, f = fa + fc                                  |
+| ADD      | a, b               | -                                           | a + b aligned, f = max(fa, fb)                      |
+| SUB      | a, b               | -                                           | a - b aligned, f = max(fa, fb)                      |
+| NEG      | a                  | -                                           | -a, f = fa                                          |
+| MUL      | a, b               | -                                           | a * b, f = fa + fb                                  |
+| REGISTER | next               | RegisterParams(reset, a real value)         | last step's ``next`` (format must equal next's)     |
+| LUT      | a                  | LutParams(expr, lo, hi, periodic, addr_bits,| table[addr] (+ slope * offset if interpolating),    |
+|          |                    | interpolate, fmax, shift, table)            | f = output frac; see pendc.ir.lut                   |
+| MUX      | sel, in0, in1, ... | -                                           | in_sel aligned to the output, f = output frac;      |
+|          |                    |                                             | a select beyond the last input picks the last one   |
+| SLICE    | a                  | SliceParams(hi, lo) or SliceParams.sign()   | bits hi..lo of a's integer (or its sign bit),       |
+|          |                    |                                             | unsigned, f = 0                                     |
+| COMPARE  | a, b               | CompareParams(op: CompareOp)                | 1 if real(a) op real(b) else 0, UFIX1_0             |
+| CAST     | a                  | -                                           | a, f = fa (only requantised into the node's format) |
+| FSM      | a                  | FsmParams(states, reset, transitions,       | Moore output word of the state after this step      |
+|          |                    | outputs, lo, hi = valid input range)        | (see pendc.ir.fsm)                                  |
+
+Any node may declare a capacity ``max_abs`` (see :class:`NodeParams`).
 
 Operands are read by their format's signedness: an unsigned value is never taken as
 two's complement (its exact results count it with a zero sign bit, one bit more).
-Multiplier operands (GAIN input and constant, MUL inputs) are at most 32 bits; every
-exact intermediate fits in 64 signed bits (the verifier checks both), so the compiled
-golden model can use machine integers.
+Multiplier operands (GAIN input and constant, MUL inputs) are at most
+``limits.MULT_OPERAND_BITS``; every exact intermediate fits ``limits.EXACT_BITS``
+signed bits (the verifier checks both), so the compiled golden model can use machine
+integers.
 
 A MUX select beyond its data inputs (a 2-bit select over three inputs reading 3) is
 defined: it selects the last data input, in the interpreters, the golden kernel and the
 Verilog alike (the select of a narrower-than-power-of-two mux saturates).
+
+Parameters are typed: ``node.params`` is a frozen instance of the kind's params class
+(``Kind.GAIN.params_class is GainParams``), checked when it is built, so a node with a
+missing or malformed parameter cannot exist (:class:`GraphError` names the node). The
+*legacy* key/value form stays as the construction and compatibility interface:
+``make(..., value=0.5, cfmt="FIX32_31")``, ``node.param("cfmt")`` (returns the text
+"FIX32_31"; a sign-bit SLICE reads ``hi = lo = -1``) and ``node.with_params(...)``; the
+graph's text form prints it. New code reads the typed fields: ``node.params.cfmt`` is a
+QFormat, ``node.params.op`` a CompareOp, ``node.params.sign_bit`` a bool.
+
+Adding a kind: a params class here, one ``Kind`` member naming it and its arity, and a
+``visit_<kind>`` method in every :class:`pendc.ir.visitor.NodeVisitor` subclass (the
+printers and evaluators), which Python lists at import if one is missing
+(docs/architecture.md has a worked example).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+import math
+from dataclasses import dataclass, field, fields, replace, MISSING
 from enum import Enum
+from numbers import Real
+from typing import ClassVar, NamedTuple
 
+from .compare_ops import CompareOp
+from .limits import MAX_LUT_ADDR_BITS
 from .qformat import Overflow, QFormat, Rounding
 
 
+class GraphError(ValueError):
+    """A structural defect in an IR graph or node (the verifier's findings, a malformed param, a bad rewrite)."""
+
+
+class ParamError(ValueError):
+    """A malformed parameter, before it is known which node carries it (``make`` adds the node)."""
+
+
+# -- typed params ---------------------------------------------------------------------
+
+def _real(key: str, v, optional: bool = False) -> None:
+    if optional and v is None:
+        return
+    if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v):
+        raise ParamError(f"param '{key}' must be a finite real number, got {v!r}")
+
+
+def _int(key: str, v, lo: int, hi: int | None = None) -> None:
+    if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
+        bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
+        raise ParamError(f"param '{key}' must be an integer {bound}, got {v!r}")
+
+
+def _flag(key: str, v) -> None:
+    if not isinstance(v, bool):
+        raise ParamError(f"param '{key}' must be True or False, got {v!r}")
+
+
+@dataclass(frozen=True)
+class NodeParams:
+    """Base of the typed params of one node kind (a frozen dataclass per kind).
+
+    Fields without a default are required; a field defaulting to None is optional and
+    left out of the legacy form (and the text form) while it is None. Subclasses check
+    their values in ``check`` and may translate between the legacy key/value form and
+    their fields in ``_decode``/``_encode``.
+
+    Every kind may declare ``max_abs``, a capacity: the largest |value| the node will
+    carry even if the training stimuli never reach it (an input's full scale, a turn
+    counter); range analysis covers it."""
+
+    max_abs: float | None = field(default=None, kw_only=True)
+
+    def __post_init__(self):
+        _real("max_abs", self.max_abs, optional=True)
+        self.check()
+
+    def check(self) -> None:
+        """Raise ParamError if a value is malformed (called on construction)."""
+
+    # -- the legacy key/value form ------------------------------------------------------
+    @classmethod
+    def from_legacy(cls, values: dict) -> "NodeParams":
+        """Build from legacy keys (``make``'s keyword arguments); typed values are accepted too."""
+        values = cls._decode(dict(values))
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(values) - names)
+        if unknown:
+            raise ParamError(f"unknown param '{unknown[0]}' (expected {', '.join(sorted(names)) or 'none'})")
+        for f in fields(cls):
+            if f.name not in values and f.default is MISSING:
+                raise ParamError(f"missing param '{f.name}'")
+        return cls(**values)
+
+    @classmethod
+    def _decode(cls, values: dict) -> dict:
+        return values
+
+    def _encode(self) -> dict:
+        """The kind's own fields in legacy form (``max_abs`` is added by ``legacy``)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "max_abs"
+                and (f.default is MISSING or getattr(self, f.name) is not None)}
+
+    def legacy(self) -> dict:
+        """All params as legacy key -> value."""
+        out = self._encode()
+        if self.max_abs is not None:
+            out["max_abs"] = self.max_abs
+        return out
+
+    def items(self) -> tuple:
+        """The legacy ``(key, value)`` pairs in sorted key order (what the text form prints)."""
+        return tuple(sorted(self.legacy().items()))
+
+    def get(self, key: str, default=None):
+        """One legacy value by key (``default`` if the key is absent)."""
+        return self.legacy().get(key, default)
+
+    def keys(self):
+        """Legacy keys, so ``dict(node.params)`` gives the legacy form."""
+        return [k for k, _ in self.items()]
+
+    def __getitem__(self, key: str):
+        return self.legacy()[key]
+
+    def __iter__(self):
+        # iterating yields (key, value) pairs like the tuple params used to
+        return iter(self.items())
+
+    def __len__(self) -> int:
+        return len(self.legacy())
+
+    def merged(self, **changes) -> "NodeParams":
+        """A copy with some legacy keys (or typed fields) replaced."""
+        return self.from_legacy({**self.legacy(), **changes})
+
+
+@dataclass(frozen=True)
+class NoParams(NodeParams):
+    """Kinds without parameters (ADD, SUB, NEG, MUL, MUX, CAST)."""
+
+
+@dataclass(frozen=True)
+class ConstParams(NodeParams):
+    """CONST: the real value (stored quantised to nearest in the node's format)."""
+
+    value: float
+
+    def check(self):
+        _real("value", self.value)
+
+
+@dataclass(frozen=True)
+class InputParams(NodeParams):
+    """INPUT: the port name (``max_abs``, the port's full scale, bounds its range)."""
+
+    port: str
+
+    def check(self):
+        if not isinstance(self.port, str) or not self.port:
+            raise ParamError(f"param 'port' must be a non-empty string, got {self.port!r}")
+
+
+@dataclass(frozen=True)
+class GainParams(NodeParams):
+    """GAIN: multiply by a real constant, stored in ``cfmt`` (None until Q-formats are assigned)."""
+
+    value: float
+    cfmt: QFormat | None = None
+
+    @classmethod
+    def _decode(cls, values):
+        if isinstance(values.get("cfmt"), str):
+            try:
+                values["cfmt"] = QFormat.parse(values["cfmt"])
+            except ValueError:
+                raise ParamError(f"param 'cfmt' {values['cfmt']!r} is not a Q-format") from None
+        return values
+
+    def check(self):
+        _real("value", self.value)
+        if self.cfmt is not None and not isinstance(self.cfmt, QFormat):
+            raise ParamError(f"param 'cfmt' {self.cfmt!r} is not a Q-format")
+
+    def _encode(self):
+        out = {"value": self.value}
+        if self.cfmt is not None:
+            out["cfmt"] = str(self.cfmt)
+        return out
+
+    @property
+    def constant(self) -> int:
+        """The constant's integer in ``cfmt`` (requires cfmt)."""
+        return self.cfmt.from_float(float(self.value))
+
+
+@dataclass(frozen=True)
+class RegisterParams(NodeParams):
+    """REGISTER: the real value after reset."""
+
+    reset: float
+
+    def check(self):
+        _real("reset", self.reset)
+
+
+@dataclass(frozen=True)
+class LutParams(NodeParams):
+    """LUT: a function of one variable sampled on a grid (semantics in pendc.ir.lut).
+
+    ``lo``/``hi`` of a non-periodic table stay None until ``tabulate_luts`` has seen the
+    input's range; ``fmax`` (largest |f| on the domain), ``shift`` (grid step, log2 input
+    LSBs) and ``table`` (entries in the output format) are filled by the passes."""
+
+    expr: str
+    lo: float | None
+    hi: float | None
+    periodic: bool
+    addr_bits: int
+    interpolate: bool
+    fmax: float | None = None
+    shift: int | None = None
+    table: tuple | None = None
+
+    def check(self):
+        if not isinstance(self.expr, str) or not self.expr.strip():
+            raise ParamError(f"param 'expr' must be sympy text in v, got {self.expr!r}")
+        _real("lo", self.lo, optional=True)
+        _real("hi", self.hi, optional=True)
+        if (self.lo is None) != (self.hi is None) or (self.lo is not None and not self.lo < self.hi):
+            raise ParamError(f"domain [lo, hi] = [{self.lo}, {self.hi}] is not an interval")
+        _flag("periodic", self.periodic)
+        _flag("interpolate", self.interpolate)
+        _int("addr_bits", self.addr_bits, 1, MAX_LUT_ADDR_BITS)
+        _real("fmax", self.fmax, optional=True)
+
+    @property
+    def segments(self) -> int:
+        """Grid segments, 2**addr_bits."""
+        return 1 << self.addr_bits
+
+    @property
+    def entries(self) -> int:
+        """Table entries: one more than the segments when interpolating."""
+        return self.segments + (1 if self.interpolate else 0)
+
+
+@dataclass(frozen=True)
+class SliceParams(NodeParams):
+    """SLICE: bits ``hi..lo`` of the input's integer, or (``sign_bit``) its most significant
+    bit whatever the input's width. Build the latter with :meth:`sign`; its legacy form is
+    ``hi = lo = -1``."""
+
+    hi: int | None = None
+    lo: int | None = None
+    sign_bit: bool = False
+
+    LEGACY_SIGN: ClassVar[int] = -1
+
+    @classmethod
+    def sign(cls) -> "SliceParams":
+        """The most significant (sign) bit of the input."""
+        return cls(sign_bit=True)
+
+    @classmethod
+    def _decode(cls, values):
+        if values.get("hi") == values.get("lo") == cls.LEGACY_SIGN and "hi" in values:
+            del values["hi"], values["lo"]
+            values.setdefault("sign_bit", True)
+        if not values.get("sign_bit"):
+            for key in ("hi", "lo"):
+                if key not in values:
+                    raise ParamError(f"missing param '{key}'")
+        return values
+
+    def check(self):
+        _flag("sign_bit", self.sign_bit)
+        if self.sign_bit:
+            if self.hi is not None or self.lo is not None:
+                raise ParamError(f"a sign-bit slice has no 'hi'/'lo', got {self.hi}..{self.lo}")
+            return
+        _int("lo", self.lo, 0)
+        _int("hi", self.hi, self.lo)
+
+    def _encode(self):
+        if self.sign_bit:
+            return {"hi": self.LEGACY_SIGN, "lo": self.LEGACY_SIGN}
+        return {"hi": self.hi, "lo": self.lo}
+
+    def bits(self, input_width: int) -> tuple[int, int]:
+        """(hi, lo) bit positions in an input of ``input_width`` bits."""
+        return (input_width - 1, input_width - 1) if self.sign_bit else (self.hi, self.lo)
+
+    @property
+    def width(self) -> int:
+        """Bits of the result."""
+        return 1 if self.sign_bit else self.hi - self.lo + 1
+
+
+@dataclass(frozen=True)
+class CompareParams(NodeParams):
+    """COMPARE: the operator (the one table in pendc.ir.compare_ops)."""
+
+    op: CompareOp
+
+    @classmethod
+    def _decode(cls, values):
+        if "op" in values:
+            try:
+                values["op"] = CompareOp.parse(values["op"])
+            except (ValueError, TypeError):
+                ops = ", ".join(o.value for o in CompareOp)
+                raise ParamError(f"op {values['op']!r} is not one of {ops}") from None
+        return values
+
+    def check(self):
+        if not isinstance(self.op, CompareOp):
+            raise ParamError(f"op {self.op!r} is not a CompareOp")
+
+    def _encode(self):
+        return {"op": self.op.value}
+
+
+ANY_STATE = "*"
+
+
+class Transition(NamedTuple):
+    """One FSM rule: in ``source`` (or any state, ``"*"``), if ``input op threshold``, go to ``target``."""
+
+    source: str
+    op: CompareOp
+    threshold: float
+    target: str
+
+    def legacy(self) -> tuple:
+        """``(from, op name, threshold, to)``, the legacy tuple."""
+        return (self.source, self.op.value, self.threshold, self.target)
+
+
+@dataclass(frozen=True)
+class FsmParams(NodeParams):
+    """FSM: a Moore machine over one numeric input (semantics in pendc.ir.fsm)."""
+
+    states: tuple
+    reset: str
+    transitions: tuple
+    outputs: tuple
+    lo: float
+    hi: float
+
+    @classmethod
+    def _decode(cls, values):
+        trans = values.get("transitions")
+        if isinstance(trans, tuple):
+            out = []
+            for t in trans:
+                if not isinstance(t, tuple) or len(t) != 4:
+                    raise ParamError(f"transition {t!r} is not (from, op, threshold, to)")
+                try:
+                    op = CompareOp.parse(t[1])
+                except (ValueError, TypeError):
+                    op = None
+                if op is None or not op.orders:
+                    ops = ", ".join(o.value for o in CompareOp if o.orders)
+                    raise ParamError(f"transition {tuple(t)!r} has op {t[1]!r}, not one of {ops}")
+                out.append(Transition(t[0], op, t[2], t[3]))
+            values["transitions"] = tuple(out)
+        return values
+
+    def check(self):
+        states = self.states
+        if not isinstance(states, tuple) or not states or len(set(states)) != len(states):
+            raise ParamError(f"param 'states' must be a non-empty tuple of distinct names, got {states!r}")
+        if self.reset not in states:
+            raise ParamError(f"reset state {self.reset!r} is not one of its states")
+        if not isinstance(self.transitions, tuple):
+            raise ParamError(f"param 'transitions' must be a tuple, got {self.transitions!r}")
+        for t in self.transitions:
+            if not isinstance(t, Transition):
+                raise ParamError(f"transition {t!r} is not a Transition")
+            if t.source != ANY_STATE and t.source not in states:
+                raise ParamError(f"transition {t.legacy()!r} starts in unknown state {t.source!r}")
+            if t.target not in states:
+                raise ParamError(f"transition {t.legacy()!r} goes to unknown state {t.target!r}")
+            if not t.op.orders:
+                raise ParamError(f"transition {t.legacy()!r} has op {t.op.value!r}, not an ordering")
+            if (isinstance(t.threshold, bool) or not isinstance(t.threshold, Real)
+                    or not math.isfinite(t.threshold)):
+                raise ParamError(f"transition {t.legacy()!r} has a threshold that is not a finite number")
+        outputs = self.outputs
+        if (not isinstance(outputs, tuple) or len(outputs) != len(states)
+                or any(isinstance(o, bool) or not isinstance(o, int) or o < 0 for o in outputs)):
+            raise ParamError(f"param 'outputs' must hold one unsigned integer per state, got {outputs!r}")
+        _real("lo", self.lo)
+        _real("hi", self.hi)
+        if not self.lo <= self.hi:
+            raise ParamError(f"input range [{self.lo}, {self.hi}] is empty")
+
+    def _encode(self):
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "max_abs"}
+        out["transitions"] = tuple(t.legacy() for t in self.transitions)
+        return out
+
+    @property
+    def reset_index(self) -> int:
+        """Index of the reset state (the state register's value after reset)."""
+        return self.states.index(self.reset)
+
+    def rules_from(self, state: int) -> tuple:
+        """The transitions tried, in order, in state number ``state``."""
+        name = self.states[state]
+        return tuple(t for t in self.transitions if t.source in (ANY_STATE, name))
+
+
+# -- kinds --------------------------------------------------------------------------------
+
 class Kind(Enum):
-    CONST = "const"
-    INPUT = "input"
-    GAIN = "gain"
-    ADD = "add"
-    SUB = "sub"
-    NEG = "neg"
-    MUL = "mul"
-    REGISTER = "reg"
-    LUT = "lut"
-    MUX = "mux"
-    SLICE = "slice"
-    COMPARE = "cmp"
-    CAST = "cast"
-    FSM = "fsm"
+    """A node kind: its text name (the value), its params class and its number of inputs
+    (None: variable, a MUX has a select and at least two data inputs)."""
+
+    def __new__(cls, text: str, params_class: type, arity: int | None):
+        obj = object.__new__(cls)
+        obj._value_ = text
+        obj.params_class = params_class
+        obj.arity = arity
+        return obj
+
+    CONST = ("const", ConstParams, 0)
+    INPUT = ("input", InputParams, 0)
+    GAIN = ("gain", GainParams, 1)
+    ADD = ("add", NoParams, 2)
+    SUB = ("sub", NoParams, 2)
+    NEG = ("neg", NoParams, 1)
+    MUL = ("mul", NoParams, 2)
+    REGISTER = ("reg", RegisterParams, 1)
+    LUT = ("lut", LutParams, 1)
+    MUX = ("mux", NoParams, None)
+    SLICE = ("slice", SliceParams, 1)
+    COMPARE = ("cmp", CompareParams, 2)
+    CAST = ("cast", NoParams, 1)
+    FSM = ("fsm", FsmParams, 1)
+
+    @property
+    def stateful(self) -> bool:
+        """True for kinds whose input is taken at the end of the step (they break cycles)."""
+        return self in (Kind.REGISTER, Kind.FSM)
 
 
-ARITY = {
-    Kind.CONST: 0, Kind.INPUT: 0, Kind.GAIN: 1, Kind.ADD: 2, Kind.SUB: 2, Kind.NEG: 1,
-    Kind.MUL: 2, Kind.REGISTER: 1, Kind.LUT: 1, Kind.MUX: None, Kind.SLICE: 1,
-    Kind.COMPARE: 2, Kind.CAST: 1, Kind.FSM: 1,
-}
-
-COMPARE_OPS = ("lt", "le", "gt", "ge", "eq", "ne")
+ARITY = {k: k.arity for k in Kind}
+COMPARE_OPS = tuple(o.value for o in CompareOp)     # legacy names, for messages and old callers
+SOURCE_KINDS = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)   # valued at the start of a step
 
 
 @dataclass(frozen=True)
 class Node:
-    """One IR node. ``inputs`` are node names; ``params`` is a tuple of (key, value) pairs
-    so the node stays hashable and prints deterministically; ``qformat`` is None until
-    the Q-format pass has run. ``meaning`` says what the value is physically."""
+    """One IR node. ``inputs`` are node names; ``params`` is the kind's typed params object
+    (a legacy tuple or dict of (key, value) pairs given here is converted); ``qformat`` is
+    None until the Q-format pass has run. ``meaning`` says what the value is physically."""
 
     name: str
     kind: Kind
     inputs: tuple = ()
-    params: tuple = ()
+    params: NodeParams = NoParams()
     qformat: QFormat | None = None
     rounding: Rounding = Rounding.NEAREST
     overflow: Overflow = Overflow.WRAP
     meaning: str = field(default="", compare=False)
 
+    def __post_init__(self):
+        cls = self.kind.params_class
+        if type(self.params) is cls:
+            return
+        try:
+            if isinstance(self.params, NodeParams):
+                raise ParamError(f"params are {type(self.params).__name__}, a {self.kind.name} needs {cls.__name__}")
+            params = cls.from_legacy(dict(self.params))
+        except (ParamError, TypeError) as exc:
+            raise GraphError(f"{self.kind.value} node '{self.name}': {exc}") from None
+        object.__setattr__(self, "params", params)
+
     def param(self, key: str, default=None):
-        for k, v in self.params:
-            if k == key:
-                return v
-        return default
+        """Compatibility: one param in its legacy form (prefer the typed ``params.<field>``)."""
+        return self.params.get(key, default)
 
     def with_params(self, **changes) -> "Node":
-        """A copy with some params replaced or added (kept in sorted key order)."""
-        merged = dict(self.params)
-        merged.update(changes)
-        return replace(self, params=tuple(sorted(merged.items())))
+        """A copy with some params replaced or added (legacy keys or typed field values)."""
+        try:
+            params = self.params.merged(**changes)
+        except (ParamError, TypeError) as exc:
+            raise GraphError(f"{self.kind.value} node '{self.name}': {exc}") from None
+        return replace(self, params=params)
 
     def typed(self, fmt: QFormat) -> "Node":
+        """A copy in Q-format ``fmt``."""
         return replace(self, qformat=fmt)
 
 
 def make(name: str, kind: Kind, inputs=(), meaning: str = "", qformat: QFormat | None = None,
-         rounding: Rounding = Rounding.NEAREST, overflow: Overflow = Overflow.WRAP, **params) -> Node:
-    """Build a node with params in sorted key order (the canonical form)."""
-    return Node(name=name, kind=kind, inputs=tuple(inputs), params=tuple(sorted(params.items())),
+         rounding: Rounding = Rounding.NEAREST, overflow: Overflow = Overflow.WRAP,
+         params: NodeParams | None = None, **legacy) -> Node:
+    """Build a node from typed ``params`` (e.g. ``GainParams(0.5)``) or from legacy keyword
+    params (``value=0.5``); a missing or malformed param raises GraphError naming the node."""
+    if params is not None and legacy:
+        raise GraphError(f"{kind.value} node '{name}': give typed params or keyword params, not both")
+    return Node(name=name, kind=kind, inputs=tuple(inputs), params=params if params is not None else legacy,
                 qformat=qformat, rounding=rounding, overflow=overflow, meaning=meaning)

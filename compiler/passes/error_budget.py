@@ -30,9 +30,9 @@ from ..model.interface import graph_interface
 from ..sim.stimuli import chirp, swing_up
 from .ranges import input_port, per_step
 
-WIDEN_STEP = 8
-MAX_WIDEN = 24
-MAX_ADDR_BITS = 13
+WIDEN_STEP = 8               # fraction bits added to the state accumulators per round
+MAX_WIDEN = 24               # at most this many in all
+MAX_GROWN_ADDR_BITS = 13     # the budget grows a table up to 2**13 segments (the IR allows more: limits.py)
 
 
 class BudgetError(ValueError):
@@ -107,12 +107,12 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
 
 def interpolation_error(node, fin) -> float:
     """Largest |table(v) - f(v)| of a typed LUT (input format ``fin``) at its segment midpoints."""
-    p = dict(node.params)
-    xs = lut_sem.grid_points(p["lo"], p["addr_bits"], p["shift"], fin, p["interpolate"])
-    ys = lut_sem.evaluate(p["expr"], xs)
-    mids = 0.5 * (xs[:-1] + xs[1:]) if p["interpolate"] else xs
-    approx = 0.5 * (ys[:-1] + ys[1:]) if p["interpolate"] else ys
-    return float(np.max(np.abs(approx - lut_sem.evaluate(p["expr"], mids))))
+    p = node.params
+    xs = lut_sem.grid_points(p.lo, p.addr_bits, p.shift, fin, p.interpolate)
+    ys = lut_sem.evaluate(p.expr, xs)
+    mids = 0.5 * (xs[:-1] + xs[1:]) if p.interpolate else xs
+    approx = 0.5 * (ys[:-1] + ys[1:]) if p.interpolate else ys
+    return float(np.max(np.abs(approx - lut_sem.evaluate(p.expr, mids))))
 
 
 def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: str = "compiled",
@@ -146,7 +146,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
             actions.append(f"{', '.join(over)} over budget: wider multiplier operands for "
                            + ", ".join(f"{n} (level {levels[n]})" for n in raise_))
             continue
-        luts = [n for n in graph.of_kind(Kind.LUT) if n.param("addr_bits") < MAX_ADDR_BITS]
+        luts = [n for n in graph.of_kind(Kind.LUT) if n.params.addr_bits < MAX_GROWN_ADDR_BITS]
         if not luts:
             actions.append(f"{', '.join(over)} over budget and no remedy left")
             break
@@ -154,11 +154,11 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         worst_lut = max(errs.values())
         grown = sorted(n for n, e in errs.items() if e >= worst_lut / 4)
         for n in grown:
-            addr[n] = graph[n].param("addr_bits") + 1
+            addr[n] = graph[n].params.addr_bits + 1
         actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
-                         addr_bits={n.name: n.param("addr_bits") for n in graph.of_kind(Kind.LUT)},
+                         addr_bits={n.name: n.params.addr_bits for n in graph.of_kind(Kind.LUT)},
                          actions=tuple(actions), met=met, seconds=seconds,
                          levels=dict(sorted(used.items())) if products else None)
     return graph, report
@@ -183,14 +183,12 @@ def injected_error(graph: Graph, node) -> float:
     """Relative error a product's narrow formats add by themselves: a coefficient's (or a
     table's) rounding is systematic and counts fully; rounding a narrowed operand is noise
     that integrators average, so it counts half."""
-    from ..ir.qformat import QFormat
     total = 0.0
     if node.kind is Kind.GAIN:
-        c = node.param("value")
-        cf = QFormat.parse(node.param("cfmt"))
-        total += abs(cf.to_float(cf.from_float(c)) - c) / max(abs(c), 1e-300)
+        c, cf = node.params.value, node.params.cfmt
+        total += abs(cf.to_float(node.params.constant) - c) / max(abs(c), 1e-300)
     if node.kind is Kind.LUT:
-        total += node.qformat.lsb / 2 / max(node.param("fmax", 0.0), node.qformat.lsb)
+        total += node.qformat.lsb / 2 / max(node.params.fmax or 0.0, node.qformat.lsb)
     for i in node.inputs:
         src = graph[i]
         if src.kind is Kind.CAST:          # a narrowed operand (or a narrowed table address)
@@ -199,5 +197,5 @@ def injected_error(graph: Graph, node) -> float:
 
 
 def _relative_interp_error(graph: Graph, node) -> float:
-    scale = max(node.param("fmax", 0.0), 1e-300)
+    scale = max(node.params.fmax or 0.0, 1e-300)
     return interpolation_error(node, graph[node.inputs[0]].qformat) / scale

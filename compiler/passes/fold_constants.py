@@ -37,10 +37,7 @@ import numpy as np
 from ..ir.graph import Graph, GraphError
 from ..ir.interpret import FloatInterpreter
 from ..ir.nodes import Kind, Node, make
-
-# kinds whose value in a step depends only on that step's inputs (MUX is handled by its select rule)
-_EVALUABLE = (Kind.GAIN, Kind.ADD, Kind.SUB, Kind.NEG, Kind.MUL, Kind.CAST, Kind.COMPARE, Kind.SLICE, Kind.LUT)
-
+from ..ir.visitor import NodeVisitor
 
 def fold_constants(graph: Graph) -> Graph:
     """Fold constants and apply the identities above; returns a new, smaller graph.
@@ -88,37 +85,76 @@ def _rewrite(node: Node, nodes: dict, single_use):
     of an existing node that computes the same value. ``single_use(name)`` says whether
     only one node reads ``name`` and it is no output."""
     ins = [nodes[i] for i in node.inputs]
-    consts = [n.param("value") if n.kind is Kind.CONST else None for n in ins]
-    k = node.kind
+    consts = [n.params.value if n.kind is Kind.CONST else None for n in ins]
+    return _REWRITE.visit(node, ins, consts, single_use)
 
-    if k is Kind.MUX:
+
+class _Rewrite(NodeVisitor):
+    """The folding rules per kind: ``visit_<kind>(node, input nodes, constant input values or None,
+    single_use)``. A kind whose value depends only on the step's inputs folds when they are all
+    constant (:meth:`_evaluated`); then come its identities."""
+
+    @staticmethod
+    def _evaluated(node, ins, consts):
+        """A CONST replacing ``node`` if every input is constant and the value is finite, else None."""
+        if ins and all(c is not None for c in consts):
+            value = _evaluate(node, ins)
+            if value is not None:
+                return _const(node, value)
+        return None
+
+    def _unchanged(self, node, ins, consts, single_use):
+        return node
+
+    visit_const = visit_input = visit_fsm = _unchanged     # sources; an FSM holds state
+
+    def _evaluate_only(self, node, ins, consts, single_use):
+        return self._evaluated(node, ins, consts) or node
+
+    visit_cast = visit_compare = visit_lut = _evaluate_only
+
+    def visit_slice(self, node, ins, consts, single_use):
+        # only the sign bit of a real constant is defined before Q-formats fix its bits
+        return (self._evaluated(node, ins, consts) if node.params.sign_bit else None) or node
+
+    def visit_mux(self, node, ins, consts, single_use):
         sel = consts[0]
         if sel is not None and float(sel).is_integer() and 0 <= int(sel) < len(ins) - 1:
             return node.inputs[1 + int(sel)]
         if len(set(node.inputs[1:])) == 1:
             return node.inputs[1]
         return node
-    if k is Kind.REGISTER:
-        if consts[0] is not None and float(consts[0]) == float(node.param("reset")):
+
+    def visit_register(self, node, ins, consts, single_use):
+        if consts[0] is not None and float(consts[0]) == float(node.params.reset):
             return _const(node, float(consts[0]))
         return node
-    if k in _EVALUABLE and ins and all(c is not None for c in consts):
-        if k is not Kind.SLICE or node.param("hi") == node.param("lo") == -1:
-            value = _evaluate(node, ins)
-            if value is not None:
-                return _const(node, value)
-    if k is Kind.ADD:
+
+    def visit_add(self, node, ins, consts, single_use):
+        folded = self._evaluated(node, ins, consts)
+        if folded is not None:
+            return folded
         if consts[1] == 0:
             return node.inputs[0]
         if consts[0] == 0:
             return node.inputs[1]
-    elif k is Kind.SUB:
+        return node
+
+    def visit_sub(self, node, ins, consts, single_use):
+        folded = self._evaluated(node, ins, consts)
+        if folded is not None:
+            return folded
         if consts[1] == 0:
             return node.inputs[0]
         if consts[0] == 0:
             return _rebuild(node, Kind.NEG, node.inputs[1:])
-    elif k is Kind.GAIN:
-        c = node.param("value")
+        return node
+
+    def visit_gain(self, node, ins, consts, single_use):
+        folded = self._evaluated(node, ins, consts)
+        if folded is not None:
+            return folded
+        c = node.params.value
         if c == 1:
             return node.inputs[0]
         if c == 0:
@@ -126,15 +162,28 @@ def _rewrite(node: Node, nodes: dict, single_use):
         if c == -1:
             return _rebuild(node, Kind.NEG, node.inputs)
         if ins[0].kind is Kind.GAIN and single_use(ins[0].name):
-            return _rebuild(node, Kind.GAIN, ins[0].inputs, value=ins[0].param("value") * c)
-    elif k is Kind.NEG:
+            return _rebuild(node, Kind.GAIN, ins[0].inputs, value=ins[0].params.value * c)
+        return node
+
+    def visit_neg(self, node, ins, consts, single_use):
+        folded = self._evaluated(node, ins, consts)
+        if folded is not None:
+            return folded
         if ins[0].kind is Kind.NEG:
             return ins[0].inputs[0]
-    elif k is Kind.MUL:
+        return node
+
+    def visit_mul(self, node, ins, consts, single_use):
+        folded = self._evaluated(node, ins, consts)
+        if folded is not None:
+            return folded
         for j in (0, 1):
             if consts[j] is not None:
                 return _rebuild(node, Kind.GAIN, [node.inputs[1 - j]], value=float(consts[j]))
-    return node
+        return node
+
+
+_REWRITE = _Rewrite()
 
 
 def _single_use(name: str, nodes: dict, outputs: tuple, resolve) -> bool:

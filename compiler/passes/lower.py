@@ -34,12 +34,15 @@ import sympy as sp
 
 from ..errors import PendcError
 from ..ir.graph import Graph
-from ..ir.nodes import Kind, make
+from ..ir.compare_ops import CompareOp
+from ..ir.nodes import Kind, SliceParams, make
 from ..model.interface import INFO_KEY, PlantInterface, StateSpec
 from ..model.plant import PlantModel
 from .lower_encoders import lower_encoder
 
 _NONSMOOTH = (sp.Abs, sp.sign, sp.Piecewise, sp.Min, sp.Max)
+_SYMPY_OPS = {sp.StrictLessThan: CompareOp.LT, sp.LessThan: CompareOp.LE, sp.StrictGreaterThan: CompareOp.GT,
+              sp.GreaterThan: CompareOp.GE, sp.Equality: CompareOp.EQ, sp.Unequality: CompareOp.NE}
 
 
 def turn_counter(state: str) -> str:
@@ -129,7 +132,7 @@ class _Lowerer:
         if isinstance(e, (sp.Min, sp.Max)):
             a, rest = e.args[0], e.func(*e.args[1:]) if len(e.args) > 2 else e.args[1]
             na, nb = self.value(a), self.value(rest)
-            op = "lt" if isinstance(e, sp.Min) else "gt"
+            op = CompareOp.LT if isinstance(e, sp.Min) else CompareOp.GT
             sel = self.emit(Kind.COMPARE, [na, nb], f"{hint}_sel", op=op)
             return self.emit(Kind.MUX, [sel, nb, na], hint, meaning)
         if isinstance(e, sp.Abs):
@@ -143,12 +146,13 @@ class _Lowerer:
         """y * sgn(arg) with sgn(0) = 0: sign-bit slice, negate and two muxes."""
         a = self.value(arg)
         zero = self.value_key(("iszero", a), lambda: self.emit(Kind.COMPARE, [a, self.const(0.0)],
-                                                                   f"{a}_is_zero", op="eq"))
+                                                                   f"{a}_is_zero", op=CompareOp.EQ))
         signed = self.emit(Kind.MUX, [self.sign_bit(a), y, self.negated(y)], f"{hint}_signed")
         return self.emit(Kind.MUX, [zero, signed, self.const(0.0)], hint, f"{y} * sgn({a})")
 
     def sign_bit(self, a: str) -> str:
-        return self.value_key(("signbit", a), lambda: self.emit(Kind.SLICE, [a], f"{a}_sign", hi=-1, lo=-1))
+        return self.value_key(("signbit", a), lambda: self.emit(Kind.SLICE, [a], f"{a}_sign",
+                                                                     params=SliceParams.sign()))
 
     def negated(self, a: str) -> str:
         return self.value_key(("neg", a), lambda: self.emit(Kind.NEG, [a], f"{a}_neg"))
@@ -163,12 +167,11 @@ class _Lowerer:
             return self.const(1.0)
         if isinstance(c, sp.core.relational.Relational):
             lhs, rhs = c.lhs, c.rhs
-            ops = {sp.StrictLessThan: "lt", sp.LessThan: "le", sp.StrictGreaterThan: "gt",
-                   sp.GreaterThan: "ge", sp.Equality: "eq", sp.Unequality: "ne"}
-            op = ops[type(c)]
+            op = _SYMPY_OPS[type(c)]
             # |a| > 0 is a != 0: one comparator instead of abs + compare
-            if isinstance(lhs, sp.Abs) and rhs == 0 and op == "gt":
-                return self.emit(Kind.COMPARE, [self.value(lhs.args[0]), self.const(0.0)], "moving", op="ne")
+            if isinstance(lhs, sp.Abs) and rhs == 0 and op is CompareOp.GT:
+                return self.emit(Kind.COMPARE, [self.value(lhs.args[0]), self.const(0.0)], "moving",
+                                 op=CompareOp.NE)
             return self.emit(Kind.COMPARE, [self.value(lhs), self.value(rhs)], "cond", op=op)
         raise PendcError(f"cannot lower condition {c}")
 
@@ -197,8 +200,8 @@ class _Lowerer:
                               value=period, max_abs=period * (spec.turns + 1))
             phase = self.emit(Kind.SUB, [state, whole], f"{name}_phase",
                               f"{spec.label} less its whole turns ({spec.unit})")
-            over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{name}_phase_over", op="ge")
-            under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{name}_phase_under", op="lt")
+            over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{name}_phase_over", op=CompareOp.GE)
+            under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{name}_phase_under", op=CompareOp.LT)
             down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
             step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
             self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step],
@@ -375,7 +378,7 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> G
 def _clamp(low: _Lowerer, value: str, spec: StateSpec) -> str:
     """Velocity saturation after integration (thesis Fig. III.2): two compares, two muxes."""
     hi, lo = low.const(spec.velocity_bound), low.const(-spec.velocity_bound)
-    over = low.emit(Kind.COMPARE, [value, hi], f"{spec.name}_over", op="gt")
-    under = low.emit(Kind.COMPARE, [value, lo], f"{spec.name}_under", op="lt")
+    over = low.emit(Kind.COMPARE, [value, hi], f"{spec.name}_over", op=CompareOp.GT)
+    under = low.emit(Kind.COMPARE, [value, lo], f"{spec.name}_under", op=CompareOp.LT)
     upper = low.emit(Kind.MUX, [over, value, hi], f"{spec.name}_upper")
     return low.emit(Kind.MUX, [under, upper, lo], f"{spec.name}_next", f"{spec.label} after the clamp ({spec.unit})")

@@ -16,7 +16,8 @@ encoder sees exactly the motion the state registers see.
 from __future__ import annotations
 
 from ..ir import fsm as fsm_sem
-from ..ir.nodes import Kind, make
+from ..ir.compare_ops import CompareOp
+from ..ir.nodes import ANY_STATE, FsmParams, Kind, SliceParams, Transition, make
 
 STATES = ("LIGHTNESS", "DARKNESS", "OVER_UPPER_LIMIT", "LOWER_LOWER_LIMIT")
 # Moore output word: bit 0 = channel level, bits 2..1 = fold code (0 none, 1 minus two bands, 2 plus two bands)
@@ -30,12 +31,13 @@ def channel_window(offset: float) -> tuple[float, float, float]:
 
 
 def channel_transitions(offset: float) -> tuple:
+    """The channel's Moore machine rules, tried in order from any state."""
     lower, mid, upper = channel_window(offset)
     return (
-        ("*", "ge", upper, "OVER_UPPER_LIMIT"),
-        ("*", "lt", lower, "LOWER_LOWER_LIMIT"),
-        ("*", "ge", mid, "LIGHTNESS"),
-        ("*", "lt", mid, "DARKNESS"),
+        Transition(ANY_STATE, CompareOp.GE, upper, "OVER_UPPER_LIMIT"),
+        Transition(ANY_STATE, CompareOp.LT, lower, "LOWER_LOWER_LIMIT"),
+        Transition(ANY_STATE, CompareOp.GE, mid, "LIGHTNESS"),
+        Transition(ANY_STATE, CompareOp.LT, mid, "DARKNESS"),
     )
 
 
@@ -56,17 +58,18 @@ def lower_encoder(prefix: str, increment: str, band: float, meaning: str) -> tup
             make(f"{name}_phase", Kind.REGISTER, [f"{name}_sum"], reset=0.0,
                  meaning=f"channel {channel.upper()} phase in its two-band window (bands)"),
             make(f"{name}_moved", Kind.ADD, [f"{name}_phase", f"{prefix}_dphi"]),
-            make(f"{name}_fold_code", Kind.SLICE, [f"{name}_fsm"], hi=2, lo=1),
+            make(f"{name}_fold_code", Kind.SLICE, [f"{name}_fsm"], params=SliceParams(hi=2, lo=1)),
             make(f"{name}_fold_none", Kind.CONST, value=FOLD["none"]),
             make(f"{name}_fold_minus", Kind.CONST, value=FOLD["minus"]),
             make(f"{name}_fold_plus", Kind.CONST, value=FOLD["plus"]),
             make(f"{name}_fold", Kind.MUX, [f"{name}_fold_code", f"{name}_fold_none", f"{name}_fold_minus",
                                            f"{name}_fold_plus"], meaning="window re-adjustment (bands)"),
             make(f"{name}_sum", Kind.ADD, [f"{name}_moved", f"{name}_fold"]),
-            make(f"{name}_fsm", Kind.FSM, [f"{name}_sum"], states=STATES, reset=reset, transitions=transitions,
-                 outputs=OUTPUTS, lo=lower - 2.0, hi=upper + 2.0,
+            make(f"{name}_fsm", Kind.FSM, [f"{name}_sum"],
+                 params=FsmParams(states=STATES, reset=reset, transitions=transitions, outputs=OUTPUTS,
+                                  lo=lower - 2.0, hi=upper + 2.0),
                  meaning=f"channel {channel.upper()} Moore machine (thesis Fig. II.16)"),
-            make(f"{name}_level", Kind.SLICE, [f"{name}_fsm"], hi=0, lo=0,
+            make(f"{name}_level", Kind.SLICE, [f"{name}_fsm"], params=SliceParams(hi=0, lo=0),
                  meaning=f"{meaning} encoder channel {channel.upper()}"),
         ]
         levels[channel] = f"{name}_level"

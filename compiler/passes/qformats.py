@@ -22,14 +22,20 @@ budget is missed, so the error budget, not a fixed rule, decides the widths.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..ir.fsm import output_width
 from ..ir.graph import Graph
+from ..ir.limits import MULT_OPERAND_BITS
 from ..ir.nodes import Kind, make
 from ..ir.qformat import QFormat, bits_for
+from ..ir.visitor import NodeVisitor
 from .ranges import Ranges
 
-CONST_BITS = 32
-MULT_OPERAND_BITS = 32
+__all__ = ["CONST_BITS", "MAX_LEVEL", "MAX_WIDTH", "MULT_OPERAND_BITS", "MULT_SHAPES", "accumulator_chain",
+           "assign_qformats", "operand_bits", "product_kinds", "thesis_format"]
+
+CONST_BITS = 32  # the thesis' rule: every constant has at least 32 bits
 MAX_WIDTH = 60   # an aligned sum of two such values still fits the 64-bit golden model
 MAX_LEVEL = 2
 # signed operand widths of one DSP block: ECP5 MULT18X18D, iCE40 SB_MAC16, Xilinx DSP48E1, DSP48E2
@@ -60,17 +66,29 @@ def thesis_format(max_abs: float, width: int = 32, margin_bits: int = 0) -> QFor
     return QFormat(True, width, width - ib)
 
 
-def _fixed_format(node, graph) -> QFormat | None:
-    if node.kind is Kind.COMPARE:
+class _KindFormat(NodeVisitor):
+    """The format a kind fixes by itself (flags, constants), or None where ranges decide."""
+
+    def _ranged(self, node):
+        return None
+
+    visit_input = visit_gain = visit_add = visit_sub = visit_neg = visit_mul = _ranged
+    visit_register = visit_lut = visit_mux = visit_cast = _ranged
+
+    def visit_compare(self, node):
         return QFormat(False, 1, 0)
-    if node.kind is Kind.SLICE:
-        hi, lo = node.param("hi"), node.param("lo")
-        return QFormat(False, 1 if hi == lo == -1 else hi - lo + 1, 0)
-    if node.kind is Kind.FSM:
-        return QFormat(False, output_width(node.param("outputs")), 0)
-    if node.kind is Kind.CONST:
-        return thesis_format(abs(node.param("value")), CONST_BITS)
-    return None
+
+    def visit_slice(self, node):
+        return QFormat(False, node.params.width, 0)
+
+    def visit_fsm(self, node):
+        return QFormat(False, output_width(node.params.outputs), 0)
+
+    def visit_const(self, node):
+        return thesis_format(abs(node.params.value), CONST_BITS)
+
+
+_KIND_FORMAT = _KindFormat()
 
 
 def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0,
@@ -96,17 +114,17 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
 
     def magnitude(node) -> float:
         m = ranges.max_abs.get(node.name, 0.0)
-        if node.kind is Kind.LUT:
-            m = max(m, node.param("fmax", 0.0))
-        if node.kind is Kind.INPUT:
-            m = max(m, node.param("max_abs", 0.0))
+        if node.kind is Kind.LUT and node.params.fmax is not None:
+            m = max(m, node.params.fmax)
+        if node.kind is Kind.INPUT and node.params.max_abs is not None:
+            m = max(m, node.params.max_abs)
         if node.name in stored_by:       # a register's input and the register share one format
             m = max(m, ranges.max_abs.get(stored_by[node.name], 0.0))
         return m
 
     formats = {}
     for node in graph.nodes:
-        fmt = _fixed_format(node, graph)
+        fmt = _KIND_FORMAT.visit(node)
         if fmt is None and node.kind is not Kind.REGISTER:
             w = min(width, limits(node)[0]) if node.kind is Kind.LUT else width
             fmt = thesis_format(magnitude(node), w, margin_bits)
@@ -124,7 +142,7 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
     def typed(node):
         n = node.typed(formats[node.name])
         if n.kind is Kind.GAIN:
-            n = n.with_params(cfmt=str(thesis_format(abs(n.param("value")), min(CONST_BITS, limits(n)[1]))))
+            n = n.with_params(cfmt=thesis_format(abs(n.params.value), min(CONST_BITS, limits(n)[1])))
         return n
 
     return _narrow_multiplier_operands(graph.map_nodes(typed), limits)
@@ -169,17 +187,14 @@ def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
         if node.kind in (Kind.GAIN, Kind.MUL):
             lim = limits(node)
             inputs = [narrowed(i, lim[j]) for j, i in enumerate(node.inputs)]
-            node = make(node.name, node.kind, inputs, node.meaning, node.qformat, node.rounding,
-                        node.overflow, **dict(node.params))
-        elif node.kind is Kind.LUT and node.param("interpolate"):
+            node = replace(node, inputs=tuple(inputs))
+        elif node.kind is Kind.LUT and node.params.interpolate:
             frac_bits = limits(node)[1] - 1           # unsigned fraction beside a sign bit
             fin = graph[node.inputs[0]].qformat
-            p = dict(node.params)
-            shift = lut_sem.grid_shift(p["lo"], p["hi"], p["addr_bits"], fin)
+            p = node.params
+            shift = lut_sem.grid_shift(p.lo, p.hi, p.addr_bits, fin)
             if shift > frac_bits and fin.width - (shift - frac_bits) >= 2:
-                inp = narrowed(node.inputs[0], fin.width - (shift - frac_bits))
-                node = make(node.name, node.kind, [inp], node.meaning, node.qformat, node.rounding,
-                            node.overflow, **p)
+                node = replace(node, inputs=(narrowed(node.inputs[0], fin.width - (shift - frac_bits)),))
         nodes.append(node)
     if not casts:
         return graph

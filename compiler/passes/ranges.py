@@ -38,7 +38,7 @@ class Ranges:
 
 def input_port(graph: Graph) -> str:
     """The port name of the graph's one input (a plant step takes one input signal)."""
-    ports = [n.param("port", n.name) for n in graph.of_kind(Kind.INPUT)]
+    ports = [n.params.port for n in graph.of_kind(Kind.INPUT)]
     if len(ports) != 1:
         raise ValueError(f"graph '{graph.name}' has {len(ports)} input ports; a plant step takes one")
     return ports[0]
@@ -116,7 +116,7 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     for node in graph.nodes:
         # a declared capacity (a turn counter, an input port's full scale) holds even when the
         # training stimuli never reach it
-        declared = node.param("max_abs")
+        declared = node.params.max_abs
         if declared is not None:
             max_abs[node.name] = max(max_abs[node.name], float(declared))
     overrides = dict(overrides or {})

@@ -28,24 +28,22 @@ def tabulate_luts(graph: Graph, ranges: Ranges, margin: float = 0.125, addr_bits
     def one(node):
         if node.kind is not Kind.LUT:
             return node
-        p = dict(node.params)
-        if addr_bits is not None:
-            p["addr_bits"] = addr_bits
-        if not p["periodic"]:
+        p = node.params if addr_bits is None else node.params.merged(addr_bits=addr_bits)
+        lo, hi = p.lo, p.hi
+        if not p.periodic:
             src = node.inputs[0]
             seen_lo, seen_hi = ranges.lo.get(src, 0.0), ranges.hi.get(src, 0.0)
             reach = max(abs(seen_lo), abs(seen_hi), 1e-9) * (1.0 + margin)
-            p["lo"] = 0.0 if seen_lo >= 0.0 else -reach
-            p["hi"] = reach
+            lo = 0.0 if seen_lo >= 0.0 else -reach
+            hi = reach
         # the grid fitted later to the input's LSBs may reach up to twice the span: the
         # output format must hold the function there too
-        reach = p["hi"] if p["periodic"] else p["lo"] + 2.0 * (p["hi"] - p["lo"])
-        grid = np.linspace(p["lo"], reach, 64 * (1 << p["addr_bits"]) + 1)
-        values = lut_sem.evaluate(p["expr"], grid)
+        reach = hi if p.periodic else lo + 2.0 * (hi - lo)
+        grid = np.linspace(lo, reach, 64 * p.segments + 1)
+        values = lut_sem.evaluate(p.expr, grid)
         if not np.all(np.isfinite(values)):
-            raise ValueError(f"LUT '{node.name}': {p['expr']} is not finite on [{p['lo']}, {p['hi']}]")
-        p["fmax"] = float(np.max(np.abs(values)))
-        return node.with_params(**p)
+            raise ValueError(f"LUT '{node.name}': {p.expr} is not finite on [{lo}, {hi}]")
+        return node.with_params(addr_bits=p.addr_bits, lo=lo, hi=hi, fmax=float(np.max(np.abs(values))))
 
     return graph.map_nodes(one)
 
@@ -56,17 +54,16 @@ def fill_lut_tables(graph: Graph) -> Graph:
     def one(node):
         if node.kind is not Kind.LUT:
             return node
-        p = dict(node.params)
+        p = node.params
         fin = graph[node.inputs[0]].qformat
-        shift = lut_sem.grid_shift(p["lo"], p["hi"], p["addr_bits"], fin)
-        if p["periodic"] and (1 << (p["addr_bits"] + shift)) != round(np.ldexp(p["hi"] - p["lo"], fin.frac)):
-            raise ValueError(f"LUT '{node.name}': period {p['hi'] - p['lo']} is not 2**k LSBs of {fin}")
-        table = lut_sem.fill_table(p["expr"], p["lo"], p["addr_bits"], shift, fin, node.qformat,
-                                   p["interpolate"], p["periodic"])
+        shift = lut_sem.grid_shift(p.lo, p.hi, p.addr_bits, fin)
+        if p.periodic and (1 << (p.addr_bits + shift)) != round(np.ldexp(p.hi - p.lo, fin.frac)):
+            raise ValueError(f"LUT '{node.name}': period {p.hi - p.lo} is not 2**k LSBs of {fin}")
+        table = lut_sem.fill_table(p.expr, p.lo, p.addr_bits, shift, fin, node.qformat, p.interpolate, p.periodic)
         changes = {"shift": shift, "table": table}
-        if not p["periodic"]:   # the domain is the grid: float and fixed semantics then agree on it
-            last = (1 << p["addr_bits"]) - (0 if p["interpolate"] else 1)
-            changes["hi"] = float(np.ldexp(lut_sem.lo_int(p["lo"], fin) + (last << shift), -fin.frac))
+        if not p.periodic:   # the domain is the grid: float and fixed semantics then agree on it
+            last = p.segments - (0 if p.interpolate else 1)
+            changes["hi"] = float(np.ldexp(lut_sem.lo_int(p.lo, fin) + (last << shift), -fin.frac))
         return node.with_params(**changes)
 
     return graph.map_nodes(one)
