@@ -216,7 +216,7 @@ def test_quantized_data_without_velocities(model):
     data = parse_measurements(format_csv({"t": t, "u": u, "x": r["x"], "theta": r["theta"]}))
     c = compare(model, data)
     assert c.fit["x"] > 99.0 and c.fit["theta"] > 99.0
-    assert "Savitzky-Golay" in c.dx_source
+    assert "Savitzky-Golay" in c.motion_source
 
 
 @pytest.mark.parametrize("drop", ["x", "theta"])
@@ -265,7 +265,7 @@ def test_extra_turn_is_counted_and_wrapped(model):
     c = compare(model, d)
     assert c.turns == 1 and c.turn_time == pytest.approx(1.0)
     assert c.fit["theta"] < 0.0
-    assert c.fit_theta_wrapped == pytest.approx(100.0, abs=1e-9)
+    assert c.fit_wrapped == pytest.approx(100.0, abs=1e-9)
     text = format_comparison(c)
     assert "1 whole turn away" in text and "2π of error" in text
     assert re.search(r"angle error wrapped to \(-π, π\]: free-run fit 100\.00 %", text)

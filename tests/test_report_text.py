@@ -110,7 +110,7 @@ def test_undefined_figures_are_na_not_warnings(side, recwarn):
     JSON, and no warning is raised on the way."""
     import dataclasses
     c = side.runs[0][0]
-    blank = dataclasses.replace(c, fit={k: float("nan") for k in c.fit}, fit_theta_wrapped=float("nan"))
+    blank = dataclasses.replace(c, fit={k: float("nan") for k in c.fit}, fit_wrapped=float("nan"))
     s = dataclasses.replace(side, runs=((blank, side.runs[0][1]),))
     text = format_side_by_side(s)
     assert "x undefined" in text and "n/a" in text

@@ -61,14 +61,14 @@ class Comparison:
     """Everything :func:`compare` computes. ``to_json()`` is the CLI's ``--json`` output.
 
     ``fit`` is the **free-run** fit% keyed by output; ``fit_horizon`` (a property) the
-    horizon fit% of ``horizon_run``; ``fit_theta_wrapped`` the free-run theta fit with
+    horizon fit% of ``horizon_run``; ``fit_wrapped`` the free-run fit of :attr:`angle` with
     the angle error wrapped to (-pi, pi]; ``turns`` the largest number of whole turns by
     which simulated and measured theta differ (first reached at ``turn_time`` s).
     ``headline`` says which fit leads and why. ``residual`` (measured minus simulated, m
     and rad) is the residual that ``windows`` and ``regimes`` examine: the free run's or
     the horizon simulation's, as ``residual_of`` says; ``free_residual`` is always the free
     run's, and ``whiteness`` tests it (theta wrapped to (-pi, pi]). ``measured`` holds the data's positions and the cart velocity
-    ``dx`` used to classify regimes (``dx_source`` says where it came from). ``outputs``
+    ``dx`` used to classify regimes (``motion_source`` says where it came from). ``outputs``
     are the positions compared (a held cart's run compares theta only); ``notes`` say
     which were left out and why.
     """
@@ -85,11 +85,11 @@ class Comparison:
     dt: float = 1e-4
     method: str = "rk4"
     v_off: float = DEFAULT_V_OFF    # the input's centre (the drive offset V_off; 0 for a plant without one)
-    dx_source: str = ""
+    motion_source: str = ""
     outputs: tuple = ()
     experiment: str = "free"
     free_residual: dict = field(default_factory=dict)
-    fit_theta_wrapped: float = float("nan")
+    fit_wrapped: float = float("nan")
     turns: int = 0
     turn_time: float | None = None
     horizon_run: HorizonRun | None = None
@@ -117,10 +117,9 @@ class Comparison:
 
     @property
     def angle(self) -> str | None:
-        """The compared periodic position whose wrapped fit and turns are reported (the last:
-        the pendulum's angle), or None."""
-        periodic = [k for k in self.outputs if self.model is not None and signals_of(self.model).period(k)]
-        return periodic[-1] if periodic else None
+        """The plant's periodic position whose wrapped fit and turns are reported (the last: the
+        pendulum's angle), or None; its figures are NaN and 0 when it is not compared."""
+        return angle_of(self.model)
 
     def rms_free_run(self) -> dict:
         """RMS free-run residual per output (m, rad); a periodic output also wrapped
@@ -141,15 +140,28 @@ class Comparison:
             "samples": len(self.simulated.t),
             "headline": {**self.headline.to_json(), "fit": self.headline_fit()} if self.headline else None,
             "fit": {"label": "free-run fit (%)", **self.fit},
-            "fit_theta_wrapped": {"label": f"free-run fit of {self.angle}, angle error wrapped to (-pi, pi] (%)",
-                                  **({self.angle: self.fit_theta_wrapped} if self.angle else {})},
+            **({f"fit_{self.angle}_wrapped": {
+                "label": f"free-run fit of {self.angle}, angle error wrapped to (-pi, pi] (%)",
+                self.angle: self.fit_wrapped}} if self.angle else {}),
             "fit_horizon": {"label": f"{hl.horizon_label(self.horizon)} (%)", "horizon_s": self.horizon,
                             **self.fit_horizon},
             "turns": {"max": self.turns, "first_t": self.turn_time,
                       "label": f"largest whole number of turns between simulated and measured {self.angle} (free run)"},
             "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
             "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness, "V_off": self.v_off,
-            "dx_source": self.dx_source, "notes": list(self.notes)})
+            f"{self.motion_rate}_source": self.motion_source, "notes": list(self.notes)})
+
+    @property
+    def motion_rate(self) -> str:
+        """The rate the regimes classify the motion by (the first position's: the cart's ``dx``)."""
+        sig = signals_of(self.model)
+        return sig.rate(sig.positions[0]) or sig.positions[0]
+
+
+def angle_of(model) -> str | None:
+    """The last periodic position of ``model``'s plant (the pendulum's angle), or None."""
+    periodic = signals_of(model).periodic if model is not None else ()
+    return periodic[-1] if periodic else None
 
 
 def model_name(model) -> str:
@@ -225,9 +237,9 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     else:
         residual, residual_of = free_residual, "free run"
     periodic = [k for k in outputs if sig.period(k) is not None]
-    angle = periodic[-1] if periodic else None        # the pendulum's: the last periodic position
+    angle = angle_of(model)                            # the pendulum's: the last periodic position
     turns, turn_time, wrapped_fit = 0, None, float("nan")
-    if angle is not None:
+    if angle in outputs:
         turns, turn_time = turns_apart(t, free_residual[angle])
         wrapped_fit = fit_percent(y[angle], y[angle] - wrap_difference(free_residual[angle]))
     # the whiteness tests need an uninterrupted residual: a horizon residual restarts at zero every
@@ -239,12 +251,12 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     lead_rate = sig.rate(lead)
     lead_measured = y[lead] if lead in y else np.zeros_like(t)
     if lead_rate is not None and data.columns.get(lead_rate) is not None:
-        lead_velocity, dx_source = np.asarray(data.columns[lead_rate], dtype=np.float64), f"measured {lead_rate} column"
+        lead_velocity, motion_source = np.asarray(data.columns[lead_rate], dtype=np.float64), f"measured {lead_rate} column"
     elif lead in y:
         lead_velocity = estimate_velocities(t, lead_measured)
-        dx_source = f"Savitzky-Golay derivative of measured {lead} ({SAVGOL_WINDOW * 1e3:.0f} ms, cubic)"
+        motion_source = f"Savitzky-Golay derivative of measured {lead} ({SAVGOL_WINDOW * 1e3:.0f} ms, cubic)"
     else:
-        lead_velocity, dx_source = np.zeros_like(t), f"{sig.body_of(lead)} held (not measured)"
+        lead_velocity, motion_source = np.zeros_like(t), f"{sig.body_of(lead)} held (not measured)"
     missing = set(getattr(data, "missing", ()) or ())
     # partitions by an axis the run did not have (a held cart, an input the file lacked) say nothing
     motion = {k: v for k, v in y.items()}
@@ -260,8 +272,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         regimes=regimes(residual, partitions),
         whiteness=whiteness(t, white_input, u, input_missing=sig.input in missing),
         measured={**y, **({lead_rate: lead_velocity} if lead_rate else {})},
-        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, dx_source=dx_source,
-        outputs=outputs, experiment=experiment, free_residual=free_residual, fit_theta_wrapped=wrapped_fit,
+        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, motion_source=motion_source,
+        outputs=outputs, experiment=experiment, free_residual=free_residual, fit_wrapped=wrapped_fit,
         turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
         notes=tuple(plan.notes))
 
@@ -271,9 +283,9 @@ def wrap_difference(angle):
     return -((-np.asarray(angle, dtype=np.float64) + np.pi) % TURN - np.pi)
 
 
-def turns_apart(t, theta_error) -> tuple[int, float | None]:
-    """The largest whole number of turns in ``|theta_error|`` and when one turn is first reached."""
-    e = np.abs(np.asarray(theta_error, dtype=np.float64))
+def turns_apart(t, angle_error) -> tuple[int, float | None]:
+    """The largest whole number of turns in ``|angle_error|`` and when one turn is first reached."""
+    e = np.abs(np.asarray(angle_error, dtype=np.float64))
     turns = int(np.floor(e.max() / TURN)) if len(e) else 0
     return turns, (float(t[int(np.argmax(e >= TURN))]) if turns else None)
 

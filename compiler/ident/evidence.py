@@ -160,27 +160,35 @@ def _corr(a, b) -> float:
     return float(a @ b / den) if den > 1e-300 else 0.0
 
 
+# What each catalogue effect adds, in words (keyed by effect name, for both bodies' catalogues)
 SENTENCES = {
     "cart_spring": "the residual force on the cart grows with position and pulls the cart back (a spring or cable)",
-    "asymmetric_cart": "the residual force on the cart follows sgn(dx) with a different size left and right",
-    "coulomb_cart": "the residual force on the cart follows sgn(dx): dry friction",
+    "asymmetric_cart": "the residual force on the cart follows the sign of its velocity with a different size left "
+                       "and right",
+    "coulomb_cart": "the residual force on the cart follows the sign of its velocity: dry friction",
     "viscous_cart": "the residual force on the cart is proportional to its speed",
     "static_cart": "the cart stays stuck for inputs the model says would move it",
-    "coulomb_pendulum": "the residual torque at the pivot follows -sgn(dtheta): dry friction in the pivot",
-    "viscous_pendulum": "the residual torque at the pivot is proportional to -dtheta: viscous damping of the swing",
+    "coulomb_pendulum": "the residual torque at the pivot opposes the sign of the swing's rate: dry friction in the "
+                        "pivot",
+    "viscous_pendulum": "the residual torque at the pivot is proportional to the swing's rate and opposes it: "
+                        "viscous damping of the swing",
     "drive_deadzone": "the cart does not respond to small inputs around V_off: a dead zone in the drive",
     "force_limit": "the drive force stops growing for large inputs: a current limit",
     "motor_lag": "the force builds up with a first-order lag after input changes",
     "input_delay": "the response starts a fixed time after the input changes: a transport delay",
     "velocity_limit": "the cart speed saturates",
-    "quadratic_pendulum": "the residual torque at the pivot grows with -dtheta|dtheta|: air drag on the swing",
+    "quadratic_pendulum": "the residual torque at the pivot grows with the square of the swing's rate and opposes "
+                          "it: air drag on the swing",
     "theta_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
     "x_offset": "the cart's forces look shifted along the track: an offset of the position sensor",
     "end_stops": "the cart is pushed back hard near the ends of the track: end stops",
-    "viscous_arm": "the residual torque on the arm is proportional to -dphi_r: viscous damping of the arm",
-    "coulomb_arm": "the residual torque on the arm follows -sgn(dphi_r): dry friction in the motor and arm",
-    "viscous_pivot": "the residual torque at the hinge is proportional to -dalpha_p: viscous damping of the swing",
-    "coulomb_pivot": "the residual torque at the hinge follows -sgn(dalpha_p): dry friction in the hinge",
+    "viscous_arm": "the residual torque on the arm is proportional to its rate and opposes it: viscous damping of "
+                   "the arm",
+    "coulomb_arm": "the residual torque on the arm opposes the sign of its rate: dry friction in the motor and arm",
+    "viscous_pivot": "the residual torque at the hinge is proportional to the swing's rate and opposes it: viscous "
+                     "damping of the swing",
+    "coulomb_pivot": "the residual torque at the hinge opposes the sign of the swing's rate: dry friction in the "
+                     "hinge",
     "voltage_limit": "the arm stops answering larger inputs: the amplifier saturates",
     "alpha_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
 }

@@ -27,7 +27,8 @@ def _fit(err: np.ndarray, y: np.ndarray) -> float:
 
 def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, outputs=None) -> dict:
     """Free-run fit per file and pooled: ``{"label", "pooled", "files": [{"file", "experiment",
-    "fit", "wrapped_theta_rms"}]}``; a run that diverges scores -inf."""
+    "fit", "wrapped_<angle>_rms"}]}`` (the RMS free-run error of the plant's last periodic position,
+    the pendulum's angle, wrapped to one turn); a run that diverges scores -inf."""
     problem = ShootingProblem(model, datasets, [], dt=dt, segment=1e9, outputs=outputs)
     files, num, den, wrapped_sq, wrapped_n = [], {}, {}, 0.0, 0
     for rec in problem.records:
@@ -52,7 +53,8 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))
             if periodic and o == periodic[-1]:       # the pendulum's angle: the last periodic position
                 wrapped = np.angle(np.exp(1j * err))
-                extra["wrapped_theta_rms"] = float(np.sqrt(np.mean(wrapped ** 2)))
+                key = f"wrapped_{o}_rms"
+                extra[key] = float(np.sqrt(np.mean(wrapped ** 2)))
                 wrapped_sq, wrapped_n = wrapped_sq + float(wrapped @ wrapped), wrapped_n + wrapped.size
         files.append({"file": rec.source, "experiment": rec.experiment, "fit": fit, **extra})
     pooled = {o: (100.0 * (1.0 - float(np.sqrt(num[o] / den[o]))) if den[o] > 0 else 0.0) for o in num}
@@ -62,7 +64,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
                 pooled[o] = v
     out = {"label": "free-run fit", "pooled": pooled, "files": files}
     if wrapped_n:
-        out["wrapped_theta_rms"] = float(np.sqrt(wrapped_sq / wrapped_n))
+        out[key] = float(np.sqrt(wrapped_sq / wrapped_n))
     return out
 
 
@@ -75,8 +77,9 @@ def figures(model: PlantModel, datasets: list, horizon: float = 0.5, dt: float =
 def values_text(fig: dict) -> str:
     """``x 97.1 %, theta 88.0 % (wrapped-angle RMS error 0.012 rad)`` of one figure dict."""
     parts = ", ".join(f"{o} {v:.1f} %" for o, v in (fig.get("pooled") or fig.get("fit")).items())
-    if "wrapped_theta_rms" in fig:
-        parts += f" (wrapped-angle RMS error {fig['wrapped_theta_rms']:.3g} rad)"
+    wrapped = [k for k in fig if k.startswith("wrapped_") and k.endswith("_rms")]
+    if wrapped:
+        parts += f" (wrapped-angle RMS error {fig[wrapped[0]]:.3g} rad)"
     return parts or "no output compared"
 
 
@@ -85,5 +88,5 @@ def describe(fig: dict) -> str:
     return f"{fig['label']}: {values_text(fig)}"
 
 
-UNWRAPPED_NOTE = ("a free-run theta fit counts each extra turn of the unwrapped angle as 2 pi of error; "
+UNWRAPPED_NOTE = ("a free-run fit of an angle counts each extra turn of the unwrapped angle as 2 pi of error; "
                   "the wrapped-angle error is given beside it, and the 0.5 s horizon fit is what the fit minimises")

@@ -31,9 +31,9 @@ SATURATION_MARGIN = 0.005    # fraction of the full scale
 DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's offset for models without a drive effect
 
 
-def wrap_angle(theta, period: float = 2 * math.pi):
+def wrap_angle(angle, period: float = 2 * math.pi):
     """An angle folded into [-period/2, period/2): a whole turn is the same position again."""
-    return (np.asarray(theta, dtype=np.float64) + period / 2) % period - period / 2
+    return (np.asarray(angle, dtype=np.float64) + period / 2) % period - period / 2
 
 
 def input_centre(model) -> float:
@@ -81,11 +81,11 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=()) -> list:
             ("large swing", f"|{swing}| >= {SMALL_SWING:g} {sig.unit(swing)}", th >= SMALL_SWING)]))
     e = np.abs(u - centre)
     name = spec.name
-    offset = "V_off" if centre else "0"
+    about = f"|{name} - V_off|" if centre else f"|{name}|"
+    where = f", V_off = {centre:.4g} {spec.unit}" if centre else ""
     out.append(("drive", [
-        ("weak drive", f"|{name} - {offset}| < {LOW_DRIVE:g} {spec.unit}, {offset} = {centre:.4g} {spec.unit}",
-         e < LOW_DRIVE),
-        ("strong drive", f"|{name} - {offset}| >= {LOW_DRIVE:g} {spec.unit}", e >= LOW_DRIVE)]))
+        ("weak drive", f"{about} < {LOW_DRIVE:g} {spec.unit}{where}", e < LOW_DRIVE),
+        ("strong drive", f"{about} >= {LOW_DRIVE:g} {spec.unit}", e >= LOW_DRIVE)]))
     for p in [p for p in sig.positions if sig.period(p) is None and p in measured and sig.unit(p) in TRACK_END]:
         end = TRACK_END[sig.unit(p)]
         x = np.abs(np.asarray(measured[p], dtype=np.float64))

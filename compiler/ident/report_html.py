@@ -116,7 +116,7 @@ def _model_section(label: str, c: Comparison) -> list:
         f"<h3>{e(who)}error by operating regime ({e(of)})</h3>",
         '<p class="note">Share of each output\'s squared residual falling in the regime, next to the share '
         "of time spent there. A ratio well above 1 (highlighted) means the error concentrates in that regime. "
-        f"{e(_body(c, signals_of(c.model).positions[0]).capitalize())} motion uses {e(c.dx_source or 'the measured velocity')}.</p>",
+        f"{e(_body(c, signals_of(c.model).positions[0]).capitalize())} motion uses {e(c.motion_source or 'the measured velocity')}.</p>",
         _regimes_table(c),
         f"<h3>{e(who)}residual against the state ({e(of)})</h3>",
         '<p class="note">A trend or a step in these clouds names the missing physics: against a velocity '

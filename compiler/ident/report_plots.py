@@ -103,7 +103,7 @@ def figure_free(s: SideBySide, run):
         ax.set_ylabel(label + (" wrapped" if wrapped else ""))
         if k == c0.angle:
             ax.set_title(f"{k} free-run residual, wrapped: fit "
-                         + _fits([c.fit_theta_wrapped for c in run], s.labels), fontsize=10)
+                         + _fits([c.fit_wrapped for c in run], s.labels), fontsize=10)
         ax.grid(alpha=0.3)
         if len(run) > 1:
             ax.legend(loc="upper right", fontsize=8)

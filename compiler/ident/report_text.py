@@ -81,8 +81,8 @@ def _figures(c: Comparison) -> list:
         free.append(f"  {a}: the simulated {body} ends up {c.turns} whole turn{'s' if c.turns > 1 else ''} "
                     f"away from the measured one (first at t = {c.turn_time:.2f} s); the free-run fit counts "
                     f"each extra turn as 2π of error")
-    if a is not None and (c.turns or abs(c.fit_theta_wrapped - c.fit[a]) >= 0.005):
-        free.append(f"  {a} with the angle error wrapped to (-π, π]: free-run fit {percent(c.fit_theta_wrapped)}, "
+    if a in c.outputs and (c.turns or abs(c.fit_wrapped - c.fit[a]) >= 0.005):
+        free.append(f"  {a} with the angle error wrapped to (-π, π]: free-run fit {percent(c.fit_wrapped)}, "
                     f"rms error {amount(a, rms[f'{a}_wrapped'], c.model)}")
     horizon = [f"{hl.horizon_label(c.horizon)} (restarting every {c.horizon:g} s from the measured state; the "
                f"figure diagnose and fit report): {fits_words(c.fit_horizon)}"]
@@ -116,7 +116,7 @@ def _analyses(c: Comparison) -> list:
     notes = ([f"all or nearly all the run: {always}"] if always else []) + ([f"never: {never}"] if never else [])
     if notes:
         lines.append(f"  ({'; '.join(notes)})")
-    wrapped = f", {c.angle} wrapped" if c.angle else ""
+    wrapped = f", {c.angle} wrapped" if c.angle in c.outputs else ""
     lines += ["", f"Is what is left noise? (free-run residual{wrapped}), 99 % bands, residual sampled every "
               f"{1e3 * c.whiteness[c.outputs[0]]['lag_seconds']:.3g} ms"]
     if h_is_horizon(c):

@@ -51,13 +51,13 @@ class SideBySide:
         horizon = [(f"{hl.horizon_label(cs[0].horizon)} {k}", "%", [c.fit_horizon[k] for c in cs]) for k in outputs]
         out = horizon + free if h.metric == hl.HORIZON else free + horizon
         a = cs[0].angle
-        if a is not None:
-            out.append((f"free-run fit {a}, angle wrapped", "%", [c.fit_theta_wrapped for c in cs]))
+        if a in outputs:
+            out.append((f"free-run fit {a}, angle wrapped", "%", [c.fit_wrapped for c in cs]))
             out.append((f"free-run {a}, whole turns apart (max)", "turns", [float(c.turns) for c in cs]))
         for k in outputs:
             scale, unit = small_scale(unit_of(cs[0].model, k))
             out.append((f"free-run rms error {k}", unit, [scale * c.rms_free_run()[k] for c in cs]))
-        if a is not None:
+        if a in outputs:
             scale, unit = small_scale(unit_of(cs[0].model, a))
             out.append((f"free-run rms error {a}, wrapped", unit,
                         [scale * c.rms_free_run()[f"{a}_wrapped"] for c in cs]))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import sys
+import re
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -22,47 +23,20 @@ from .signals import TIME, UNIT_SCALES, ZERO_NAMES, PlantSignals, signals_of, un
 from .table import Table
 
 TIME_NAMES = (TIME, "time", "tout")
-# ReadOptions' older per-signal fields, named <signal>_<setting> (the cart-pendulum's spellings):
-# the setting's suffix -> the dict it fills
-LEGACY_SETTINGS = {"unit": "units", "zero": "zero", "sign": "sign"}
+# Per-signal keywords of ReadOptions, ``<signal>_unit``, ``<signal>_zero`` and ``<signal>_sign``:
+# the suffix -> (the field it fills, the value that means "as pendc has it")
+SIGNAL_SETTINGS = {"unit": ("units", None), "zero": ("zero", "hanging"), "sign": ("sign", 1.0)}
+SIGNAL_SETTING = re.compile(r"(\w+)_(" + "|".join(SIGNAL_SETTINGS) + r")")
 
 
 @dataclass(frozen=True)
-class ReadOptions:
-    """How to read another lab's file (every field has a ``--option`` of the same name).
-
-    ``plant`` is the model (or its plant interface) whose signals the file holds (None:
-    the default model, the SCT cart-pendulum): its interface names the columns (time, the
-    input, each position, optionally their rates) and their units. ``columns`` maps such
-    a name (for the cart-pendulum t, u, x, theta, dx, dtheta) to the file's name;
-    ``separator`` and ``decimal`` are characters (None: whitespace) or ``...`` to
-    detect them. ``units`` maps a signal to its unit in the file: a name of
-    :data:`~pendc.sim.signals.UNIT_SCALES` for the signal's SI unit, or a number (the SI
-    value of one file unit); an absent signal is in its interface unit (s, V, m, rad...),
-    and the unit checks' hints name the option to use. ``zero`` maps a periodic position
-    to where the file's zero is (``upright``: half a period from the interface's zero) and
-    ``sign`` to -1 when the file counts it the other way: angle = sign * file + half a
-    period. The fields ``t_unit``, ``x_unit``, ``u_unit``, ``theta_unit``, ``theta_zero``
-    and ``theta_sign`` are the same settings under the cart-pendulum's older names.
-    ``allow_missing`` axes (besides those the experiment makes irrelevant) are filled with
-    zeros, the input with ``u_value``.
-    ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
-    :func:`pendc.sim.resample.regrid`) and ``plausible`` checks the values against the
-    rig's limits (:mod:`pendc.sim.plausibility`); both are off by default, so a library
-    read is faithful (a simulation may drive the cart off the track), and on for the
-    identification commands.
-    """
+class _ReadFields:
+    """The fields of :class:`ReadOptions` (which adds the per-signal keywords)."""
 
     columns: dict = field(default_factory=dict)
     separator: object = ...
     decimal: object = ...
     encoding: str = "utf-8"
-    t_unit: str | None = None
-    x_unit: str | None = None
-    u_unit: str | None = None
-    theta_unit: str | None = None
-    theta_zero: str = "hanging"
-    theta_sign: float = 1.0
     experiment: str | None = None
     resolution: dict = field(default_factory=dict)
     allow_missing: tuple = ()
@@ -76,17 +50,50 @@ class ReadOptions:
     sign: dict = field(default_factory=dict)
     plant: object = None
 
-    def __post_init__(self):
-        merged = {"units": dict(self.units), "zero": dict(self.zero), "sign": dict(self.sign)}
-        defaults = {"units": None, "zero": "hanging", "sign": 1.0}
-        for legacy in [f.name for f in fields(self) if "_" in f.name and f.name.rsplit("_", 1)[1] in LEGACY_SETTINGS]:
-            name, setting = legacy.rsplit("_", 1)
-            kind = LEGACY_SETTINGS[setting]
-            value = getattr(self, legacy)
-            if value is not None and value != defaults[kind]:
-                merged[kind].setdefault(name, value)
-        for kind, values in merged.items():
-            object.__setattr__(self, kind, values)
+
+class ReadOptions(_ReadFields):
+    """How to read another lab's file (every field has a ``--option`` of the same name).
+
+    ``plant`` is the model (or its plant interface) whose signals the file holds (None:
+    the default model, the SCT cart-pendulum): its interface names the columns (time, the
+    input, each position, optionally their rates) and their units. ``columns`` maps such
+    a name (for the cart-pendulum t, u, x, theta, dx, dtheta) to the file's name;
+    ``separator`` and ``decimal`` are characters (None: whitespace) or ``...`` to
+    detect them. ``units`` maps a signal to its unit in the file: a name of
+    :data:`~pendc.sim.signals.UNIT_SCALES` for the signal's SI unit, or a number (the SI
+    value of one file unit); an absent signal is in its interface unit (s, V, m, rad...),
+    and the unit checks' hints name the option to use. ``zero`` maps a periodic position
+    to where the file's zero is (``upright``: half a period from the interface's zero) and
+    ``sign`` to -1 when the file counts it the other way: angle = sign * file + half a
+    period. The same settings are taken as keywords ``<signal>_unit``, ``<signal>_zero`` and
+    ``<signal>_sign`` for any signal (the cart-pendulum's scripts write ``theta_unit="deg"``,
+    ``theta_zero="upright"``, ``t_unit="ms"``), as the ``--<signal>-unit`` options do.
+    ``allow_missing`` axes (besides those the experiment makes irrelevant) are filled with
+    zeros, the input with ``u_value``.
+    ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
+    :func:`pendc.sim.resample.regrid`) and ``plausible`` checks the values against the
+    rig's limits (:mod:`pendc.sim.plausibility`); both are off by default, so a library
+    read is faithful (a simulation may drive the cart off the track), and on for the
+    identification commands.
+    """
+
+    def __init__(self, **settings):
+        per_signal = {"units": dict(settings.pop("units", None) or {}), "zero": dict(settings.pop("zero", None) or {}),
+                      "sign": dict(settings.pop("sign", None) or {})}
+        known = {f.name for f in fields(_ReadFields)}
+        for key in [k for k in settings if k not in known]:
+            match = SIGNAL_SETTING.fullmatch(key)
+            if match is None:
+                raise TypeError(f"ReadOptions got an unexpected keyword argument '{key}'")
+            value = settings.pop(key)
+            kind, neutral = SIGNAL_SETTINGS[match.group(2)]
+            if value is not None and value != neutral:
+                per_signal[kind].setdefault(match.group(1), value)
+        super().__init__(**settings, **per_signal)
+        self._validate()
+
+    def _validate(self) -> None:
+        """One-line errors for settings the plant cannot take (zero, sign, units, names)."""
         for name, where in self.zero.items():
             if where not in ZERO_NAMES:
                 raise PendcError(f"--{name}-zero {where!r}: use {' or '.join(ZERO_NAMES)}")
