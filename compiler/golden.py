@@ -165,10 +165,9 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
     Returns (source, node indices of the states in ``st`` order). The transformation is checked
     line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
     from .ir.compiled_source import kernel_source
-    from .ir.nodes import Kind
 
     source, _ = kernel_source(graph, "fixed")
-    state_idx = [i for i, n in enumerate(graph.nodes) if n.kind in (Kind.REGISTER, Kind.FSM)]
+    state_idx = [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
     lines = source.split("\n")
     try:
         head = lines.index(_SIGNATURE)

@@ -39,8 +39,9 @@ def test_a_mux_select_beyond_its_inputs_picks_the_last_one_in_every_engine():
 
 
 def test_the_mux_docstring_states_the_rule():
-    from pendc.ir import nodes
-    assert "beyond the last input picks the last one" in nodes.__doc__
+    from pendc.ir import kinds
+    assert "a select beyond the last input picks the last" in kinds.__doc__
+    assert "it selects the last data input, in the interpreters, the golden kernel and the\nVerilog alike" in kinds.__doc__
 
 
 @pytest.mark.parametrize("threshold, want", [(1e300, 128), (-1e300, -129), (200.0, 128), (-200.0, -129),

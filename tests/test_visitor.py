@@ -71,7 +71,7 @@ def test_adding_a_kind_lists_every_printer_that_lacks_it(tmp_path):
     import fails at the first printer without ``visit_abs``, the audit lists them all."""
     pkg = tmp_path / "pendc"
     shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    nodes = pkg / "ir" / "nodes.py"
+    nodes = pkg / "ir" / "kinds.py"
     text = nodes.read_text()
     anchor = '    FSM = ("fsm", FsmParams, 1)\n'
     assert anchor in text
@@ -88,5 +88,5 @@ def test_adding_a_kind_lists_every_printer_that_lacks_it(tmp_path):
     lacking = {line.split(":")[0] for line in audit.stdout.splitlines() if line.endswith("define visit_abs")}
     assert {"pendc.ir.interpret.FixedInterpreter", "pendc.ir.interpret.FloatInterpreter",
             "pendc.ir.compiled_source._FixedGen", "pendc.ir.compiled_source._FloatGen",
-            "pendc.ir.compiled_source._Bounds", "pendc.ir.verify._TypedRules",
+            "pendc.ir.requant_source.Bounds", "pendc.ir.verify._TypedRules",
             "pendc.passes.fold_constants._Rewrite", "pendc.passes.qformats._KindFormat"} <= lacking

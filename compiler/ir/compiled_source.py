@@ -26,13 +26,12 @@ from . import fsm as fsm_sem
 from . import lut as lut_sem
 from .graph import Graph
 from .compare_ops import CompareOp
-from .nodes import SOURCE_KINDS, Kind
-from .qformat import QFormat, Rounding, Overflow, shift_round
+from .nodes import Kind
+from .qformat import Rounding
+from .requant_source import Bounds, int_literal as _i, requant_lines
 from .visitor import NodeVisitor
 
 SOURCE_FORMAT = 1  # bump when the generated source changes shape
-I64_MIN, I64_MAX = -(1 << 63), (1 << 63) - 1
-UNKNOWN = (I64_MIN, I64_MAX)
 
 
 class _ExprPrinter(NumbaPrinter):
@@ -52,14 +51,6 @@ def lut_expr_source(expr: str, var: str) -> str:
     return _ExprPrinter(var).doprint(sp.sympify(expr, locals={"v": v}))
 
 
-def _i(x: int) -> str:
-    """An int64 literal numba types as int64 (the minimum needs spelling out)."""
-    x = int(x)
-    if not I64_MIN <= x <= I64_MAX:
-        raise ValueError(f"constant {x} does not fit the 64-bit golden model")
-    return f"({x + 1} - 1)" if x == I64_MIN else str(x)
-
-
 def _f(x) -> str:
     x = float(x)
     if math.isnan(x):
@@ -69,136 +60,52 @@ def _f(x) -> str:
     return repr(x)
 
 
-def _frange(fmt: QFormat) -> tuple:
-    return fmt.min_int, fmt.max_int
-
-
-def _union(*ranges) -> tuple:
-    return min(r[0] for r in ranges), max(r[1] for r in ranges)
-
-
-def lut_table_ok(node) -> bool:
-    """True if every entry of the LUT's table lies in the node's own format."""
-    t = node.params.table
-    return bool(t) and all(node.qformat.min_int <= int(x) <= node.qformat.max_int for x in t)
-
-
-class _Bounds(NodeVisitor):
-    """Integer range a node's value provably stays in (fixed mode): ``visit_<kind>(node, gen, seen)``."""
-
-    def _own(self, n, gen, seen):
-        return _frange(n.qformat)
-
-    visit_gain = visit_add = visit_sub = visit_neg = visit_mul = visit_mux = visit_cast = _own
-
-    def visit_input(self, n, gen, seen):
-        return UNKNOWN          # a raw integer port is not checked against the format
-
-    def visit_const(self, n, gen, seen):
-        c = n.qformat.from_float(float(n.params.value))
-        return (c, c)
-
-    def visit_register(self, n, gen, seen):
-        r = n.qformat.from_float(float(n.params.reset))
-        src = n.inputs[0]
-        return (r, r) if src in seen else _union((r, r), gen.bounds(src, seen + (n.name,)))
-
-    def visit_fsm(self, n, gen, seen):
-        return min(n.params.outputs), max(n.params.outputs)
-
-    def visit_compare(self, n, gen, seen):
-        return (0, 1)
-
-    def visit_slice(self, n, gen, seen):
-        return (0, (1 << n.params.width) - 1)
-
-    def visit_lut(self, n, gen, seen):
-        return _frange(n.qformat) if lut_table_ok(n) else UNKNOWN
-
-
-class _Gen(NodeVisitor, abstract=True, elsewhere=SOURCE_KINDS):
-    """Printer of one kernel: ``visit_<kind>(node, i)`` returns the lines computing ``v<i>``
-    (sources and state elements are printed by :func:`kernel_source` itself)."""
+class _Gen(NodeVisitor, abstract=True):
+    """Printer of one kernel: ``visit_<kind>(node, i)`` returns the lines computing ``v<i>`` in
+    the step loop; constants add their lines to ``head`` (before the loop), state elements
+    theirs to ``head`` (reset) and ``update`` (end of the step)."""
 
     fixed = False
 
     def __init__(self, graph: Graph):
         self.g = graph
         self.idx = {n.name: i for i, n in enumerate(graph.nodes)}
+        self.inputs = [i for i, n in enumerate(graph.nodes) if n.kind is Kind.INPUT]
         self.offsets, self.tab_len = {}, 0
+        self.head, self.update = [], []
         self._bounds: dict = {}
-        self._bounder = _Bounds()
+        self._bounder = Bounds()
+
+    def comment(self, node) -> str:
+        """The comment line that names a node in the kernel."""
+        text = " ".join(f"# {node.name} = {node.kind.value}({', '.join(node.inputs)})".split())
+        return text + (f" : {node.qformat}" if self.fixed else "")
+
+    # -- sources and state elements --------------------------------------------------------
+    def visit_const(self, node, i):
+        value = float(node.params.value)
+        self.head += [self.comment(node), f"v{i} = {_i(node.qformat.from_float(value)) if self.fixed else _f(value)}",
+                      f"buf[{i}] = v{i}"]
+        return []
+
+    def visit_input(self, node, i):
+        return [f"v{i} = ins[{self.inputs.index(i)}, k]"]
+
+    def visit_register(self, node, i):
+        self.head += [self.comment(node), f"s{i} = {self.reset(node)}"]
+        self.update.append(f"s{i} = v{self.idx[node.inputs[0]]}")
+        return [f"v{i} = s{i}"]
+
+    def visit_fsm(self, node, i):
+        self.head += [self.comment(node), f"s{i} = {self.reset(node)}"]
+        self.update += self.fsm_update(i, node)
+        return self.fsm_output(i, node)
 
     def bounds(self, name: str, seen=()) -> tuple:
         """Integer range a node's value provably stays in."""
         if name not in self._bounds:
             self._bounds[name] = self._bounder.visit(self.g[name], self, seen)
         return self._bounds[name]
-
-    # -- fixed-point requantisation ----------------------------------------------------------
-    def requant(self, i: int, node, expr: str, rng: tuple, frac: int) -> list:
-        """Lines assigning requantize(expr, frac, node's format...) to v<i>, flagging ov[i]."""
-        fmt, rnd, ovf = node.qformat, node.rounding, node.overflow
-        tgt, t = f"v{i}", f"t{i}"
-        lo, hi = rng
-        shift = frac - fmt.frac
-        if shift < 0:
-            n = -shift
-            shifted = f"{t} << {n}" if n < 64 else "0"   # shifts >= 64: only 0 can be in range
-            if fmt.contains(lo << n) and fmt.contains(hi << n):
-                return [f"{t} = {expr}", f"{tgt} = {shifted}"]
-            up, down = fmt.max_int >> n, -((-fmt.min_int) >> n)
-            conds = ([f"{t} > {_i(up)}"] if hi > up else []) + ([f"{t} < {_i(down)}"] if lo < down else [])
-            if ovf is Overflow.SATURATE:
-                fix = f"{_i(fmt.max_int)} if {t} > 0 else {_i(fmt.min_int)}"
-            else:
-                fix = self.wrap(f"({t} << {n})", fmt) if n < 64 else "0"
-            return [f"{t} = {expr}", f"if {' or '.join(conds)}:", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                    f"    {tgt} = {fix}", "else:", f"    {tgt} = {shifted}"]
-        lines = []
-        if shift > 0:
-            if rnd is Rounding.TRUNCATE:
-                e = f"({expr}) >> {min(shift, 63)}"
-            elif shift >= 64:
-                e = "0"
-            elif I64_MIN <= lo + (1 << (shift - 1)) and hi + (1 << (shift - 1)) <= I64_MAX:
-                e = f"(({expr}) + {_i(1 << (shift - 1))}) >> {shift}"
-            else:  # floor((v + half) / 2**s) without forming v + half
-                lines.append(f"{t} = {expr}")
-                e = f"({t} >> {shift}) + (({t} >> {shift - 1}) & 1)"
-            lo, hi = shift_round(lo, shift, rnd), shift_round(hi, shift, rnd)
-        else:
-            e = expr
-        lines.append(f"{tgt} = {e}")
-        if fmt.signed and fmt.width == 64:
-            return lines  # int64 itself: nothing can leave the range
-        conds = ([f"{tgt} > {_i(fmt.max_int)}"] if hi > fmt.max_int else []) + \
-                ([f"{tgt} < {_i(fmt.min_int)}"] if lo < fmt.min_int else [])
-        if not conds:
-            return lines
-        if ovf is Overflow.SATURATE:
-            fix = (f"{_i(fmt.max_int)} if {tgt} > {_i(fmt.max_int)} else {_i(fmt.min_int)}" if len(conds) == 2
-                   else _i(fmt.max_int) if hi > fmt.max_int else _i(fmt.min_int))
-        else:
-            fix = self.wrap(tgt, fmt)
-        return lines + [f"if {' or '.join(conds)}:", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                        f"    {tgt} = {fix}"]
-
-    @staticmethod
-    def wrap(e: str, fmt: QFormat) -> str:
-        if fmt.width == 64:
-            return e
-        if fmt.signed:
-            s = 64 - fmt.width
-            return f"({e} << {s}) >> {s}"
-        return f"{e} & {_i((1 << fmt.width) - 1)}"
-
-    def aligned(self, name: str, frac: int) -> tuple:
-        """(expression, bounds) of a node's integer shifted left to ``frac`` fraction bits."""
-        n = frac - self.g[name].qformat.frac
-        lo, hi = self.bounds(name)
-        v = f"v{self.idx[name]}"
-        return (f"({v} << {n})" if n else v), (lo << n, hi << n)
 
     # -- state -------------------------------------------------------------------------------
     def num(self, x) -> str:
@@ -254,11 +161,18 @@ class _FixedGen(_Gen):
 
     fixed = True
 
+    def aligned(self, name: str, frac: int) -> tuple:
+        """(expression, bounds) of a node's integer shifted left to ``frac`` fraction bits."""
+        n = frac - self.g[name].qformat.frac
+        lo, hi = self.bounds(name)
+        v = f"v{self.idx[name]}"
+        return (f"({v} << {n})" if n else v), (lo << n, hi << n)
+
     def visit_gain(self, node, i):
         a = node.inputs[0]
         c = node.params.constant
         lo, hi = self.bounds(a)
-        return self.requant(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
+        return requant_lines(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
                             self.g[a].qformat.frac + node.params.cfmt.frac)
 
     def _pair(self, node) -> tuple:
@@ -267,11 +181,11 @@ class _FixedGen(_Gen):
 
     def visit_add(self, node, i):
         (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
-        return self.requant(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
+        return requant_lines(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
 
     def visit_sub(self, node, i):
         (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
-        return self.requant(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
+        return requant_lines(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
 
     def visit_compare(self, node, i):
         (x, _), (y, _), _ = self._pair(node)
@@ -280,18 +194,18 @@ class _FixedGen(_Gen):
     def visit_neg(self, node, i):
         a = node.inputs[0]
         lo, hi = self.bounds(a)
-        return self.requant(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)
+        return requant_lines(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)
 
     def visit_mul(self, node, i):
         a, b = node.inputs
         (al, ah), (bl, bh) = self.bounds(a), self.bounds(b)
         p = [al * bl, al * bh, ah * bl, ah * bh]
-        return self.requant(i, node, f"v{self.idx[a]} * v{self.idx[b]}", (min(p), max(p)),
+        return requant_lines(i, node, f"v{self.idx[a]} * v{self.idx[b]}", (min(p), max(p)),
                             self.g[a].qformat.frac + self.g[b].qformat.frac)
 
     def visit_cast(self, node, i):
         a = node.inputs[0]
-        return self.requant(i, node, f"v{self.idx[a]}", self.bounds(a), self.g[a].qformat.frac)
+        return requant_lines(i, node, f"v{self.idx[a]}", self.bounds(a), self.g[a].qformat.frac)
 
     def visit_mux(self, node, i):
         # a select beyond the data inputs picks the last one (pendc.ir.nodes)
@@ -300,7 +214,7 @@ class _FixedGen(_Gen):
         for j in range(1, len(ins)):
             last = j == len(ins) - 1
             lines.append("else:" if last else f"{'if' if j == 1 else 'elif'} v{self.idx[ins[0]]} == {j - 1}:")
-            lines += ["    " + s for s in self.requant(i, node, f"v{self.idx[ins[j]]}", self.bounds(ins[j]),
+            lines += ["    " + s for s in requant_lines(i, node, f"v{self.idx[ins[j]]}", self.bounds(ins[j]),
                                                        self.g[ins[j]].qformat.frac)]
         return lines
 
@@ -404,25 +318,13 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
     gen = (_FixedGen if mode == "fixed" else _FloatGen)(graph)
     nodes = graph.nodes
     dtype = "np.int64" if gen.fixed else "np.float64"
-    head, body, update = [], [], []
+    body = []
     const_idx = [i for i, n in enumerate(nodes) if n.kind is Kind.CONST]
-    inputs = [i for i, n in enumerate(nodes) if n.kind is Kind.INPUT]
     for i, n in enumerate(nodes):
-        k = n.kind
-        comment = " ".join(f"# {n.name} = {k.value}({', '.join(n.inputs)})".split())
-        comment += f" : {n.qformat}" if gen.fixed else ""
-        if k is Kind.CONST:
-            value = float(n.params.value)
-            head += [comment, f"v{i} = {_i(n.qformat.from_float(value)) if gen.fixed else _f(value)}",
-                     f"buf[{i}] = v{i}"]
-        elif k in (Kind.REGISTER, Kind.FSM):
-            head += [comment, f"s{i} = {gen.reset(n)}"]
-            body += [comment] + ([f"v{i} = s{i}"] if k is Kind.REGISTER else gen.fsm_output(i, n))
-            update += ([f"s{i} = v{gen.idx[n.inputs[0]]}"] if k is Kind.REGISTER else gen.fsm_update(i, n))
-        elif k is Kind.INPUT:
-            body += [comment, f"v{i} = ins[{inputs.index(i)}, k]"]
-        else:
-            body += [comment] + gen.visit(n, i)
+        lines = gen.visit(n, i)
+        if lines:
+            body += [gen.comment(n)] + lines
+    head, update = gen.head, gen.update
     varying = [i for i in range(len(nodes)) if i not in const_idx]
     if gen.fixed:
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        if x > mx[i]:",
