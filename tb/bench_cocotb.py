@@ -5,8 +5,11 @@ writes ``$PENDC_BENCH_OUT`` (JSON) with the wall time of
 
 * ``timer``: step held high, ``u`` changed every ``chunk`` steps with one ``Timer`` await
   per chunk (how the regression's long runs go);
-* ``per_step``: one ``Timer`` await per step, reading the four states each step (how the
+* ``per_step``: one ``Timer`` await per step, reading every reported state each step (how the
   regression's every-step windows go).
+
+The core's input and states are named by the plant interface of ``$PENDC_BENCH_MODEL`` (default:
+the default model), the model whose core the benchmark built.
 """
 
 from __future__ import annotations
@@ -24,11 +27,15 @@ from cocotb.triggers import FallingEdge, Timer
 async def throughput(dut):
     with open(os.environ["PENDC_BENCH_IN"]) as fh:
         cfg = json.load(fh)
+    from pendc import load_model
+    from pendc.hil.core_ports import CorePorts
+    ports = CorePorts.of_interface(load_model(os.environ.get("PENDC_BENCH_MODEL")).interface)
     ii, period, chunk = cfg["ii"], cfg["period_ns"], cfg["chunk"]
     mask = (1 << cfg["u_width"]) - 1
+    drive = getattr(dut, ports.input)
     dut.rst.value = 1
     dut.step.value = 0
-    dut.u.value = 0
+    drive.value = 0
     Clock(dut.clk, period, unit="ns", impl="gpi").start(start_high=False)
     await FallingEdge(dut.clk)
     await Timer(3 * period, unit="ns")
@@ -36,12 +43,12 @@ async def throughput(dut):
     dut.step.value = 1
     t0 = time.perf_counter()
     for u in cfg["u"]:
-        dut.u.value = int(u) & mask
+        drive.value = int(u) & mask
         await Timer(chunk * ii * period, unit="ns")
     timer_s = time.perf_counter() - t0
-    x_timer = dut.x.value.to_signed()
+    states = [getattr(dut, p) for p in ports.states]
+    first_timer = states[0].value.to_signed()
     n = cfg["per_step_steps"]
-    states = (dut.x, dut.dx, dut.theta, dut.dtheta)
     t0 = time.perf_counter()
     for _ in range(n):
         _ = [h.value.to_signed() for h in states]
@@ -49,5 +56,5 @@ async def throughput(dut):
     per_step_s = time.perf_counter() - t0
     dut.step.value = 0
     with open(os.environ["PENDC_BENCH_OUT"], "w") as fh:
-        json.dump({"timer": {"steps": len(cfg["u"]) * chunk, "wall_s": timer_s, "x_at_end": x_timer},
+        json.dump({"timer": {"steps": len(cfg["u"]) * chunk, "wall_s": timer_s, "first_state_at_end": first_timer},
                    "per_step": {"steps": n, "wall_s": per_step_s}}, fh)

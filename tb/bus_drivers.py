@@ -8,7 +8,7 @@ import os
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, Timer
 
-from simlib import PORTS, to_bits, vectors  # noqa: F401
+from simlib import to_bits, vectors
 
 
 MAGIC = 0x50454E44
@@ -33,6 +33,13 @@ class Bus:
         self.period = v["period_ns"]
         self.ii = v["ii"]
         self.core = dut.u_regs.u_core
+        names = v.get("register_names") or _register_names_from_report(self.report, self.regs)
+        ports = list(self.report["ports"])        # the input first, then the reported states
+        self.input_reg = names[ports[0]][0]
+        self.state_regs = [names[p][0][:-len("_LO")] for p in ports[1:]]
+        cp = v.get("core_ports")
+        self.count_regs = [names[e.name][0] for e in cp.encoders] if cp is not None else []
+        self.channels = len(cp.channels) if cp is not None else 0
 
     def addr(self, name: str) -> int:
         return self.regs[name]["offset"]
@@ -56,15 +63,16 @@ class Bus:
         await Timer(n * self.period, unit="ns")
 
     async def state(self) -> tuple:
-        """(x, dx, theta, dtheta, enc lines...) read through the registers, like golden rows."""
-        vals = [await self.read64(p.upper()) for p in ("x", "dx", "theta", "dtheta")]
-        enc = await self.read("ENC")
-        return tuple(vals) + tuple((enc >> i) & 1 for i in range(4))
+        """The reported states and the encoder lines read through the registers, like golden rows."""
+        vals = [await self.read64(r) for r in self.state_regs]
+        enc = await self.read("ENC") if self.channels else 0
+        return tuple(vals) + tuple((enc >> i) & 1 for i in range(self.channels))
 
     async def counts(self) -> tuple:
+        """Every encoder's count register (signed), in the plant interface's order."""
         def s32(v):
             return v - (1 << 32) if v >> 31 else v
-        return s32(await self.read("ENC_X_COUNT")), s32(await self.read("ENC_THETA_COUNT"))
+        return tuple([s32(await self.read(r)) for r in self.count_regs])
 
     async def wait_idle(self, steps: int, what: str):
         """After starting a burst of ``steps``: wait its duration, then poll STATUS.BUSY."""
@@ -76,8 +84,9 @@ class Bus:
         raise AssertionError(f"{what}: STATUS.BUSY still set long after {steps} steps")
 
     async def burst(self, n: int, u: int | None = None):
+        """A lockstep burst of ``n`` steps (input register set to ``u`` first if given), waited out."""
         if u is not None:
-            await self.write("U", u)
+            await self.write(self.input_reg, u)
         await self.write("N_STEPS", n)
         await self.write("CONTROL", LOCKSTEP)
         await self.wait_idle(n, f"lockstep burst of {n}")
@@ -152,6 +161,16 @@ class AxilBus(Bus):
         r = await self.master.read(a, 4)
         assert r.resp == AxiResp.OKAY, f"read of 0x{a:02x}: response {r.resp}"
         return int.from_bytes(bytes(r.data), "little")
+
+
+def _register_names_from_report(report: dict, regs: dict) -> dict:
+    """Port -> register name(s) for vectors made without the plant interface's names: the
+    report's data ports (input first), each as the LO/HI pair or the single word the map has."""
+    out = {}
+    for p in report["ports"]:
+        pair = (f"{p.upper()}_LO", f"{p.upper()}_HI")
+        out[p] = pair if pair[0] in regs else (p.upper(),)
+    return out
 
 
 async def _bus(dut) -> Bus:

@@ -10,7 +10,8 @@ import time
 import numpy as np
 
 from pendc.backend.hdl import port_formats
-from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, PORTS, VERSION, WINDOW, WINDOW_POINTS, WINDOW_STIMULI)
+from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, VERSION, WINDOW, WINDOW_POINTS,
+                      WINDOW_STIMULI)
 
 
 # ---------------------------------------------------------------- stimuli
@@ -29,11 +30,12 @@ def window_stimuli() -> dict:
     return out
 
 
-def full_push(duration: float = 4.0):
-    """Full-scale input held: the cart of a model without end stops runs off the track, past the
-    range the build was trained for (the pendulum no longer overflows: theta holds 256 turns)."""
+def full_push(full_scale: float, duration: float = 4.0):
+    """The input's full scale held (the plant interface's ``full_scale``): a plant without end
+    stops runs past the range the build was trained for (the cart-pendulum's cart runs off the
+    track; its periodic angle holds 256 turns and does not overflow)."""
     t = np.arange(int(round(duration * 1000)) + 1) / 1000.0
-    return t, np.full_like(t, 10.0)
+    return t, np.full_like(t, float(full_scale))
 
 
 def steps_of(t, u, dt=1e-6) -> np.ndarray:
@@ -83,17 +85,20 @@ def _state_nodes(graph) -> list:
 
 
 def _rtl_state(graph, state: dict) -> dict:
-    """Golden state (node -> integer) as RTL register deposits: name -> (value, width)."""
+    """Golden state (node -> integer) as RTL register deposits: name -> (value, width), the
+    registers the HIL harnesses deposit into (:func:`pendc.hil.rtl_plant.deposit_registers`)."""
+    from pendc.hil.rtl_plant import deposit_registers
     from pendc.ir.nodes import Kind
     out = {}
-    for n in _state_nodes(graph):
+    for n, (reg, width) in zip(_state_nodes(graph), deposit_registers(graph)):
         v = int(state[n.name])
-        if n.kind is Kind.REGISTER:
-            out[f"n_{n.name}"] = (v, n.qformat.width)
-        else:
-            k = len(n.param("states"))
-            out[f"n_{n.name}_state"] = (list(n.param("outputs")).index(v), max(1, (k - 1).bit_length()))
+        out[reg] = (v if n.kind is Kind.REGISTER else list(n.param("outputs")).index(v), width)
     return out
+
+
+def _ports(graph):
+    from pendc.hil.core_ports import CorePorts
+    return CorePorts.of_graph(graph)
 
 
 def _interp_window(graph, state: dict | None, u: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -101,8 +106,9 @@ def _interp_window(graph, state: dict | None, u: np.ndarray) -> tuple[np.ndarray
     from pendc.ir.interpret import FixedInterpreter
     g = graph if state is None else _from_state(graph, state)
     ints = [int(v) for v in u] + [int(u[-1])]
-    tr = FixedInterpreter(g).run({"u": ints}, every=1)
-    return np.stack([np.asarray(tr.outputs[p], dtype=np.int64) for p in PORTS], axis=1), dict(tr.overflows)
+    ports = _ports(graph)
+    tr = FixedInterpreter(g).run({ports.input: ints}, every=1)
+    return np.stack([np.asarray(tr.outputs[p], dtype=np.int64) for p in ports.outputs], axis=1), dict(tr.overflows)
 
 
 def _window_job(args):
@@ -124,18 +130,39 @@ def _map(fn, items: list) -> list:
         return list(pool.map(fn, items))
 
 
-def _rows(trace) -> np.ndarray:
-    return np.stack([np.asarray(trace.outputs[p], dtype=np.int64) for p in PORTS], axis=1)
+def _rows(trace, ports) -> np.ndarray:
+    return np.stack([np.asarray(trace.outputs[p], dtype=np.int64) for p in ports.outputs], axis=1)
 
 
-def make_vectors(build, report: dict, log=print) -> dict:
-    """Every golden expectation of the core and bus tests."""
+def _decoded(rows: np.ndarray, ports) -> np.ndarray:
+    """x4 counts of every encoder after every row (one column per encoder)."""
+    first = len(ports.states)
+    cols = [decode_x4(rows[:, first + 2 * i], rows[:, first + 2 * i + 1])[0] for i in range(len(ports.encoders))]
+    return np.stack(cols, axis=1) if cols else np.zeros((len(rows), 0), np.int64)
+
+
+def _decode_errors(rows: np.ndarray, ports) -> int:
+    first = len(ports.states)
+    return sum(decode_x4(rows[:, first + 2 * i], rows[:, first + 2 * i + 1])[1] for i in range(len(ports.encoders)))
+
+
+def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int = WINDOW,
+                 long_chunks: dict | None = None) -> dict:
+    """Every golden expectation of the core and bus tests.
+
+    The plant's names (input, states, encoders, register names) come from the plant interface
+    the build's graph carries; they travel in the vectors (``core_ports``, ``register_names``).
+    ``stimuli_names`` (default: every window stimulus), ``window`` (steps per every-step window)
+    and ``long_chunks`` (default :data:`LONG_CHUNKS`) shorten a run."""
     from pendc.backend.hdl import schedule_of
     from pendc.backend.viewmodel import build_view
     from pendc.golden import GoldenModel
-    from pendc.sim.encoders import THETA_COUNT, X_COUNT
+    from pendc.model.interface import require_interface
 
     graph = build.graph
+    ports = _ports(graph)
+    iface = require_interface(graph)
+    long_chunks = dict(LONG_CHUNKS if long_chunks is None else long_chunks)
     dt = build.options.dt
     golden = GoldenModel(graph, dt)
     view = build_view(graph, schedule=schedule_of(graph, (report.get("schedule") or {}).get("request")))
@@ -146,7 +173,8 @@ def make_vectors(build, report: dict, log=print) -> dict:
         raise RuntimeError(f"state registers not found in the emitted core: {sorted(missing)}")
     vec = {
         "version": VERSION, "ii": view.ii, "period_ns": PERIOD_NS, "chunk": CHUNK, "dt": dt,
-        "ports": port_formats(graph), "report": report, "x_count": X_COUNT, "theta_count": THETA_COUNT,
+        "ports": port_formats(graph), "report": report, "core_ports": ports,
+        "register_names": iface.register_names(), "window": window,
         "ovf_wires": list(view.net.overflow), "ovf_stages": view.dp.overflow_stages(),
         "state_regs": sorted(regs_in_rtl),
         "windows": [], "long": {}, "overflow": None, "bus": {},
@@ -158,20 +186,22 @@ def make_vectors(build, report: dict, log=print) -> dict:
     t0 = time.time()
     jobs, done = [], {}
     for name, (t, u, trained) in window_stimuli().items():
+        if stimuli_names is not None and name not in stimuli_names:
+            continue
         ints = golden.quantize_input(steps_of(t, u, dt))
         total = len(ints)
-        starts = [0] + sorted({int(round(f * total / WINDOW)) * WINDOW for f in WINDOW_POINTS})
-        starts = [k for k in starts if k + WINDOW < total]
-        end = max(starts) + WINDOW + 1
-        tr = golden.run_steps(ints[:end], every=WINDOW, record=tuple(state_names))
+        starts = [0] + sorted({int(round(f * total / window)) * window for f in WINDOW_POINTS})
+        starts = [k for k in starts if k + window < total]
+        end = max(starts) + window + 1
+        tr = golden.run_steps(ints[:end], every=window, record=tuple(state_names))
         for k0 in starts:
-            row = k0 // WINDOW
+            row = k0 // window
             state = {n: int(tr.outputs[n][row]) for n in state_names}
-            jobs.append((name, trained, k0, state, ints[k0:k0 + WINDOW].astype(np.int64),
-                         np.array([tr.outputs[p][row + 1] for p in PORTS], dtype=np.int64),
+            jobs.append((name, trained, k0, state, ints[k0:k0 + window].astype(np.int64),
+                         np.array([tr.outputs[p][row + 1] for p in ports.outputs], dtype=np.int64),
                          any(s < k0 for s in tr.overflows.values())))
         if 0 in starts:   # from reset: the compiled kernel gives every row directly
-            first = _rows(golden.run_steps(np.append(ints[:WINDOW], ints[WINDOW - 1]), every=1))
+            first = _rows(golden.run_steps(np.append(ints[:window], ints[window - 1]), every=1), ports)
             done[(name, 0)] = (first, {})
     # windows from a state deep inside a stimulus: the reference interpreter, two processes
     todo = [j for j in jobs if (j[0], j[2]) not in done]
@@ -180,43 +210,42 @@ def make_vectors(build, report: dict, log=print) -> dict:
     for name, trained, k0, state, u_win, compiled_end, ovf_before in jobs:
         rows, ovf_rel = done[(name, k0)]
         if not np.array_equal(rows[-1], compiled_end):
-            raise RuntimeError(f"golden engines disagree on {name} at step {k0 + WINDOW}: interpreter "
+            raise RuntimeError(f"golden engines disagree on {name} at step {k0 + window}: interpreter "
                                f"{rows[-1].tolist()} vs compiled {compiled_end.tolist()}")
         vec["windows"].append({
-            "stim": name, "trained": trained, "k0": k0, "u": u_win, "rows": rows,
+            "stim": name, "trained": trained, "k0": k0, "input": u_win, "rows": rows,
             "state": _rtl_state(graph, state), "ovf_before": ovf_before,
             "ovf_first": min(ovf_rel.values()) if ovf_rel else None,
         })
-    log(f"pendtb: {len(vec['windows'])} every-step windows of {WINDOW} steps ({time.time() - t0:.1f} s)")
+    log(f"pendtb: {len(vec['windows'])} every-step windows of {window} steps ({time.time() - t0:.1f} s)")
 
     # -- long runs from reset, input changing every CHUNK steps, compared every CHUNK steps
     t0 = time.time()
     from pendc.sim import stimuli
     sources = {"chirp": stimuli.chirp(), "random": stimuli.random_levels()}
-    for name, chunks in LONG_CHUNKS.items():
+    for name, chunks in long_chunks.items():
         t, u = sources[name]
         ints = golden.quantize_input(steps_of(t, u, dt))[:chunks * CHUNK]
         per_chunk = ints.reshape(chunks, CHUNK)
         if not np.all(per_chunk == per_chunk[:, :1]):
-            raise RuntimeError(f"stimulus {name} does not hold u for {CHUNK} steps")
+            raise RuntimeError(f"stimulus {name} does not hold the input for {CHUNK} steps")
         tr = golden.run_steps(np.append(ints, ints[-1]), every=1)
-        rows = _rows(tr)
-        cx, ex = decode_x4(rows[:, 4], rows[:, 5])
-        ct, et = decode_x4(rows[:, 6], rows[:, 7])
+        rows = _rows(tr, ports)
+        cnt = _decoded(rows, ports)
         mid = chunks // 2          # a state deep in the run, for simulators too slow to get there
         at_mid = golden.run_steps(ints[:mid * CHUNK + 1], every=mid * CHUNK, record=tuple(state_names))
         vec["long"][name] = {
-            "u": per_chunk[:, 0].copy(), "rows": rows[::CHUNK].copy(),
-            "cnt": np.stack([cx[::CHUNK], ct[::CHUNK]], axis=1), "decode_errors": ex + et,
+            "input": per_chunk[:, 0].copy(), "rows": rows[::CHUNK].copy(),
+            "cnt": cnt[::CHUNK].copy(), "decode_errors": _decode_errors(rows, ports),
             "overflows": dict(tr.overflows), "mid": mid,
             "mid_state": _rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
         }
         del tr, rows
-    log(f"pendtb: long runs {dict(LONG_CHUNKS)} chunks ({time.time() - t0:.1f} s)")
+    log(f"pendtb: long runs {long_chunks} chunks ({time.time() - t0:.1f} s)")
 
-    # -- overflow: full-scale input held drives the cart beyond its trained range
+    # -- overflow: the input's full scale held drives the plant beyond its trained range
     t0 = time.time()
-    t, u = full_push()
+    t, u = full_push(iface.input.full_scale)
     ints = golden.quantize_input(steps_of(t, u, dt))
     chunks = len(ints) // CHUNK
     tr = golden.run_steps(ints, every=CHUNK, record=tuple(state_names))
@@ -236,8 +265,8 @@ def make_vectors(build, report: dict, log=print) -> dict:
             raise RuntimeError(f"golden engines disagree on the first overflow: compiled step {k_star} {nodes}, "
                                f"interpreter step {None if first_rel is None else k0 + first_rel} {rel_nodes}")
         vec["overflow"] = {
-            "u": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
-            "coarse": _rows(tr)[: k0 // CHUNK + 1].copy(),
+            "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
+            "coarse": _rows(tr, ports)[: k0 // CHUNK + 1].copy(),
             "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows),
             "k0": k0, "state": _rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
         }
@@ -247,11 +276,8 @@ def make_vectors(build, report: dict, log=print) -> dict:
     for name, volts in BUS_LEVELS.items():
         q = int(golden.quantize_input([stimuli.V_CENTER + volts])[0])
         tr = golden.run_steps(np.full(BUS_STEPS + 1, q, dtype=np.int64), every=1)
-        rows = _rows(tr)
-        cx, _ = decode_x4(rows[:, 4], rows[:, 5])
-        ct, _ = decode_x4(rows[:, 6], rows[:, 7])
-        vec["bus"][name] = {"u": q, "rows": rows, "cnt": np.stack([cx, ct], axis=1),
-                            "overflows": dict(tr.overflows)}
+        rows = _rows(tr, ports)
+        vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}
     return vec
 
 

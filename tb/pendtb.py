@@ -23,7 +23,7 @@ from pathlib import Path
 
 from pendc.backend.hdl import port_formats  # noqa: F401  (re-exported)
 from tbconfig import *  # noqa: F401,F403  (the constants, re-exported for the cocotb modules)
-from tbconfig import ENC_PORTS, PORTS, REPO, STATE_PORTS, TB_TOP, verilog_files
+from tbconfig import REPO, TB_TOP, verilog_files
 from golden_vectors import *  # noqa: F401,F403
 from golden_vectors import make_vectors
 from simulators import *  # noqa: F401,F403
@@ -97,34 +97,43 @@ def repo_hdl_current(model=None, build=None) -> bool:
 
 
 
-def tb_top_source(ports: dict) -> str:
+def core_ports_of(build):
+    """The core's module and port names (:class:`pendc.hil.core_ports.CorePorts`) from the
+    plant interface the build's graph carries."""
+    from pendc.hil.core_ports import CorePorts
+    return CorePorts.of_graph(build.graph)
+
+
+def tb_top_source(ports: dict, core) -> str:
     """The cocotb toplevel of the core tests: the core plus the testbench's own x4 decoders.
 
-    The decoders count every edge of A and B (up when A leads); their ``cnt_*`` outputs
-    include a change of the lines in the current cycle, so at a step boundary they
-    already count the state just written. ``enc_err`` is sticky on a change of both
-    lines at once (not a quadrature step)."""
-    def decl(p):
-        f = ports[p]
-        return f"{'signed ' if f['signed'] else ''}[{f['width'] - 1}:0]"
+    ``ports``: report.json's "ports"; ``core``: the core's names (:func:`core_ports_of`). One
+    decoder per encoder, its count on ``cnt_<encoder>``. The decoders count every edge of A and
+    B (up when A leads); their counts include a change of the lines in the current cycle, so at
+    a step boundary they already count the state just written. ``enc_err`` is sticky on a
+    change of both lines of an encoder at once (not a quadrature step)."""
+    from pendc.hil.core_ports import instance_line, verilog_decl
     lines = [
         "// Testbench top for the cocotb regression (tb/pendtb.py); not part of the design.",
         "`default_nettype none",
         f"module {TB_TOP} (",
         "    input  wire clk,", "    input  wire rst,", "    input  wire step,", "    output wire ready,",
-        f"    input  wire {decl('u')} u,",
+        f"    input  wire {verilog_decl(ports[core.input])} {core.input},",
     ]
-    lines += [f"    output wire {decl(p)} {p}," for p in STATE_PORTS]
-    lines += [f"    output wire {p}," for p in ENC_PORTS]
-    lines += ["    output wire overflow,", "    output wire signed [31:0] cnt_x,",
-              "    output wire signed [31:0] cnt_theta,", "    output wire enc_err", ");"]
-    conns = ["clk", "rst", "step", "ready", "u", *PORTS, "overflow"]
-    lines.append("    pendulum_core core (" + ", ".join(f".{c}({c})" for c in conns) + ");")
-    lines += ["    wire err_x, err_theta;", "    assign enc_err = err_x | err_theta;",
-              "    tb_x4_decoder dec_x (.clk(clk), .rst(rst), .a(enc_x_a), .b(enc_x_b), .count(cnt_x), .err(err_x));",
-              "    tb_x4_decoder dec_theta (.clk(clk), .rst(rst), .a(enc_theta_a), .b(enc_theta_b), "
-              ".count(cnt_theta), .err(err_theta));",
-              "endmodule", "",
+    lines += [f"    output wire {verilog_decl(ports[p])} {p}," for p in core.states]
+    lines += [f"    output wire {p}," for p in core.channels]
+    lines += ["    output wire overflow,"]
+    lines += [f"    output wire signed [31:0] cnt_{e.name}," for e in core.encoders]
+    lines += ["    output wire enc_err", ");"]
+    lines.append("    " + instance_line(core))
+    errs = [f"err_{e.name}" for e in core.encoders]
+    if errs:
+        lines += [f"    wire {', '.join(errs)};", f"    assign enc_err = {' | '.join(errs)};"]
+    else:
+        lines.append("    assign enc_err = 1'b0;")
+    lines += [f"    tb_x4_decoder dec_{e.name} (.clk(clk), .rst(rst), .a({e.channel_a}), .b({e.channel_b}), "
+              f".count(cnt_{e.name}), .err(err_{e.name}));" for e in core.encoders]
+    lines += ["endmodule", "",
               "module tb_x4_decoder (input wire clk, input wire rst, input wire a, input wire b,",
               "                      output wire signed [31:0] count, output reg err);",
               "    reg a_q, b_q;",
@@ -153,6 +162,9 @@ def tb_top_source(ports: dict) -> str:
 
 @dataclass
 class Prepared:
+    """What the simulators need: HDL folders per bus, their report.json, the testbench top and
+    the golden vector file (after :func:`add_vectors`)."""
+
     work: Path
     hdl: dict                     # bus -> folder with the emitted HDL
     report: dict                  # bus -> report.json
@@ -192,16 +204,17 @@ def prepare_hdl(work: Path, use_repo_hdl: bool = True, log=print, model_path=Non
         hdl[bus] = out
     timings["emit"] = time.time() - t0
     tb_top = work / f"{TB_TOP}.v"
-    tb_top.write_text(tb_top_source(reports["raptor"]["ports"]))
+    tb_top.write_text(tb_top_source(reports["raptor"]["ports"], core_ports_of(build)))
     log(f"pendtb: HDL from {'the repository hdl_out/ (current) and ' + str(hdl['axi-lite']) if repo else work}")
     return Prepared(work=work, hdl=hdl, report=reports, tb_top=tb_top, vectors=work / "vectors.pickle",
                     repo_hdl=repo, timings=timings, build=build)
 
 
-def add_vectors(prep: Prepared, log=print) -> Prepared:
-    """Compute the golden vectors for a prepared HDL folder (prep.vectors)."""
+def add_vectors(prep: Prepared, log=print, **options) -> Prepared:
+    """Compute the golden vectors for a prepared HDL folder (prep.vectors); ``options`` go to
+    :func:`golden_vectors.make_vectors` (``stimuli_names``, ``window``, ``long_chunks``: a shorter run)."""
     t0 = time.time()
-    vec = make_vectors(prep.build, prep.report["raptor"], log=log)
+    vec = make_vectors(prep.build, prep.report["raptor"], log=log, **options)
     vec["hdl"] = {b: str(p) for b, p in prep.hdl.items()}
     vec["reports"] = prep.report
     with open(prep.vectors, "wb") as fh:

@@ -6,9 +6,11 @@ model file given by ``--model`` (always built under the work folder, never into
 hdl_out/), with the default schedule or the one ``--preset`` / ``--ii`` / ``--dsp``
 ask for, and the golden vectors once, then runs the suites on each simulator:
 
-    core    tb/test_core.py on pendulum_core (with the testbench decoders)
-    raptor  tb/test_bus.py on the RAPTOR local-bus wrapper (pendulum_raptor)
-    axil    tb/test_bus.py on the AXI4-Lite wrapper (pendulum_axil)
+    core    tb/test_core.py on the model's core (with the testbench decoders)
+    raptor  tb/test_bus.py on the RAPTOR local-bus wrapper
+    axil    tb/test_bus.py on the AXI4-Lite wrapper
+
+Every name of the plant (module, ports, registers) comes from the model's plant interface.
 
 Exit status 0 if every test passed, 1 if some failed, 2 on a usage or setup error.
 """

@@ -18,10 +18,6 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, Timer
 
-STATE_PORTS = ("x", "dx", "theta", "dtheta")
-ENC_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
-PORTS = STATE_PORTS + ENC_PORTS
-
 _VECTORS = None
 
 
@@ -36,6 +32,22 @@ def vectors() -> dict:
         with open(path, "rb") as fh:
             _VECTORS = pickle.load(fh)
     return _VECTORS
+
+
+def core_ports():
+    """The core's names (:class:`pendc.hil.core_ports.CorePorts`: input, states, encoders), as
+    the plant interface of the build under test gives them."""
+    return vectors()["core_ports"]
+
+
+def ports() -> tuple:
+    """The core's output ports in golden-row order: the states, then the encoder channels."""
+    return core_ports().outputs
+
+
+def diff_text(got: tuple, want: tuple) -> str:
+    """The ports where a sampled row differs from the golden one, named."""
+    return "; ".join(f"{p}: rtl {a} golden {b}" for p, a, b in zip(ports(), got, want) if a != b)
 
 
 def simulator() -> str:
@@ -62,7 +74,7 @@ class StepMismatch(AssertionError):
 
 
 class CoreBench:
-    """Drives ``tb_pendulum_core`` (the core plus testbench decoders)."""
+    """Drives the testbench top (the core plus testbench decoders), by the plant's port names."""
 
     def __init__(self, dut):
         self.dut = dut
@@ -71,9 +83,12 @@ class CoreBench:
         self.v = v
         self.ii = v["ii"]
         self.period = v["period_ns"]
-        self.u_width = v["ports"]["u"]["width"]
-        self.state_h = [getattr(dut, p) for p in STATE_PORTS]
-        self.enc_h = [getattr(dut, p) for p in ENC_PORTS]
+        cp = v["core_ports"]
+        self.input_h = getattr(dut, cp.input)
+        self.u_width = v["ports"][cp.input]["width"]
+        self.state_h = [getattr(dut, p) for p in cp.states]
+        self.enc_h = [getattr(dut, p) for p in cp.channels]
+        self.count_h = [getattr(dut, f"cnt_{e.name}") for e in cp.encoders]
         self.clock = None
 
     async def start(self):
@@ -81,7 +96,7 @@ class CoreBench:
         d = self.dut
         d.rst.value = 1
         d.step.value = 0
-        d.u.value = 0
+        self.input_h.value = 0
         self.clock = Clock(d.clk, self.period, unit="ns", impl="gpi")
         self.clock.start(start_high=False)
         await FallingEdge(d.clk)
@@ -99,7 +114,12 @@ class CoreBench:
         d.rst.value = 0
 
     def sample(self) -> tuple:
+        """States and channel levels now, in golden-row order."""
         return tuple(h.value.to_signed() for h in self.state_h) + tuple(int(h.value) for h in self.enc_h)
+
+    def counts(self) -> tuple:
+        """The testbench decoders' x4 counts now, one per encoder."""
+        return tuple(h.value.to_signed() for h in self.count_h)
 
     def overflow_terms(self) -> str:
         """The core's per-node overflow terms that are high now (for failure messages)."""
@@ -110,7 +130,8 @@ class CoreBench:
         return "; core overflow terms high now: " + (", ".join(high) if high else "none")
 
     def set_u(self, u: int):
-        self.dut.u.value = to_bits(u, self.u_width)
+        """Drive the plant's input port with the integer ``u``."""
+        self.input_h.value = to_bits(u, self.u_width)
 
     async def load_state(self, state: dict, overflow: bool):
         """Deposit a golden state (register -> (value, width)) at a boundary; one idle cycle."""
@@ -130,15 +151,14 @@ class CoreBench:
         d = self.dut
         n = len(u)
         expect = [tuple(int(x) for x in r) for r in rows]
-        ports = list(PORTS)
         ii = self.ii
         step_ns = ii * self.period
         d.step.value = 1
         for j in range(n + 1):
             got = self.sample()
             if got != expect[j]:
-                diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(ports, got, expect[j]) if a != b]
-                raise StepMismatch(f"{label}: first mismatch at step {k0 + j} (window row {j}): " + "; ".join(diff))
+                raise StepMismatch(f"{label}: first mismatch at step {k0 + j} (window row {j}): "
+                                   + diff_text(got, expect[j]))
             ovf = int(d.overflow.value)
             want = ovf_before or (ovf_from is not None and j >= ovf_from)
             if ovf != int(want):

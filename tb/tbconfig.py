@@ -14,11 +14,8 @@ WINDOW_POINTS = (0.3, 0.6, 0.9)     # besides the start: where in each stimulus 
 LONG_CHUNKS = {"chirp": 2000, "random": 1000}   # 2 s of the chirp, 1 s of full-scale random levels
 BUS_LEVELS = {"u_pos": 1.3, "u_neg": -2.0}      # V from the zero-force voltage, for the bus tests
 BUS_STEPS = 4000
-STATE_PORTS = ("x", "dx", "theta", "dtheta")
-ENC_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
-PORTS = STATE_PORTS + ENC_PORTS
-TB_TOP = "tb_pendulum_core"
-VERSION = 3                          # of the vector file layout
+TB_TOP = "tb_plant_core"            # the core plus the testbench's own x4 decoders (pendtb.tb_top_source)
+VERSION = 4                          # of the vector file layout
 MIN_VERILATOR = (5, 36)
 WINDOW_STIMULI = ("chirp_low", "chirp_high", "steps", "swing_up", "random",   # the training set
                   "multisine_seed7_1MHz", "steps_other_levels")                 # never seen in training
@@ -26,4 +23,5 @@ WINDOW_STIMULI = ("chirp_low", "chirp_high", "steps", "swing_up", "random",   # 
 
 
 def verilog_files(hdl_dir: Path) -> list[Path]:
+    """The Verilog files of an HDL folder, sorted."""
     return sorted(Path(hdl_dir).glob("*.v"))

@@ -1,6 +1,9 @@
-"""cocotb regression of ``pendulum_core`` against the golden model (pendc.golden).
+"""cocotb regression of the generated core against the golden model (pendc.golden).
 
-Toplevel: ``tb_pendulum_core`` (tb/pendtb.py): the core plus the testbench's own x4
+Every name of the plant (input, states, encoders) comes from the vectors (``core_ports``, from
+the plant interface), so the same tests run on any plant's core.
+
+Toplevel: ``tb_plant_core`` (tb/pendtb.py): the core plus the testbench's own x4
 quadrature decoders. Golden expectations come precomputed from the runner
 (``$PENDC_TB_VECTORS``), see tb/pendtb.py. Every comparison of states and encoder
 lines is bit-exact; a failure names the first differing step and port(s).
@@ -12,10 +15,10 @@ lines is bit-exact; a failure names the first differing step and port(s).
   at 1 s), compared every 1000th step;
 * ``encoders_decode``: full-scale random levels from reset; the testbench decodes A/B
   (x4) and the counts must equal the decoded golden lines and lie within one count of
-  floor(x / 2.5 um) and floor(theta / 0.314 mrad) of the core's state (the encoder
+  floor(state / resolution) of the state each encoder reads (the encoder
   phases integrate the state increments on their own, finer grid, so the decoded
   position may differ from the state by a little more than one count's width);
-* ``overflow_full_push``: full-scale input held drives the cart off its range; the sticky
+* ``overflow_full_push``: full-scale input held drives the plant off its range; the sticky
   flag rises exactly one step after the golden model's first overflow, and the core's
   per-node overflow terms name the same node(s); reset clears it;
 * ``reset_mid_run``: reset in the middle of a step returns to the reset state, and a
@@ -32,7 +35,7 @@ import random
 import cocotb
 
 from pendtb import CHUNK, WINDOW_STIMULI
-from simlib import PORTS, CoreBench, StepMismatch, profile, vectors
+from simlib import CoreBench, StepMismatch, core_ports, diff_text, ports, profile, vectors
 
 QUICK_LONG_CHUNKS = 10          # Icarus: ~1.5 k steps/s, so 10 ms instead of seconds
 
@@ -50,12 +53,12 @@ async def reset_state(dut):
     tb = CoreBench(dut)
     await tb.start()
     row0 = tuple(int(x) for x in _window("chirp_low")["rows"][0])
-    assert tb.sample() == row0, f"reset state {dict(zip(PORTS, tb.sample()))} != golden {dict(zip(PORTS, row0))}"
+    assert tb.sample() == row0, f"reset state {dict(zip(ports(), tb.sample()))} != golden {dict(zip(ports(), row0))}"
     assert int(dut.overflow.value) == 0
     assert int(dut.ready.value) == 1
     await tb.cycles(7)                      # idle: nothing moves without step
     assert tb.sample() == row0
-    assert (dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()) == (0, 0)
+    assert all(c == 0 for c in tb.counts()), f"decoders not at zero after reset: {tb.counts()}"
 
 
 @cocotb.test()
@@ -76,8 +79,8 @@ async def every_step(dut, stim):
             await tb.reset()
         ovf_from = None if w["ovf_first"] is None else w["ovf_first"] + 1
         try:
-            await tb.run_every_step(w["u"], w["rows"], k0, label, ovf_from=ovf_from, ovf_before=w["ovf_before"])
-            dut._log.info("%s: %d steps bit-exact", label, len(w["u"]))
+            await tb.run_every_step(w["input"], w["rows"], k0, label, ovf_from=ovf_from, ovf_before=w["ovf_before"])
+            dut._log.info("%s: %d steps bit-exact", label, len(w["input"]))
         except StepMismatch as exc:
             errors.append(str(exc))
             dut._log.error("%s", exc)
@@ -87,9 +90,11 @@ async def every_step(dut, stim):
 
 
 def _count_checker(dut, tb, run: dict, label: str, stats: dict):
+    """check(i) at boundary i*CHUNK: row, overflow flag, decoded counts, counts vs state."""
     v = vectors()
-    fx = 2.0 ** -v["ports"]["x"]["frac"] / v["x_count"]
-    ft = 2.0 ** -v["ports"]["theta"]["frac"] / v["theta_count"]
+    cp = core_ports()
+    # per encoder: the column of the state it reads and the state's LSB in counts
+    scale = [(cp.states.index(e.state), 2.0 ** -v["ports"][e.state]["frac"] / e.resolution, e) for e in cp.encoders]
     first_ovf = min(run["overflows"].values()) if run["overflows"] else None
 
     def check(i: int):
@@ -97,25 +102,23 @@ def _count_checker(dut, tb, run: dict, label: str, stats: dict):
         got = tb.sample()
         want = tuple(int(x) for x in run["rows"][i])
         if got != want:
-            diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
-            raise StepMismatch(f"{label}: first mismatch at step {k} (sampled every {CHUNK}): " + "; ".join(diff))
+            raise StepMismatch(f"{label}: first mismatch at step {k} (sampled every {CHUNK}): " + diff_text(got, want))
         want_ovf = int(first_ovf is not None and k > first_ovf)
         if int(dut.overflow.value) != want_ovf:
             raise StepMismatch(f"{label}: overflow {int(dut.overflow.value)} at step {k} (sampled every {CHUNK}), "
                                f"golden {want_ovf}{tb.overflow_terms()}")
-        cx, ct = dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()
-        if (cx, ct) != tuple(int(c) for c in run["cnt"][i]):
-            raise StepMismatch(f"{label}: decoded counts (x {cx}, theta {ct}) at step {k} differ from the decoded "
-                               f"golden lines {tuple(int(c) for c in run['cnt'][i])}")
+        counts = tb.counts()
+        if counts != tuple(int(c) for c in run["cnt"][i]):
+            raise StepMismatch(f"{label}: decoded counts {dict(zip((e.name for e in cp.encoders), counts))} at step "
+                               f"{k} differ from the decoded golden lines {tuple(int(c) for c in run['cnt'][i])}")
         # the count the core's state implies is floor(state / resolution) (bands on an absolute grid)
-        ex, et = cx - math.floor(got[0] * fx), ct - math.floor(got[2] * ft)
-        stats["x"] = max(stats.get("x", 0.0), abs(cx - got[0] * fx))
-        stats["theta"] = max(stats.get("theta", 0.0), abs(ct - got[2] * ft))
-        stats["span_x"] = max(stats.get("span_x", 0), abs(cx))
-        stats["span_theta"] = max(stats.get("span_theta", 0), abs(ct))
-        if abs(ex) > 1 or abs(et) > 1:
-            raise StepMismatch(f"{label}: at step {k} the decoded encoders are {ex:+d} (x) and {et:+d} (theta) counts "
-                               f"from floor(state / resolution) of the core's x and theta (allowed: 1)")
+        for (col, f, e), c in zip(scale, counts):
+            off = c - math.floor(got[col] * f)
+            stats[e.name] = max(stats.get(e.name, 0.0), abs(c - got[col] * f))
+            stats[f"span_{e.name}"] = max(stats.get(f"span_{e.name}", 0), abs(c))
+            if abs(off) > 1:
+                raise StepMismatch(f"{label}: at step {k} the decoded {e.name} is {off:+d} counts from "
+                                   f"floor({e.state} / resolution) of the core's {e.state} (allowed: 1)")
         if int(dut.enc_err.value):
             raise StepMismatch(f"{label}: both lines of an encoder changed in one step before step {k}")
     return check
@@ -123,14 +126,14 @@ def _count_checker(dut, tb, run: dict, label: str, stats: dict):
 
 async def _long_run(dut, name: str, label: str):
     run = vectors()["long"][name]
-    chunks = len(run["u"]) if profile() == "full" else min(QUICK_LONG_CHUNKS, len(run["u"]))
+    chunks = len(run["input"]) if profile() == "full" else min(QUICK_LONG_CHUNKS, len(run["input"]))
     tb = CoreBench(dut)
     await tb.start()
     stats = {}
-    await tb.run_chunks(run["u"][:chunks], CHUNK, _count_checker(dut, tb, run, label, stats))
-    dut._log.info("%s: %d steps from reset, bit-exact at every %dth; encoder counts up to %d (x) %d (theta), "
-                  "max |count - state/resolution| %.5f (x) %.5f (theta) counts", label, chunks * CHUNK, CHUNK,
-                  stats["span_x"], stats["span_theta"], stats["x"], stats["theta"])
+    await tb.run_chunks(run["input"][:chunks], CHUNK, _count_checker(dut, tb, run, label, stats))
+    dut._log.info("%s: %d steps from reset, bit-exact at every %dth; %s", label, chunks * CHUNK, CHUNK,
+                  "; ".join(f"{e.name} counts up to {stats[f'span_{e.name}']}, max |count - state/resolution| "
+                            f"{stats[e.name]:.5f}" for e in core_ports().encoders))
     return stats
 
 
@@ -152,25 +155,25 @@ async def long_run_chirp(dut):
     def check(i):
         got, want = tb.sample(), tuple(int(x) for x in run["rows"][mid + i])
         if got != want:
-            diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
             raise StepMismatch(f"chirp long run: first mismatch at step {(mid + i) * CHUNK} (sampled every "
-                               f"{CHUNK}): " + "; ".join(diff))
+                               f"{CHUNK}): " + diff_text(got, want))
         assert int(dut.overflow.value) == 0, f"chirp: overflow at step {(mid + i) * CHUNK}{tb.overflow_terms()}"
-    await tb.run_chunks(run["u"][mid:mid + QUICK_LONG_CHUNKS], CHUNK, check)
+    await tb.run_chunks(run["input"][mid:mid + QUICK_LONG_CHUNKS], CHUNK, check)
     dut._log.info("chirp long run: %d steps from the golden state at step %d, bit-exact at every %dth",
                   QUICK_LONG_CHUNKS * CHUNK, mid * CHUNK, CHUNK)
 
 
 @cocotb.test()
 async def encoders_decode(dut):
-    """x4-decoded encoder lines track the core's x and theta within one count."""
+    """x4-decoded encoder lines track the states they read within one count."""
     stats = await _long_run(dut, "random", "random levels (encoders)")
-    assert stats["span_x"] > 10, "the cart hardly moved: not an encoder test"
+    spans = {e.name: stats[f"span_{e.name}"] for e in core_ports().encoders}
+    assert any(s > 10 for s in spans.values()), f"no encoder moved more than 10 counts ({spans}): not an encoder test"
 
 
 # Beyond this many steps the overflow scenario starts from the golden state near the overflow
-# even in the full profile (the long runs already check seconds from reset): the full push
-# overflows after 3.7 M steps, minutes of simulation at ii = 14.
+# even in the full profile (the long runs already check seconds from reset): the cart-pendulum's
+# full push overflows after 3.7 M steps, minutes of simulation at ii = 14.
 FULL_FROM_RESET_STEPS = 1_000_000
 
 
@@ -189,12 +192,11 @@ async def overflow_full_push(dut):
         def check(i):
             got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
             if got != want:
-                diff = [f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, want) if a != b]
-                raise StepMismatch(f"full push: first mismatch at step {i * CHUNK}: " + "; ".join(diff))
+                raise StepMismatch(f"full push: first mismatch at step {i * CHUNK}: " + diff_text(got, want))
             if int(dut.overflow.value):
                 raise StepMismatch(f"full push: overflow high at step {i * CHUNK}, golden model: first overflow at "
                                    f"step {k_star}{tb.overflow_terms()}")
-        await tb.run_chunks(o["u"][:k0 // CHUNK], CHUNK, check)
+        await tb.run_chunks(o["input"][:k0 // CHUNK], CHUNK, check)
         how = "from reset"
     else:
         await tb.load_state(o["state"], False)
@@ -223,10 +225,10 @@ async def reset_mid_run(dut):
     w = _window("random")
     tb = CoreBench(dut)
     await tb.start()
-    n = 1000
-    await tb.run_every_step(w["u"][:n], w["rows"][:n + 1], 0, "before reset")
+    n = min(1000, len(w["input"]) // 2)
+    await tb.run_every_step(w["input"][:n], w["rows"][:n + 1], 0, "before reset")
     dut.step.value = 1
-    tb.set_u(int(w["u"][n]))
+    tb.set_u(int(w["input"][n]))
     await tb.cycles(1)                          # the step has been accepted: mid-step now
     if tb.ii > 1:
         assert int(dut.ready.value) == 0, "ready high in the middle of a step"
@@ -236,11 +238,11 @@ async def reset_mid_run(dut):
     dut.step.value = 0
     row0 = tuple(int(x) for x in w["rows"][0])
     for _ in range(2):
-        assert tb.sample() == row0, f"after reset: {dict(zip(PORTS, tb.sample()))}, want {dict(zip(PORTS, row0))}"
+        assert tb.sample() == row0, f"after reset: {dict(zip(ports(), tb.sample()))}, want {dict(zip(ports(), row0))}"
         assert int(dut.ready.value) == 1 and int(dut.overflow.value) == 0
-        assert (dut.cnt_x.value.to_signed(), dut.cnt_theta.value.to_signed()) == (0, 0)
+        assert all(c == 0 for c in tb.counts()), f"decoders not at zero after reset: {tb.counts()}"
         await tb.cycles(5)
-    await tb.run_every_step(w["u"], w["rows"], 0, "after reset")
+    await tb.run_every_step(w["input"], w["rows"], 0, "after reset")
 
 
 @cocotb.test()
@@ -251,12 +253,11 @@ async def step_handshake(dut):
     await tb.start()
     rng = random.Random(4)
     rows = [tuple(int(x) for x in r) for r in w["rows"]]
-    n = 600
+    n = min(600, len(w["input"]))
     for j in range(n + 1):
         got = tb.sample()
         if got != rows[j]:
-            raise StepMismatch(f"handshake: first mismatch at step {j}: " + "; ".join(
-                f"{p}: rtl {a} golden {b}" for p, a, b in zip(PORTS, got, rows[j]) if a != b))
+            raise StepMismatch(f"handshake: first mismatch at step {j}: " + diff_text(got, rows[j]))
         assert int(dut.ready.value) == 1, f"ready low at the boundary of step {j}"
         if j == n:
             break
@@ -266,7 +267,7 @@ async def step_handshake(dut):
             await tb.cycles(1)
             assert int(dut.ready.value) == 1 and tb.sample() == rows[j], f"state moved while idle before step {j}"
         dut.step.value = 1
-        tb.set_u(int(w["u"][j]))
+        tb.set_u(int(w["input"][j]))
         await tb.cycles(1)
         for _ in range(tb.ii - 1):
             assert int(dut.ready.value) == 0, f"ready high while step {j} is in flight"
