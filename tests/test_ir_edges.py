@@ -90,3 +90,18 @@ def test_unsigned_operands_count_a_sign_bit_in_the_64_bit_rule(kind, fmts, ok):
     else:
         with pytest.raises(GraphError, match="more than 64"):
             verify(graph, typed=True)
+
+
+def test_the_comparison_table_agrees_with_python_and_names_every_op():
+    from pendc.ir.compare_ops import CompareOp
+    from pendc.ir.nodes import COMPARE_OPS
+    assert COMPARE_OPS == ("lt", "le", "gt", "ge", "eq", "ne")
+    assert [o.orders for o in CompareOp] == [True, True, True, True, False, False]
+    for op in CompareOp:
+        assert CompareOp.parse(op.value) is op and CompareOp.parse(op) is op
+        for a in (-2, 0, 3):
+            for b in (-2, 0, 3):
+                # the infix spelling the kernel printer and the Verilog use, evaluated by Python itself
+                assert eval(f"a {op.symbol} b") == op.apply(a, b)      # noqa: S307 - our own six symbols
+    with pytest.raises(ValueError, match="'lte' is not one of lt, le, gt, ge, eq, ne"):
+        CompareOp.parse("lte")

@@ -237,6 +237,15 @@ class _TypedRules(NodeVisitor):
 _TYPED_RULES = _TypedRules()
 
 
+def check_typed_node(node: Node, input_formats: list) -> None:
+    """The format and bit-width rules for one typed node whose inputs have ``input_formats``
+    (what ``verify(typed=True)`` checks per node; its params were checked when it was built).
+    Raises GraphError naming the node."""
+    if node.qformat is None:
+        _fail(node, "has no Q-format")
+    _TYPED_RULES.visit(node, list(input_formats))
+
+
 def _check_gain(node: Node, fin: QFormat) -> None:
     cfmt, value = node.params.cfmt, node.params.value
     if cfmt is None:
