@@ -1,4 +1,8 @@
-"""``--controller builtin|swing-up|balance|package.module:Class``: find and build a controller.
+"""``--controller builtin|swing-up|balance|hold|package.module:Class``: find and build a controller.
+
+``builtin``, ``swing-up`` and ``balance`` are the cart-pendulum's; ``hold`` (a PD hold of the
+first encoder-read position at its power-on value, :mod:`pendc.hil.position_hold`) drives any
+plant.
 
 A user's class plugs in with no change to pendc: it needs ``reset()`` and
 ``step(measurement) -> volts``; its constructor may take ``model`` (the
@@ -17,19 +21,23 @@ import sys
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .controllers import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+from .position_hold import PositionHold
 
 BUILTIN_CONTROLLERS = {
     "builtin": Supervisor,      # swing up, then balance
     "swing-up": EnergySwingUp,  # energy pumping only (Fig. IV.22)
     "balance": LqrBalance,      # LQR only
+    "hold": PositionHold,       # any plant: PD on the first measured position
 }
 
 
 def make_controller(spec: str, model: PlantModel, period: float = 1e-3, x_ref=0.0):
     """The controller that ``spec`` names, designed for ``model`` at ``period``."""
     if spec in BUILTIN_CONTROLLERS:
-        consts = PendulumConstants.from_model(model)
         cls = BUILTIN_CONTROLLERS[spec]
+        if cls is PositionHold:
+            return cls(model, period)
+        consts = PendulumConstants.from_model(model)
         if cls is EnergySwingUp:
             return cls(consts, period)
         return cls(consts, period, x_ref=x_ref)

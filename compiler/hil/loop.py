@@ -22,13 +22,15 @@ DAC_BITS = 12
 UPRIGHT_TOLERANCE = 0.05   # rad: "upright" for the summary and the scenarios
 
 
-def dac(volts: float, bits: int = DAC_BITS) -> float:
-    """Clamp to 0-10 V and quantise to the nearest code of a ``bits``-bit DAC."""
+def dac(volts: float, bits: int = DAC_BITS, span: tuple = (U_MIN, U_MAX)) -> float:
+    """Clamp to ``span`` (default the SCT rig's 0-10 V) and quantise to the nearest code of a
+    ``bits``-bit DAC over it."""
     if not math.isfinite(volts):
         raise PendcError(f"the controller answered {volts!r} volts")
+    lo, hi = span
     levels = 2**bits - 1
-    code = round(min(max(volts, U_MIN), U_MAX) / (U_MAX - U_MIN) * levels)
-    return U_MIN + code * (U_MAX - U_MIN) / levels
+    code = round((min(max(volts, lo), hi) - lo) / (hi - lo) * levels)
+    return lo + code * (hi - lo) / levels
 
 
 @dataclass(frozen=True)
@@ -120,7 +122,8 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     """Run ``controller`` against ``plant`` for ``seconds`` (one row per period).
 
     ``answer(measurement) -> volts`` replaces ``controller.step`` (the socket server
-    uses it); ``progress(fraction)`` is called now and then. A :class:`PendcError` from
+    uses it); ``progress(fraction)`` is called now and then. The DAC spans the controller's
+    ``input_range`` (volts, low and high) if it declares one, else the SCT rig's 0-10 V. A :class:`PendcError` from
     the plant or the controller ends the run: the result keeps the rows so far and
     says why in ``stopped``.
     """
@@ -129,6 +132,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     n_sub = steps_per_period(plant.dt, period)
     n_rows = int(round(seconds / period)) + 1
     step = answer if answer is not None else controller.step
+    span = tuple(getattr(controller, "input_range", (U_MIN, U_MAX)))
     ports = plant.ports
     t = np.empty(n_rows)
     u = np.empty(n_rows)
@@ -144,7 +148,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     try:
         for k in range(n_rows):
             meas = Measurement.of(k * period, state, ports)
-            volts = dac(float(step(meas)))
+            volts = dac(float(step(meas)), span=span)
             t[k], u[k] = meas.t, volts
             for i, e in enumerate(ports.encoders):
                 pos[i, k] = meas.position(e.state)

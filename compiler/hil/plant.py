@@ -190,13 +190,14 @@ class FloatPlant:
         from .core_ports import CorePorts
         self.ports = CorePorts.of_interface(model.interface)
         names = [s.name for s in eq.states]
+        missing = [n for n in self.ports.states if n not in names]
+        if missing:
+            raise PendcError(f"the model has no state(s) {', '.join(missing)} its interface reports")
         self._index = {name: names.index(name) for name in self.ports.states}
-        n_start = len(self.ports.states)
-        if names[:n_start] != list(self.ports.states):
-            raise PendcError(f"the model's first states {names[:n_start]} are not its reported states "
-                             f"{list(self.ports.states)}")
-        self._module = load_source(kernel_source(eq) + _step_source(len(eq.states), len(self._params), n_start),
-                                   "pendc_plant")
+        self._n_start = n_start = len(names) - len(eq.initial)    # the mechanical states; lags start from u
+        clamped = next((st.name for st in model.interface.states if st.velocity_bound is not None), None)
+        source = kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
+        self._module = load_source(source, "pendc_plant")
         values = model.parameter_values()
         self._delay_steps = (float(eq.delay.subs({s: values[s.name] for s in eq.delay.free_symbols}))
                              / self.dt if eq.delay is not None else 0.0)
@@ -224,7 +225,7 @@ class FloatPlant:
     def step(self, u_volts: float, n_steps: int) -> PlantState:
         u, n = check_step_request(u_volts, n_steps)
         if self._state is None:
-            self._state = self._module.plant_start(np.zeros(len(self.ports.states)), u, self._params)
+            self._state = self._module.plant_start(np.zeros(self._n_start), u, self._params)
         self._history.append((self._k, u))
         new, ok = self._module.plant_advance(self._state, self._inputs(u, n), self._params, self.dt,
                                              self.method == "rk4")
