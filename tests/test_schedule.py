@@ -27,9 +27,9 @@ SHAPE = (18, 18)
 STEPS = 300
 
 
-@pytest.fixture(scope="module")
-def plant():
-    """Integrators fed through a table of u, a product of two signals and constant gains."""
+def toy_plant(levels: dict):
+    """Integrators fed through a table of u, a product of two signals and constant gains;
+    ``levels``: products given wider operands (qformats: 1 = one side 32 bits, two DSP blocks)."""
     n = [make("u", Kind.INPUT, port="u", max_abs=10.0),
          make("y", Kind.LUT, ["u"], expr="sin(v)", lo=None, hi=None, periodic=False, addr_bits=5,
               interpolate=True),
@@ -39,9 +39,22 @@ def plant():
               make(f"{s}_sum", Kind.ADD, [s, f"{s}_inc"])]
     g = Graph.build("toy", n, [(s, s) for s in ("x", "dx", "theta", "dtheta")])
     ranges = analyze_ranges(g, check_stimuli(0.02), DT)
-    typed = fill_lut_tables(assign_qformats(tabulate_luts(g, ranges), ranges, margin_bits=2, shape=SHAPE))
+    typed = fill_lut_tables(assign_qformats(tabulate_luts(g, ranges), ranges, margin_bits=2, shape=SHAPE,
+                                            levels=levels))
     verify(typed, typed=True)
     return typed
+
+
+@pytest.fixture(scope="module")
+def plant():
+    """The toy plant with every product fitted to one DSP block."""
+    return toy_plant({})
+
+
+@pytest.fixture(scope="module")
+def wide_plant():
+    """The toy plant with two-block products: a 32-bit table word, a 32-bit first operand, a 32-bit coefficient."""
+    return toy_plant({"y": 1, "p": 1, "dx_inc": 1})
 
 
 def products(g):
@@ -91,7 +104,7 @@ module tb;
     reg signed [{uw}:0] mem [0:{last}];
     wire ready, overflow;
     wire signed [{xw}:0] x; wire signed [{dxw}:0] dx; wire signed [{tw}:0] theta; wire signed [{dtw}:0] dtheta;
-    pendulum_core dut (.clk(clk), .rst(rst), .step(step), .ready(ready), .u(u), .x(x), .dx(dx),
+    {module} dut (.clk(clk), .rst(rst), .step(step), .ready(ready), .u(u), .x(x), .dx(dx),
                        .theta(theta), .dtheta(dtheta), .overflow(overflow));
     always #5 clk = ~clk;
     integer i, fd;
@@ -122,7 +135,7 @@ def run_icarus(graph, schedule, work):
     ints = rng.integers(u.from_float(-9.0), u.from_float(9.0), STEPS)
     (work / "u.hex").write_text("".join(f"{int(v) & ((1 << u.width) - 1):x}\n" for v in ints))
     w = {k: graph[k].qformat.width - 1 for k in ("x", "dx", "theta", "dtheta")}
-    (work / "tb.v").write_text(TB.format(uw=u.width - 1, last=STEPS - 1, xw=w["x"], dxw=w["dx"], tw=w["theta"],
+    (work / "tb.v").write_text(TB.format(module=view.module, uw=u.width - 1, last=STEPS - 1, xw=w["x"], dxw=w["dx"], tw=w["theta"],
                                          dtw=w["dtheta"]))
     subprocess.run(["iverilog", "-g2005", "-o", "sim", "tb.v", *sorted(files)], cwd=work, check=True)
     subprocess.run(["vvp", "-n", "sim"], cwd=work, check=True, capture_output=True)
@@ -131,11 +144,18 @@ def run_icarus(graph, schedule, work):
 
 
 @pytest.mark.skipif(shutil.which("iverilog") is None, reason="Icarus Verilog not installed")
-@pytest.mark.parametrize("request_", [{"preset": "comb"}, {"preset": "fast"}, {"ii": 8, "dsp": 1}],
-                         ids=["comb", "fast", "ii8-shared"])
-def test_schedules_are_bit_exact_in_icarus(plant, request_, tmp_path):
+@pytest.mark.parametrize("request_", [{"preset": "comb"}, {"preset": "fast"}, {"ii": 8, "dsp": 1},
+                                      {"goal": 10.0, "wide": True}],
+                         ids=["comb", "fast", "ii8-shared", "partial-products"])
+def test_schedules_are_bit_exact_in_icarus(plant, wide_plant, request_, tmp_path):
     preset = request_.get("preset")
-    s = schedule_for(plant, SHAPE, ii=request_.get("ii"), dsp=request_.get("dsp"), preset=preset)
+    if request_.get("wide"):        # 10 ns: a two-block product does not fit a cycle, its two blocks do
+        plant = wide_plant
+        s = schedule_graph(plant, request_["goal"], None, SHAPE)
+        wide = [n.name for n in products(plant) if dsp_for(*product_widths(plant, n), SHAPE) == 2]
+        assert len(wide) >= 3 and set(s.partial_reg) == set(wide)
+    else:
+        s = schedule_for(plant, SHAPE, ii=request_.get("ii"), dsp=request_.get("dsp"), preset=preset)
     view, ints, hw = run_icarus(plant, s, tmp_path / "hdl")
     assert view.ii == s.ii
     if request_.get("dsp"):
@@ -149,6 +169,10 @@ def test_schedules_are_bit_exact_in_icarus(plant, request_, tmp_path):
     assert gold.overflows and hw[:, 4].any()
     assert int(np.argmax(hw[:, 4])) == min(gold.overflows.values())
     assert math.isfinite(s.clock_ns) or preset == "comb"
+    if s.partial_reg:       # the partial products are what the pipeline registers hold, not the whole product
+        held = {src for _, _, _, src, _ in view.dp.pipe_regs}
+        assert all(any(src.startswith(f"n_{node}") and src.endswith(("_xlo", "_xhi")) for src in held)
+                   for node in s.partial_reg)
 
 
 def test_fast_is_the_shortest_estimated_step(plant):
@@ -186,3 +210,29 @@ def test_delay_model_is_charged_per_cycle(plant):
         assert ECP5_SPEED6.overhead() < s.estimated_period_ns <= goal
     comb = schedule_graph(plant)
     assert comb.estimated_period_ns > schedule_graph(plant, 10.0, None, SHAPE).estimated_period_ns
+
+
+def test_no_schedule_beats_the_step_bound(plant, wide_plant):
+    """The critical chain of one step (pendc.passes.step_bound) is a lower bound of every
+    schedule's estimated step under the same delay model, and its path runs from a state
+    (or the input) to the register whose next value is latest."""
+    from pendc.passes.step_bound import step_bound
+    for g in (plant, wide_plant):
+        bound = step_bound(g, shape=SHAPE)
+        schedules = [schedule_graph(g)] + [schedule_graph(g, goal, None, SHAPE) for goal in (6.0, 10.0, 15.0, 30.0)]
+        assert all(bound.bound_ns <= s.estimated_step_ns + 1e-9 for s in schedules)
+        first, last = bound.path[0][0], bound.path[-1][0]
+        assert g[first].kind in (Kind.REGISTER, Kind.INPUT, Kind.FSM)
+        assert any(r.inputs[0] == last for r in g.of_kind(Kind.REGISTER)) and max(bound.ends.values()) == bound.bound_ns
+        assert [t for _, t in bound.path] == sorted(t for _, t in bound.path)
+
+
+def test_step_bound_what_ifs(wide_plant):
+    """One-block products shorten the chain of a plant with two-block products on it; a table read
+    a step ahead starts the step as a register, and its own read joins the ends."""
+    from pendc.passes.step_bound import step_bound
+    base = step_bound(wide_plant, shape=SHAPE)
+    assert step_bound(wide_plant, shape=SHAPE, one_block=True).bound_ns < base.bound_ns
+    ahead = step_bound(wide_plant, shape=SHAPE, lookahead=("y",))
+    assert "y (next step)" in ahead.ends and ahead.bound_ns <= base.bound_ns
+    assert all(name != "y" or t < 1.0 for name, t in ahead.path)

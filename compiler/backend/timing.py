@@ -18,6 +18,10 @@ from ..ir.nodes import Kind
 from ..passes.schedule import SOURCES, Schedule
 from .arith import Netlist, extend, literal, ulit
 
+# a product split into two multiplier blocks splits its wide operand here: 17 unsigned low bits
+# (with a zero sign bit, one 18x18 block) and the signed rest
+LOW_BITS = 17
+
 
 @dataclass
 class Datapath:
@@ -75,6 +79,10 @@ class Datapath:
         if unit is not None and (big[1] > unit.widths[0] or small[1] > unit.widths[1]):
             unit = None     # an unsigned operand as wide as the unit: the unit's signed operand cannot hold it
         if unit is None:
+            cycle = getattr(self.schedule, "partial_reg", {}).get(node)
+            if cycle is not None:
+                wide, narrow = sorted(((a, sw[0]), (b, sw[1])), key=lambda op: -op[1])
+                return self._partial_products(base, wide, narrow, cycle), width
             ops = [f"$signed({literal(c, width) if c is not None else extend(e, w, s, width)})" for e, w, c, s in (a, b)]
             return self._product_reg(node, self.net.wire(f"{base}_x", width, f"{ops[0]} * {ops[1]}")), width
         wa, wb = unit.widths
@@ -94,6 +102,30 @@ class Datapath:
             return wire
         self._piped[wire] = (self.net.fresh(f"{wire}_p"), cycle)
         return self._piped[wire][0]
+
+    def _partial_products(self, base: str, big: tuple, small: tuple, cycle: int) -> str:
+        """The exact product of a wide operand (``big``: (operand, signed width), at most 35 bits)
+        and a narrow one (``small``, at most 18), as two one-block partial products loaded into
+        pipeline registers at the end of ``cycle`` and summed in the next
+        (``Schedule.partial_reg``): a x b = (a_hi x b) * 2**17 + a_lo x b with a_lo the low 17
+        bits of a (unsigned) and a_hi the rest (signed). No cycle then holds more than one
+        multiplier block; the sum and the rounding run in the next."""
+        (e1, w1, c1, s1), wa = big
+        (e2, w2, c2, s2), wb = small
+        if wa <= LOW_BITS + 1 or wa > 2 * LOW_BITS + 1 or wb > LOW_BITS + 1:
+            raise ValueError(f"{base}: a {wa}x{wb} product is not two 18x18 blocks")
+        xa = self.net.wire(f"{base}_xa", wa, literal(c1, wa) if c1 is not None else extend(e1, w1, s1, wa))
+        xb = self.net.wire(f"{base}_xb", wb, literal(c2, wb) if c2 is not None else extend(e2, w2, s2, wb))
+        lo_w, hi_w = LOW_BITS + 1 + wb, wa - LOW_BITS + wb
+        lo = self.net.wire(f"{base}_xlo", lo_w, f"$signed({{1'b0, {xa}[{LOW_BITS - 1}:0]}}) * $signed({xb})")
+        hi = self.net.wire(f"{base}_xhi", hi_w, f"$signed({xa}[{wa - 1}:{LOW_BITS}]) * $signed({xb})")
+        regs = []
+        for wire in (lo, hi):
+            self._piped[wire] = (self.net.fresh(f"{wire}_p"), cycle)
+            regs.append(self._piped[wire][0])
+        total = wa + wb
+        return self.net.wire(f"{base}_x", total, f"$signed({{{regs[1]}, {LOW_BITS}'d0}}) + "
+                                                 f"$signed({extend(regs[0], lo_w, True, total)})")
 
     def emit_units(self) -> None:  # called by finish()
         """Declare every shared unit: phase-selected operands and one product."""

@@ -82,6 +82,8 @@ class Schedule:
     target: str = "ecp5-85k"
     estimated_period_ns: float = 0.0     # the slowest cycle under the delay model (pendc.passes.delays)
     product_reg: dict = field(default_factory=dict)   # product -> the cycle whose end registers it (rounded next)
+    # two-block products registered as their two one-block partial products (summed and rounded next)
+    partial_reg: dict = field(default_factory=dict)
 
     @property
     def estimated_step_ns(self) -> float:
@@ -94,6 +96,7 @@ class Schedule:
                 "estimated_period_ns": self.estimated_period_ns, "estimated_step_ns": self.estimated_step_ns,
                 "dsp_budget": self.dsp_budget, "rom_registered": list(self.rom_reg),
                 "products_registered": dict(sorted(self.product_reg.items())),
+                "partial_products_registered": dict(sorted(self.partial_reg.items())),
                 "units": [u.to_json() for u in self.units],
                 "cycles": {str(c): sorted(n for n, s in self.stage.items() if s == c) for c in range(self.ii)}}
 
@@ -102,7 +105,8 @@ def node_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = 
     """Estimated routed delay of a node's own logic (ns); tables: the address part."""
     k = n.kind
     ins = [graph[i].qformat for i in n.inputs]
-    rounds = any(q.frac > n.qformat.frac for q in ins) if ins else False
+    # a comparison's flag is never rounded (pendc.backend.viewmodel.visit_compare aligns its inputs)
+    rounds = any(q.frac > n.qformat.frac for q in ins) if ins and k is not Kind.COMPARE else False
     in_width = max((q.width for q in ins), default=n.qformat.width)
     if k in (Kind.GAIN, Kind.MUL):
         wa, wb = product_widths(graph, n)
@@ -141,7 +145,7 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
     # offsets are logic time after the launching flip-flop's clock-to-out; a cycle holds
     # ``budget`` of it before the capturing flip-flop's setup
     budget_ns = model.logic_budget(clock_ns)
-    stage, finish, lut_addr, rom_reg, split_at = {}, {}, {}, [], {}
+    stage, finish, lut_addr, rom_reg, split_at, partial_at = {}, {}, {}, [], {}, {}
     longest: dict = {}     # cycle -> the longest logic path ending in it (ns)
     usage: dict = {}
     budget = dsp
@@ -159,7 +163,7 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
         if slots < 1:
             raise PendcError(f"the widest product needs {max(costs)} DSP blocks, more than the budget --dsp {dsp}")
     # a shared unit's operands come through a phase-selected mux in front of it
-    share_mux = model.mux(4) if slots is not None else 0.0
+    share_mux = operand_mux_delay(model, math.ceil(len(costs) / slots)) if slots is not None else 0.0
 
     def place(c: int, offset: float, d: float, n=None) -> tuple[int, float]:
         """First (cycle, start) at or after (c, offset) where ``d`` fits and, for a product, DSPs are free."""
@@ -198,13 +202,13 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
                 longest[c] = max(longest.get(c, 0.0), o)
                 c, o = c + 1, 0.0
             if di and slots is None and di + model.lut_level > budget_ns:
-                wa, wb = product_widths(graph, n)
-                dm = model.product(wa, wb, dsp_for(wa, wb, shape))
-                if dm <= budget_ns:       # slope x fraction from registers; rounded and summed a cycle later
-                    split_at[n.name] = c
+                cut = register_cut(model, *product_widths(graph, n), shape, budget_ns)
+                if cut is not None:       # slope x fraction from registers; rounded and summed a cycle later
+                    dm, after, partial = cut
+                    (partial_at if partial else split_at)[n.name] = c
                     longest[c] = max(longest.get(c, 0.0), dm)
-                    done(n.name, c + 1, di - dm)
-                    longest[c + 1] = max(longest[c + 1], di - dm + model.lut_level)
+                    done(n.name, c + 1, di - after)
+                    longest[c + 1] = max(longest[c + 1], di - after + model.lut_level)
                     continue
             if di:
                 c, o = place(c, o, di, n)
@@ -215,8 +219,8 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
         if product and slots is None:
             split = _split_product(graph, n, model, shape, stage, c, o, d, tail, budget_ns)
             if split is not None:
-                p, rest = split
-                split_at[n.name] = p
+                p, rest, partial = split
+                (partial_at if partial else split_at)[n.name] = p
                 longest[p] = max(longest.get(p, 0.0), d - rest)
                 done(n.name, p + 1, rest)
                 longest[p + 1] = max(longest[p + 1], rest + tail)
@@ -246,25 +250,52 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
     period = round(model.overhead() + max(longest.values(), default=0.0), 3)
     return Schedule(ii=ii, clock_ns=clock_ns, dsp_budget=budget, stage=stage, lut_addr=lut_addr,
                     rom_reg=tuple(rom_reg), units=units, preset=preset, target=target, estimated_period_ns=period,
-                    product_reg=split_at)
+                    product_reg=split_at, partial_reg=partial_at)
+
+
+def operand_mux_delay(model: DelayModel, uses: int) -> float:
+    """The phase-selected operand mux in front of a multiplier unit shared by ``uses`` products:
+    up to four, one LUT level (a 4:1 mux: the default preset's units of 3-4 products routed
+    within 1 ns of a model that charged one level); beyond, the phase decode and the nested
+    ``?:`` chain in ``log2(uses) + 1`` levels (``--preset small``, units of 11-15 products,
+    routed a period 5.8 ns longer than one level: about five). docs/hardware.md has both."""
+    if uses <= 4:
+        return model.mux(uses)
+    return model.lut_level * (math.ceil(math.log2(uses)) + 1)
 
 
 def _split_product(graph: Graph, n, model: DelayModel, shape: tuple, stage: dict, c: int, o: float, d: float,
                    tail: float, budget_ns: float):
-    """``(product cycle, delay after its register)`` when registering a product before its
-    rounding (and the partial-product sum's carry-out) finishes it earlier than chaining it
-    after its operands, else None. The product's operands must all be registers by then:
-    it starts at offset 0 of the cycle after the last of them."""
-    wa, wb = product_widths(graph, n)
-    rest = d - model.product(wa, wb, dsp_for(wa, wb, shape))
-    if d - rest > budget_ns:
+    """``(product cycle, delay after its register, partial)`` when registering a product before
+    its rounding (and the partial-product sum's carry-out; ``partial``: before the partial-product
+    sum, see :func:`register_cut`) finishes it earlier than chaining it after its operands, else
+    None. The product's operands must all be registers by then: it starts at offset 0 of the
+    cycle after the last of them."""
+    cut = register_cut(model, *product_widths(graph, n), shape, budget_ns)
+    if cut is None:
         return None
+    rest, partial = d - cut[1], cut[2]
     computed = [stage[i] for i in n.inputs if graph[i].kind not in SOURCES]
     p = max(computed) + 1 if computed else 0
     if d + tail > budget_ns:
-        return p, rest            # too long for any cycle unless registered
+        return p, rest, partial   # too long for any cycle unless registered
     chained = (c, o + d) if o + d + tail <= budget_ns else (c + 1, d)
-    return (p, rest) if (p + 1, rest) < chained else None
+    return (p, rest, partial) if (p + 1, rest) < chained else None
+
+
+def register_cut(model: DelayModel, wa: int, wb: int, shape: tuple, budget_ns: float):
+    """Where a product from registers is registered when it ends a cycle: ``(delay up to the
+    register, delay of the product before it, partial)``. The whole product (its blocks and
+    their partial-product sum) when that fits ``budget_ns``; else, for a product of two
+    blocks, its two one-block partial products (``partial``: the sum of them starts the next
+    cycle, an adder of ``wa + wb`` bits); else None (no cycle holds it)."""
+    blocks = dsp_for(wa, wb, shape)
+    whole = model.product(wa, wb, blocks)
+    if whole <= budget_ns:
+        return whole, whole, False
+    if blocks == 2 and tuple(shape) == (18, 18) and model.mul_one <= budget_ns:
+        return model.mul_one, whole - model.add(wa + wb), True
+    return None
 
 
 def _share(graph: Graph, stage: dict, shape: tuple, cost) -> tuple:
