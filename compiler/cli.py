@@ -55,14 +55,22 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _state(text: str) -> tuple:
+    """``--x0``: comma-separated numbers (their count is checked against the model's states later)."""
     parts = text.split(",")
     try:
         values = tuple(float(p) for p in parts)
     except ValueError:
         values = ()
-    if len(values) != 4:
-        raise argparse.ArgumentTypeError(f"expected four numbers x,dx,theta,dtheta, got {text!r}")
+    if not values:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, one per state, got {text!r}")
     return values
+
+
+def _check_x0(x0, iface) -> None:
+    """``--x0`` has one value per reported state of the model (its plant interface's order)."""
+    if x0 is not None and len(x0) != len(iface.outputs):
+        raise PendcError(f"argument --x0: expected {len(iface.outputs)} numbers {','.join(iface.outputs)}, "
+                         f"got {len(x0)}")
 
 
 def _emit_json(obj) -> None:
@@ -90,13 +98,13 @@ def cmd_simulate(args) -> int:
     if args.output not in (None, "-"):
         check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
-    data = read_measurements(args.input, required=("t", "u"))
-    _check_input_volts(data)
+    _check_x0(args.x0, model.interface)
+    data = read_measurements(args.input, required=("t", model.interface.input.name))
+    _check_input_volts(data, model.interface.input.name)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
     if args.fixed:
         from .golden import GoldenModel
-        from .sim.encoders import quantize_theta, quantize_x
 
         if args.method != "euler":
             raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
@@ -105,8 +113,7 @@ def cmd_simulate(args) -> int:
                                                           initial=args.x0)
         result = run.result
         if args.quantize:
-            result.states["x"] = quantize_x(result.states["x"])
-            result.states["theta"] = quantize_theta(result.states["theta"])
+            _quantize_measured(result.states, model.interface)
         columns = result.columns()
         if args.on_overflow == "mark":
             # every row computed after the sticky flag rose is marked, not just the first
@@ -129,15 +136,28 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _check_input_volts(data) -> None:
-    """u beyond the rig's limit: millivolts (many rows) or an outlier (a few), named by line, before a
-    simulation of nonsense. Only u: the other columns of a file (a simulation's own output, say) are not read."""
+def _quantize_measured(states: dict, iface) -> None:
+    """Replace every encoder-read state by what its ×4 decoder reports (counts from the first
+    sample times the encoder's resolution), as ``--quantize`` asks."""
+    import numpy as np
+
+    from .sim.encoders import counts
+
+    for sensor in iface.sensors:
+        value = np.asarray(states[sensor.state], dtype=np.float64)
+        states[sensor.state] = value[0] + counts(value, sensor.resolution) * sensor.resolution
+
+
+def _check_input_volts(data, name: str) -> None:
+    """The input (column ``name``) beyond the rig's limit: millivolts (many rows) or an outlier (a
+    few), named by line, before a simulation of nonsense. Only the input: the other columns of a
+    file (a simulation's own output, say) are not read."""
     from .sim import plausibility
     from .sim.table import Table
 
     table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
-    plausibility.check_bounded(table, "u", data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
-                               ("millivolts", "give u in volts"))
+    plausibility.check_bounded(table, name, data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
+                               ("millivolts", f"give {name} in volts"))
 
 
 def _write_output(output: str | None, text: str) -> None:
@@ -158,7 +178,9 @@ def cmd_stimulus(args) -> int:
     if args.name not in stimuli:
         raise PendcError(f"unknown stimulus '{args.name}' (known: {', '.join(stimuli)})")
     t, u = stimuli[args.name]
-    _write_output(args.output, format_csv({"t": t, "u": u}, {"generator": "pendc stimulus", "stimulus": args.name}))
+    from .model.modelfile import load_model
+    name = load_model(getattr(args, "model", None)).interface.input.name
+    _write_output(args.output, format_csv({"t": t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
 
 
@@ -260,12 +282,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--input", required=True, help="measurement file with columns t (s) and u (V): pendc's CSV "
                    "(',' ';' tab or whitespace separated, '# key: value' comments) or MATLAB .mat; '-': standard "
                    "input; other columns are ignored")
-    p.add_argument("-o", "--output", help="output CSV (t,u,x,theta,dx,dtheta); default (or '-'): standard output")
+    p.add_argument("-o", "--output", help="output CSV (t, the input, the model's states; the cart-pendulum: "
+                                          "t,u,x,theta,dx,dtheta); default (or '-'): standard output")
     p.add_argument("--dt", type=_positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
-    p.add_argument("--x0", type=_state, help="initial state x,dx,theta,dtheta (default: at rest, 0,0,0,0); "
+    p.add_argument("--x0", type=_state, help="initial state, one number per state in the model's order (the "
+                                             "cart-pendulum: x,dx,theta,dtheta; default: at rest, all 0); "
                                              "with --fixed the state registers start there")
-    p.add_argument("--quantize", action="store_true", help="quantise x and theta to x4 encoder counts")
+    p.add_argument("--quantize", action="store_true", help="quantise the encoder-read states (x and theta) to "
+                                                           "x4 encoder counts")
     p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
     p.add_argument("--on-overflow", choices=("error", "mark"), default="error",
                    help="--fixed: a value leaving its Q-format range stops the run with an error naming the node "
@@ -306,8 +331,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_report_parsers(sub)
 
-    p = sub.add_parser("stimulus", help="write one of the standard input signals as a t,u CSV")
+    p = sub.add_parser("stimulus", help="write one of the standard input signals as a CSV (t and the model's input)")
     p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")
+    p.add_argument("--model", help="model whose input names the signal's column (default: the default model)")
     p.add_argument("-o", "--output", help="output CSV; default (or '-'): standard output")
     p.set_defaults(func=cmd_stimulus)
     return parser

@@ -13,7 +13,9 @@ from .ir.nodes import Kind
 from .passes.pipeline import BuildResult
 from .passes.qformats import thesis_format
 
-# spec §5: the thesis' formats and the two maxima it prints
+# spec §5: the thesis' formats and the two maxima it prints, for the plant the thesis built
+# (the cart-pendulum's interface name); the names are the nodes of that plant's graph
+THESIS_PLANT = "cart_pendulum"
 THESIS = {
     "x": {"format": "FIX32_31"}, "dx": {"format": "FIX32_31"},
     "ddx": {"format": "FIX32_26", "max": 18.39},
@@ -31,7 +33,11 @@ def _unit(meaning: str) -> str:
 def qformat_report(build: BuildResult) -> dict:
     """Per node: meaning, simulated max, thesis max/format where it printed one, chosen format,
     LSB in physical units and max |error| against float on the check stimuli."""
+    from .model.interface import graph_interface
+
     g = build.graph
+    iface = graph_interface(g)
+    thesis = THESIS if iface is not None and iface.name == THESIS_PLANT else {}
     errors = build.error.node_errors if build.error else {}
     nodes = []
     for n in g.nodes:
@@ -42,12 +48,12 @@ def qformat_report(build: BuildResult) -> dict:
             "max": build.ranges.max_abs.get(n.name), "format": str(n.qformat),
             "lsb": n.qformat.lsb, "unit": _unit(n.meaning), "error_vs_float": errors.get(n.name),
         }
-        if n.name in THESIS:
-            row["thesis"] = THESIS[n.name]
+        if n.name in thesis:
+            row["thesis"] = thesis[n.name]
         nodes.append(row)
     rule_check = {name: {"thesis_max": t["max"], "thesis_format": t["format"],
                          "rule_gives": str(thesis_format(t["max"], 32))}
-                  for name, t in THESIS.items() if "max" in t}
+                  for name, t in thesis.items() if "max" in t}
     return {
         "rules": "constants >= 32 bits; i = ceil(log2(max|v|)) + 1 (signed); fraction = width - i; "
                  f"margin {build.options.margin_bits} bit(s) above the simulated maximum",
@@ -85,15 +91,21 @@ def format_qformat_report(report: dict) -> str:
     if report.get("drift"):
         lines += ["", "Drift after the budget horizon (max |fixed - float| up to t):"]
         for stim, rows in report["drift"].items():
-            lines.append(f"  {stim:10s} " + "  ".join(f"t<={r['t']:g}s x {r['x']:.3g} m, theta {r['theta']:.3g} rad"
+            lines.append(f"  {stim:10s} " + "  ".join(f"t<={r['t']:g}s " + ", ".join(
+                f"{k} {v:.3g} {u}" for k, u in r["units"].items() for v in (r[k],))
                                                     for r in rows))
     return "\n".join(lines) + "\n"
 
 
 def drift_report(build: BuildResult, stimuli: dict) -> dict:
-    """Max |fixed - float| of x and theta up to each of DRIFT_TIMES, per stimulus (full length)."""
+    """Max |fixed - float| of every encoder-read state (the plant interface's) up to each of
+    DRIFT_TIMES, per stimulus (full length): rows ``{"t": limit, <state>: error..., "units": {state: unit}}``."""
     from .golden import GoldenModel
+    from .model.interface import require_interface
     from .sim.simulator import Simulator
+    iface = require_interface(build.graph)
+    measured = [s.state for s in iface.sensors]
+    units = {s: iface.state(s).unit for s in measured}
     golden = GoldenModel(build.graph, build.options.dt)
     sim = Simulator(build.model, dt=build.options.dt)
     out = {}
@@ -105,8 +117,8 @@ def drift_report(build: BuildResult, stimuli: dict) -> dict:
             mask = t <= limit + 1e-9
             if limit > t[-1] + 1e-9:
                 break
-            rows.append({"t": limit, "x": float(np.max(np.abs(g["x"][mask] - f["x"][mask]))),
-                         "theta": float(np.max(np.abs(g["theta"][mask] - f["theta"][mask])))})
+            rows.append({"t": limit, **{s: float(np.max(np.abs(g[s][mask] - f[s][mask]))) for s in measured},
+                         "units": units})
         out[name] = rows
     return out
 
@@ -135,6 +147,9 @@ def resources_report(build: BuildResult, request: dict | None = None) -> dict:
                     "its LUT count is lower (no calibration for it)"]
     levels = (build.error.levels if build.error else None) or {}
     opt = build.options
+    from .model.interface import graph_interface
+    iface = graph_interface(build.graph)
+    budgeted = " or ".join(iface.budgets()) if iface is not None else "a budgeted state"
     why_off = ("multiplier fitting off (fit_multipliers = false): the thesis' 32-bit rule"
                if not opt.fit_multipliers else "no error budget to decide (error_budget = false): the thesis' 32-bit rule")
     for row in out.get("products", []):
@@ -147,8 +162,9 @@ def resources_report(build: BuildResult, request: dict | None = None) -> dict:
             row["level"], row["why"] = 0, f"fits one {out['dsp_shape']} DSP block and the error budget holds"
         else:
             row["level"] = levels[node]
-            row["why"] = (f"widened {levels[node]} level(s) by the error budget: with one block x or theta missed "
-                          f"its budget, and this product's own rounding was among the largest relative errors")
+            row["why"] = (f"widened {levels[node]} level(s) by the error budget: with one block "
+                          f"{budgeted} missed its budget, and this product's own rounding was among the "
+                          f"largest relative errors")
     return out
 
 

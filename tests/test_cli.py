@@ -65,7 +65,7 @@ def test_bad_arguments(tmp_path, capsys):
     _one_line_error(capsys, "simulate", match="--input")
     _one_line_error(capsys, "simulate", "--input", str(stim), "--dt", "abc", match="--dt")
     _one_line_error(capsys, "simulate", "--input", str(stim), "--method", "rk5", match="--method")
-    _one_line_error(capsys, "simulate", "--input", str(stim), "--x0", "1,2", match="four numbers")
+    _one_line_error(capsys, "simulate", "--input", str(stim), "--x0", "1,2", match="expected 4 numbers x,dx,theta,dtheta")
     _one_line_error(capsys, "simulate", "--input", str(tmp_path / "none.csv"), match="not found")
     _one_line_error(capsys, "simulate", "--input", str(stim), "--model", str(tmp_path / "m.toml"),
                     match="not found")
