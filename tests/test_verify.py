@@ -364,3 +364,25 @@ def test_lowered_pendulum_passes_after_each_pass():
     g = tabulate_luts(g, ranges)
     verify(g)
     verify(fill_lut_tables(assign_qformats(g, ranges)), typed=True)
+
+
+def test_text_form_prints_typed_params_in_their_legacy_form():
+    # built from the typed classes only; the text form is the one graphs printed before typing
+    from pendc.ir.compare_ops import CompareOp as Op
+    from pendc.ir.nodes import CompareParams, FsmParams, InputParams, Transition
+    nodes = [make("u", Kind.INPUT, params=InputParams("u", max_abs=10.0), qformat=Q("FIX16_12")),
+             make("k", Kind.GAIN, ["u"], params=GainParams(0.5, cfmt=Q("FIX32_31")), qformat=Q("FIX16_12")),
+             make("sgn", Kind.SLICE, ["k"], params=SliceParams.sign(), qformat=Q("UFIX1_0")),
+             make("big", Kind.COMPARE, ["k", "u"], params=CompareParams(Op.GT), qformat=Q("UFIX1_0")),
+             make("f", Kind.FSM, ["u"], qformat=Q("UFIX2_0"),
+                  params=FsmParams(states=("A", "B"), reset="A", outputs=(0, 3), lo=-10.0, hi=10.0,
+                                   transitions=(Transition("*", Op.GE, 0.5, "B"), Transition("*", Op.LT, -0.5, "A"))))]
+    g = Graph.build("t", nodes, [("sgn", "sgn"), ("big", "big"), ("f", "f")])
+    verify(g, typed=True)
+    assert g.text().splitlines()[1:6] == [
+        "  u = input() max_abs=10.0 port=u : FIX16_12 round wrap",
+        "  f = fsm(u) hi=10.0 lo=-10.0 outputs=(0,3) reset=A states=(A,B) transitions=((*,ge,0.5,B),(*,lt,-0.5,A))"
+        " : UFIX2_0 round wrap",
+        "  k = gain(u) cfmt=FIX32_31 value=0.5 : FIX16_12 round wrap",
+        "  sgn = slice(k) hi=-1 lo=-1 : UFIX1_0 round wrap",
+        "  big = cmp(k, u) op=gt : UFIX1_0 round wrap"]
