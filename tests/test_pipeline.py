@@ -151,6 +151,14 @@ def test_keyword_overrides_win_and_none_is_ignored():
     assert opts.training_scale == BuildOptions().training_scale
 
 
+@pytest.mark.parametrize("bits", [0, 21, 100])
+def test_table_size_outside_the_ir_limit_is_one_line(bits):
+    # 2**100 segments would be tabulated before any verifier ran
+    m = with_hardware(f"[hardware]\nlut_addr_bits = {bits}\n")
+    with pytest.raises(PendcError, match=rf"^\[hardware\] lut_addr_bits must be 1\.\.20 .*got {bits}$"):
+        options_from_model(m)
+
+
 def test_unknown_hardware_key_is_rejected():
     m = with_hardware("[hardware]\nmargin_bits = 2\nclock_mhz = 100\nbogus = 1\n")
     with pytest.raises(PendcError, match=r"\[hardware\] has unknown option\(s\) bogus, clock_mhz"):

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields
 
 from ..errors import PendcError
 from ..ir.graph import Graph, GraphError
+from ..ir.limits import MAX_LUT_ADDR_BITS
 from ..ir.qformat import QFormat
 from ..ir.verify import verify
 from ..model.interface import PlantInterface
@@ -150,6 +151,10 @@ def validate_options(values) -> BuildOptions:
             table[key], ok = float(value), True
         if not ok:
             raise PendcError(f"[hardware] {key} must be a {expected.__name__}, got {value!r}")
+    addr_bits = table.get("lut_addr_bits", defaults.lut_addr_bits)
+    if not 1 <= addr_bits <= MAX_LUT_ADDR_BITS:
+        raise PendcError(f"[hardware] lut_addr_bits must be 1..{MAX_LUT_ADDR_BITS} (a table of 2**n segments), "
+                         f"got {addr_bits}")
     if table.get("target", defaults.target) not in MULT_SHAPES:
         raise PendcError(f"[hardware] target must be one of {', '.join(MULT_SHAPES)}, got {table['target']!r}")
     for state, value in table.get("budget", {}).items():
