@@ -3,12 +3,12 @@ of its own (issue 12, point 1).
 
 The data come from outside pendc: ``tests/independent_furuta.py`` integrates hand-written
 equations of motion (Cazzolato & Prime 2011) with scipy and quantises its own encoders. It
-hides an effect that ``models/furuta_qube.toml`` lacks, an offset of the pendulum's encoder
-(the reading at the hanging rest is 0.05 rad). ``pendc compare``, ``pendc diagnose`` and
+hides an effect that ``models/furuta_qube.toml`` lacks: dry friction on the arm (3 mN*m,
+stick-slip resolved by events), the catalogue's ``coulomb_arm``. ``pendc compare``, ``pendc diagnose`` and
 ``pendc fit`` then run on the file exactly as on the cart-pendulum's: the columns, outputs,
 units, periodic states and encoder counts all come from the model's plant interface.
 
-The last test is the grep of issue 12: the simulation and identification code (and its
+The last tests are the grep of issue 12: the simulation and identification code (and its
 command-line layer) names no state or input of either plant in a string literal.
 """
 
@@ -26,18 +26,19 @@ from independent_furuta import simulate, stimulus
 from pendc.sim.measurements import write_csv
 
 FURUTA = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"
-HIDDEN_OFFSET = 0.05       # rad: what the pendulum's encoder reads at the hanging rest
+HIDDEN_FRICTION = 0.003    # N*m: dry friction torque of the arm
 SECONDS = 3.0              # short: the generator integrates every 1 ms sample with scipy
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    """A 3 s run of the independent generator (chirp, then steps), encoder columns only."""
+    """A 3 s run of the independent generator (chirp, then steps), encoder columns only (the
+    velocities are estimated from them, as from a lab's recording)."""
     t, u = stimulus(seconds=SECONDS, seed=1)
-    run = simulate(t, u, params={"alpha_p_off": HIDDEN_OFFSET})
-    path = tmp_path_factory.mktemp("furuta") / "qube_offset.csv"
+    run = simulate(t, u, params={"tau_r": HIDDEN_FRICTION})
+    path = tmp_path_factory.mktemp("furuta") / "qube_arm_friction.csv"
     write_csv(path, {k: run[k] for k in ("t", "u", "phi_r", "alpha_p")},
-              {"generator": "tests/independent_furuta.py", "hidden": f"alpha_p_off={HIDDEN_OFFSET}"})
+              {"generator": "tests/independent_furuta.py", "hidden": f"tau_r={HIDDEN_FRICTION}"})
     return path
 
 
@@ -50,8 +51,8 @@ def test_compare_reads_the_plants_own_columns(recording, capsys):
     assert set(c["fit_horizon"]) >= {"phi_r", "alpha_p"}
     assert {r["partition"] for r in c["regimes"]} >= {"arm motion", "pendulum angle", "drive"}
     assert "track position" not in {r["partition"] for r in c["regimes"]}    # both positions are angles
-    # the offset is all that is missing: the arm follows, the pendulum's horizon fit is poorer
-    assert c["fit_horizon"]["phi_r"] > 95.0 and c["fit_horizon"]["alpha_p"] < 90.0
+    # the missing friction shows in both angles' horizon fit
+    assert c["fit_horizon"]["phi_r"] < 90.0 and c["fit_horizon"]["alpha_p"] < 90.0
     assert set(c["rms_free_run"]) == {"phi_r", "alpha_p", "alpha_p_wrapped"}
 
 
@@ -61,25 +62,26 @@ def test_diagnose_ranks_the_hidden_effect_first(recording, capsys):
     d = json.loads(out)
     names = [c["effect"] for c in d["candidates"]]
     catalogue = set(pendc.load_model(FURUTA).catalogue) - set(pendc.load_model(FURUTA).effects)
-    assert set(names) <= catalogue and "alpha_offset" in names
-    best = d["candidates"][0]
-    assert best["effect"] == "alpha_offset", names
-    assert best["score"] > 0.5 and all(c["score"] < 0.5 for c in d["candidates"][1:])
-    assert best["params"]["alpha_p_off"] == pytest.approx(HIDDEN_OFFSET, rel=0.1)
+    assert set(names) <= catalogue and "coulomb_arm" in names
+    best, runner_up = d["candidates"][0], d["candidates"][1]
+    assert best["effect"] == "coulomb_arm", names
+    assert best["score"] > 0.9 and runner_up["score"] < best["score"] - 0.2 and not d["tie"]
+    assert best["params"]["tau_r"] == pytest.approx(HIDDEN_FRICTION, rel=0.05)
     assert not d["unexplained"]
 
 
-def test_fit_recovers_the_offset_and_the_error_falls(recording, tmp_path, capsys):
+def test_fit_recovers_the_friction_and_the_error_falls(recording, tmp_path, capsys):
     new = tmp_path / "fitted.toml"
-    rc, out, err = run_cli(capsys, "fit", recording, "--model", FURUTA, "--add", "alpha_offset", "-o", new, "--json")
+    rc, out, err = run_cli(capsys, "fit", recording, "--model", FURUTA, "--add", "coulomb_arm", "-o", new, "--json")
     assert rc == 0, err
     f = json.loads(out)
-    value, (lo, hi) = f["params"]["alpha_p_off"]["value"], f["params"]["alpha_p_off"]["ci95"]
-    assert value == pytest.approx(HIDDEN_OFFSET, abs=2e-3) and lo < value < hi
+    value, (lo, hi) = f["params"]["tau_r"]["value"], f["params"]["tau_r"]["ci95"]
+    assert value == pytest.approx(HIDDEN_FRICTION, rel=0.05) and lo < value < hi
     before, after = f["fit_before"]["pooled"], f["fit_after"]["pooled"]
-    assert after["alpha_p"] > before["alpha_p"] + 5.0 and after["phi_r"] >= before["phi_r"] - 0.1
+    assert after["phi_r"] > before["phi_r"] + 10.0 and after["alpha_p"] > before["alpha_p"] + 10.0
+    assert f["free_run_after"]["pooled"]["phi_r"] > f["free_run_before"]["pooled"]["phi_r"]
     fitted = pendc.load_model(new)
-    assert fitted.body == "furuta" and fitted.effects["alpha_offset"]["alpha_p_off"] == pytest.approx(value)
+    assert fitted.body == "furuta" and fitted.effects["coulomb_arm"]["tau_r"] == pytest.approx(value)
 
 
 # -- the grep of issue 12 ------------------------------------------------------------------------
