@@ -24,6 +24,7 @@ from .ir.compiled import CompiledGraph
 from .ir.graph import Graph
 from .ir.interpret import FixedInterpreter
 from .model.interface import require_interface
+from .sim.signals import signals_of
 from .sim.simulator import SimResult
 
 OVERFLOW_CHOICES = ("error", "mark")
@@ -85,6 +86,7 @@ class GoldenModel:
         self.engine = engine
         iface = require_interface(graph)           # the plant's input port and reported states
         self.input, self.states = iface.input.name, iface.outputs
+        self.signals = signals_of(iface)           # a result's columns are this plant's
         self.u_format = graph[self.input].qformat
         self._run = CompiledGraph(graph, "fixed").run if engine == "compiled" else FixedInterpreter(graph).run
 
@@ -125,7 +127,7 @@ class GoldenModel:
         rows = np.concatenate([[0], np.cumsum(steps)])
         states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows // every] * self.graph.output(s).qformat.lsb
                   for s in self.states}
-        result = SimResult(t=t, u=u, states=states)
+        result = SimResult(t=t, u=u, states=states, signals=self.signals)
         first = first_overflow(trace.overflows)
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(trace.overflows))
@@ -151,7 +153,7 @@ class GoldenModel:
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows))
         states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(self.states)}
-        return GoldenRun(result=SimResult(t=t, u=u, states=states), raw={s: rows[:, j] for j, s in enumerate(self.states)},
+        return GoldenRun(result=SimResult(t=t, u=u, states=states, signals=self.signals), raw={s: rows[:, j] for j, s in enumerate(self.states)},
                          overflows=dict(stepper.overflows), rows=np.concatenate([[0], np.cumsum(steps)]))
 
 

@@ -60,6 +60,7 @@ def test_a_golden_run_stays_in_range_and_follows_the_float_model(qube, build):
     t = np.arange(0, 0.1 + 1e-12, 1e-3)
     u = np.where((np.arange(len(t)) // 20) % 2 == 0, 10.0, -10.0)
     fixed = GoldenModel(build.graph, DT)(t, u).result
+    assert list(fixed.columns()) == ["t", "u", "phi_r", "alpha_p", "dphi_r", "dalpha_p"]   # the file's columns
     ref = pendc.Simulator(qube, dt=DT)(t, u)
     iface = qube.interface
     for q in ("phi_r", "alpha_p"):
