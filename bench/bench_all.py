@@ -1,6 +1,6 @@
 """`make bench`: every benchmark, one JSON with machine info, and a table for the README.
 
-Runs bench_simulate, bench_golden, bench_diagnose, bench_verilator and bench_synth (each
+Runs bench_simulate, bench_golden, bench_diagnose, bench_verilator, bench_synth and bench_step_bound (each
 its own process, its own JSON under bench/out/), then merges them into
 ``bench/out/bench.json`` with the machine's CPU, core count, Python and tool versions
 and every part's wall time, and prints a Markdown table of the headline figures.
@@ -21,7 +21,7 @@ from importlib import metadata
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PARTS = ("simulate", "golden", "diagnose", "verilator", "synth")
+PARTS = ("simulate", "golden", "diagnose", "verilator", "synth", "step_bound")
 
 
 def machine() -> dict:

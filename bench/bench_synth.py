@@ -1,6 +1,6 @@
 """Benchmark: synthesis of the default model's core per schedule preset, against the thesis.
 
-For each preset (``fast``, ``default`` and ``small``; ``comb`` on request) the default model's
+For each preset (``fast``, ``default`` and ``small``; ``comb`` and ``fmax`` on request) the default model's
 HDL is emitted into a temporary folder and ``pendc report synth`` (Yosys ``synth_ecp5`` +
 nextpnr-ecp5, LFE5U-85F speed 6, out of context) runs on it. Results are cached by
 design hash, so a second run costs nothing (a cold run of one preset takes 5-20 minutes on
@@ -60,7 +60,7 @@ def synth_presets(presets, target: str = "ecp5-85k", log=print) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
-    ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb too)")
+    ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb and fmax too)")
     ap.add_argument("--target", default="ecp5-85k")
     args = ap.parse_args(argv)
     result = {"target": args.target, "presets": synth_presets(args.presets.split(","), args.target)}

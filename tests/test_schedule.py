@@ -236,3 +236,11 @@ def test_step_bound_what_ifs(wide_plant):
     ahead = step_bound(wide_plant, shape=SHAPE, lookahead=("y",))
     assert "y (next step)" in ahead.ends and ahead.bound_ns <= base.bound_ns
     assert all(name != "y" or t < 1.0 for name, t in ahead.path)
+
+
+def test_fmax_preset_is_the_10ns_goal(wide_plant):
+    """``--preset fmax``: the 10 ns goal itself (not a tighter goal that ties on the estimate), with
+    the two-block products registered at their partial products, so no cycle holds two blocks."""
+    s = schedule_for(wide_plant, SHAPE, preset="fmax")
+    assert s.clock_ns == 10.0 and s.preset == "fmax" and s.partial_reg
+    assert s == schedule_graph(wide_plant, 10.0, None, SHAPE, "fmax")
