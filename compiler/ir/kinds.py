@@ -51,20 +51,20 @@ graph's text form prints it. New code reads the typed fields: ``node.params.cfmt
 QFormat, ``node.params.op`` a CompareOp, ``node.params.sign_bit`` a bool.
 
 Adding a kind: a params class here (if it has parameters), one ``Kind`` member naming it
-and its arity, and a
-``visit_<kind>`` method in every :class:`pendc.ir.visitor.NodeVisitor` subclass (the
-printers and evaluators), which Python lists at import if one is missing
-(docs/architecture.md has a worked example).
+and its arity, and a ``visit_<kind>`` method in every :class:`pendc.ir.visitor.NodeVisitor`
+subclass (the printers and evaluators); an import fails at the first one without it and
+``python -m pendc.ir.visitor_audit`` lists them all (docs/architecture.md has a worked
+example).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from enum import Enum
 from functools import cached_property
 from numbers import Real
 from typing import ClassVar, NamedTuple
-import math
 
 from .compare_ops import CompareOp
 from .limits import MAX_LUT_ADDR_BITS
