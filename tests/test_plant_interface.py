@@ -63,13 +63,22 @@ def test_only_the_angle_is_periodic(iface):
     assert not iface.state("x").periodic and iface.state("x").capacity is None
 
 
-def test_periodicity_is_read_off_the_lagrangian():
+def test_periodicity_of_an_expression():
     q, w = sp.symbols("q w", real=True)
     assert period_of(w**2 / 2 + sp.cos(q), q) == 2 * sp.pi               # a pendulum
     assert period_of(w**2 / 2 + sp.cos(2 * q) * sp.sin(q), q) == 2 * sp.pi
     assert period_of(w**2 / 2 - q**2 / 2, q) is None                      # a spring
     assert period_of(w**2 / 2 + sp.cos(q / 2), q) is None                 # 4*pi, not one turn
     assert period_of(w**2 / 2, q) is None                                 # absent: a translation
+
+
+def test_periodicity_is_read_off_the_geometry():
+    """The rule reads the mechanism's points: a rotation may be absent from the energies (the
+    Furuta arm's angle is cyclic), yet a turn of it brings every point back."""
+    q, r = sp.symbols("q r", real=True)
+    assert period_of(sp.Matrix([r * sp.cos(q), r * sp.sin(q), 0]), q) == 2 * sp.pi    # an arm's tip
+    assert period_of(sp.Matrix([q, 0, r * sp.sin(q)]), q) is None                       # a cart carrying it
+    assert period_of(sp.Matrix([sp.cos(q / 2), 0]), q) is None                          # 4*pi, not one turn
 
 
 def test_velocity_bound_is_the_models_clamp(model, iface):

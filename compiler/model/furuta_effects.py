@@ -73,9 +73,9 @@ class FurutaEffect:
 class MotorDrive(FurutaEffect):
     name = "motor_drive"
     summary = "DC motor from the amplifier's voltage, back-EMF included: tau = k_t (u - k_m dphi_r) / R_m"
-    # QUBE-Servo 2 user manual, Table 2.1 (motor): R_m 8.4 ohm, k_t 0.042 N*m/A, k_m 0.042 V/(rad/s);
-    # the armature inductance (1.16 mH, an electrical time constant of 0.14 ms) is left out, as
-    # Quanser's own model does
+    # The QUBE-Servo 2's motor (Quanser's qube2_rotpen_param.m): R_m 8.4 ohm, k_t 0.042 N*m/A,
+    # k_m 0.042 V/(rad/s); the armature inductance (1.16 mH, an electrical time constant of
+    # 0.14 ms) is left out, as Quanser's own model does
     params = (
         Param("R_m", "ohm", 8.4, 0.1, 100.0, "terminal resistance of the motor"),
         Param("k_t", "N*m/A", 0.042, 1e-4, 1.0, "torque constant of the motor"),

@@ -22,7 +22,7 @@ from .interface import InputSpec, PlantInterface, QuantitySpec, SensorSpec, Stat
 # The positions each experiment measures
 MEASURED = {"arm_held": ("alpha_p",), "pendulum_removed": ("phi_r",)}
 
-# The amplifier's input: name, unit, meaning, full scale. QUBE-Servo 2 user manual: the PWM
+# The amplifier's input: name, unit, meaning, full scale. Qube-Servo user manual: the PWM
 # amplifier's recommended output range is +-10 V (+-15 V at most); the model takes the
 # recommended range, as Quanser's own swing-up (tau_max = k_t 10 V / R_m) does.
 INPUT = ("u", "V", "motor voltage from the amplifier (V)", 10.0)
@@ -35,7 +35,7 @@ QUANTITIES = {
     "ddphi_r": ("rad/s^2", "arm angular acceleration (rad/s^2)"),
     "ddalpha_p": ("rad/s^2", "pendulum angular acceleration (rad/s^2)"),
 }
-# QUBE-Servo 2 user manual: both encoders have 512 lines per revolution, 2048 counts in
+# Qube-Servo user manual: both encoders have 512 lines per revolution, 2048 counts in
 # quadrature (0.00307 rad per count): state, body, band (rad), lines, bands per revolution
 LINES = 512
 ENCODERS = (("phi_r", "arm", 2 * math.pi / (2 * LINES), LINES, 2 * LINES),
