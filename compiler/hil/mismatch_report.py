@@ -39,15 +39,16 @@ def figure_png(results: dict) -> bytes:
     colours = {"predicted": "tab:grey", "hil": "tab:red", "matched": "tab:blue"}
     for name, res in results.items():
         run = res.run
-        phi = np.array([wrap_upright(v) for v in run.theta])
+        angle, cart = _angle_and_cart(run)
+        phi = np.array([wrap_upright(v) for v in run.column(angle)])
         axes[0].plot(run.t, np.abs(phi), lw=0.8, color=colours[name], label=LABELS[name])
-        axes[1].plot(run.t, run.x, lw=0.8, color=colours[name])
+        axes[1].plot(run.t, run.column(cart), lw=0.8, color=colours[name])
         axes[2].plot(run.t, run.u, lw=0.4, color=colours[name], alpha=0.8)
     axes[0].axhline(0.05, color="black", lw=0.5, ls=":")
-    axes[0].set_ylabel("|theta - pi| (rad)")
+    axes[0].set_ylabel(f"|{angle} - pi| (rad)")
     axes[0].legend(fontsize=8, loc="upper right")
-    axes[1].set_ylabel("x (m)")
-    axes[2].set_ylabel("u (V)")
+    axes[1].set_ylabel(f"{cart} (m)")
+    axes[2].set_ylabel(f"{run.input_name} (V)")
     axes[2].set_xlabel("t (s)")
     axes[0].set_title("Controller designed on the Table 3 model, against the Table 14 plant")
     fig.tight_layout()
@@ -57,16 +58,23 @@ def figure_png(results: dict) -> bytes:
     return buf.getvalue()
 
 
+def _angle_and_cart(run) -> tuple[str, str]:
+    """The run's upright angle and its other measured position (the cart-pendulum's cart)."""
+    return run.angle, next(s for s, _ in run.positions if s != run.angle)
+
+
 def table(results: dict) -> str:
     """Markdown table of the three runs."""
-    rows = ["| run | upright from (s) | max abs x (m) | switches | balancing u std (V) | passes |",
+    cart = _angle_and_cart(next(iter(results.values())).run)[1]
+    rows = [f"| run | upright from (s) | max abs {cart} (m) | switches | balancing u std (V) | passes |",
             "|---|---|---|---|---|---|"]
     for name, res in results.items():
         f = res.figures
         act = balance_activity(res.run)
         up = f"{f['upright_at_s']:.2f}" if f["upright_at_s"] is not None else "never"
         std = f"{act['u_std_v']:.2f}" if act["u_std_v"] is not None else "-"
-        rows.append(f"| {LABELS[name]} | {up} | {f['max_abs_x_m']:.3f} | {f['switches']} | {std} | "
+        span = float(np.max(np.abs(res.run.column(cart))))
+        rows.append(f"| {LABELS[name]} | {up} | {span:.3f} | {f['switches']} | {std} | "
                     f"{'yes' if res.passed else 'no'} |")
     return "\n".join(rows)
 
