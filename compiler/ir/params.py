@@ -17,8 +17,8 @@ class ParamError(ValueError):
     """A malformed parameter, before it is known which node carries it (``make`` adds the node)."""
 
 
-
 def check_real(key: str, v, optional: bool = False) -> None:
+    """ParamError unless ``v`` is a finite real number (not a bool; None if ``optional``)."""
     if optional and v is None:
         return
     if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v):
@@ -26,12 +26,14 @@ def check_real(key: str, v, optional: bool = False) -> None:
 
 
 def check_int(key: str, v, lo: int, hi: int | None = None) -> None:
+    """ParamError unless ``v`` is an integer (not a bool) in ``lo..hi`` (no upper bound if None)."""
     if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
         bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
         raise ParamError(f"param '{key}' must be an integer {bound}, got {v!r}")
 
 
 def check_flag(key: str, v) -> None:
+    """ParamError unless ``v`` is True or False."""
     if not isinstance(v, bool):
         raise ParamError(f"param '{key}' must be True or False, got {v!r}")
 

@@ -84,7 +84,8 @@ def requant_lines(i: int, node, expr: str, rng: tuple, frac: int) -> list:
         if fmt.contains(lo << n) and fmt.contains(hi << n):
             return [f"{t} = {expr}", f"{tgt} = {shifted}"]
         up, down = fmt.max_int >> n, -((-fmt.min_int) >> n)
-        conds = ([f"{t} > {int_literal(up)}"] if hi > up else []) + ([f"{t} < {int_literal(down)}"] if lo < down else [])
+        conds = (([f"{t} > {int_literal(up)}"] if hi > up else [])
+                 + ([f"{t} < {int_literal(down)}"] if lo < down else []))
         if ovf is Overflow.SATURATE:
             fix = f"{int_literal(fmt.max_int)} if {t} > 0 else {int_literal(fmt.min_int)}"
         else:
@@ -113,14 +114,17 @@ def requant_lines(i: int, node, expr: str, rng: tuple, frac: int) -> list:
     if not conds:
         return lines
     if ovf is Overflow.SATURATE:
-        fix = (f"{int_literal(fmt.max_int)} if {tgt} > {int_literal(fmt.max_int)} else {int_literal(fmt.min_int)}" if len(conds) == 2
-               else int_literal(fmt.max_int) if hi > fmt.max_int else int_literal(fmt.min_int))
+        top, bottom = int_literal(fmt.max_int), int_literal(fmt.min_int)
+        fix = (f"{top} if {tgt} > {top} else {bottom}" if len(conds) == 2
+               else top if hi > fmt.max_int else bottom)
     else:
         fix = wrap_expr(tgt, fmt)
     return lines + [f"if {' or '.join(conds)}:", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
                     f"    {tgt} = {fix}"]
 
+
 def wrap_expr(e: str, fmt: QFormat) -> str:
+    """``e`` wrapped into ``fmt``'s width (two's complement, or modulo for unsigned)."""
     if fmt.width == 64:
         return e
     if fmt.signed:
