@@ -72,11 +72,22 @@ def _node_sections(core: str) -> dict:
     return {m.group(1): core[m.start():end] for m, end in zip(marks, ends)}
 
 
-def test_every_ir_node_has_exactly_one_comment(files):
+@pytest.fixture(scope="module")
+def furuta():
+    """The second plant's build: (graph, files), through the same backend entry point."""
+    build = compile_cached(load_model(ROOT / "models" / "furuta_qube.toml"))
+    return build.graph, build_hdl(build.graph, build.resources.to_json(), source="models/furuta_qube.toml")
+
+
+@pytest.mark.parametrize("plant", ["sct", "furuta"])
+def test_every_ir_node_has_exactly_one_comment(plant, files, request):
     """One comment per node naming it, its kind, its Q-format and its meaning, and the node's
-    value n_<node> declared (and assigned) under it."""
-    graph = compile_cached(load_model()).graph
-    core = files["pendulum_core.v"]
+    value n_<node> declared (and assigned) under it, for either plant."""
+    if plant == "sct":
+        graph, core = compile_cached(load_model()).graph, files["pendulum_core.v"]
+    else:
+        graph, fur = request.getfixturevalue("furuta")
+        core = fur["furuta_core.v"]
     named = Counter(m.group(1) for m in NODE_COMMENT.finditer(core))
     assert named == Counter(n.name for n in graph.nodes)
     sections = _node_sections(core)
@@ -91,8 +102,10 @@ def test_every_ir_node_has_exactly_one_comment(files):
     assert not re.search(r"^ *assign n_", core, re.M)          # node wires are assigned where declared
 
 
-def test_no_line_is_longer_than_the_limit(files):
-    for name, text in files.items():
+@pytest.mark.parametrize("plant", ["sct", "furuta"])
+def test_no_line_is_longer_than_the_limit(plant, files, request):
+    built = files if plant == "sct" else request.getfixturevalue("furuta")[1]
+    for name, text in built.items():
         if name.endswith(".v"):
             longest = max(text.splitlines(), key=len)
             assert len(longest) <= LINE_LIMIT, f"{name}: {longest}"
@@ -109,3 +122,26 @@ def test_wrapping_keeps_every_token_and_the_limit():
         lines = wrap("wire signed [63:0] n_hit = ", expr, ";")
         assert "".join(ln.strip() + " " for ln in lines).split() == f"wire signed [63:0] n_hit = {expr};".split()
         assert all(len(ln) <= 110 for ln in lines if " " in ln.strip()), lines
+
+
+def test_the_second_plant_builds_its_own_core_wrappers_and_register_map(furuta, files):
+    """The Furuta pendulum's files are named by its interface's core, its register map has
+    exactly its interface's register names besides the fixed ones, and nothing in them names a
+    state or encoder of the cart pendulum."""
+    from pendc.model.interface import require_interface
+    graph, fur = furuta
+    iface = require_interface(graph)
+    assert iface.core == "furuta_core"
+    report = json.loads(fur["report.json"])
+    assert report["top"] == "furuta_core" and report["wrapper"] == "furuta_raptor"
+    assert {"furuta_core.v", "furuta_regs.v", "furuta_qdec.v", "furuta_raptor.v"} <= set(fur)
+    assert all(name.startswith("furuta_") for name in fur if name.endswith(".v"))
+    sct = require_interface(compile_cached(load_model()).graph)
+    fixed = {r["name"] for r in json.loads(files["report.json"])["registers"]}
+    fixed -= {r for regs in sct.register_names().values() for r in regs}
+    names = {r["name"] for r in report["registers"]}
+    assert names == fixed | {r for regs in iface.register_names().values() for r in regs}
+    foreign = [*sct.outputs, *(s.name for s in sct.sensors), *(c for s in sct.sensors for c in s.channels)]
+    for name, text in fur.items():
+        hits = [w for w in foreign if re.search(rf"\b(n_)?{w}\b", text)]
+        assert not hits, f"{name} names {hits}"

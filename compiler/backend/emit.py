@@ -126,7 +126,7 @@ def roms_context(view: CoreView, header: str) -> dict:
     roms = []
     for r in view.roms:
         roms.append({
-            "name": r.name, "comment": f"{len(r.words)} words x {r.data_width} bits",
+            "name": r.name, "comment": f"{len(r.words)} words of {r.data_width} bits",
             "addr_msb": r.addr_width - 1, "data_msb": r.data_width - 1, "last": len(r.words) - 1,
             "words": [{"index": i, "data": f"{r.data_width}'h{w}"} for i, w in enumerate(r.words)],
         })

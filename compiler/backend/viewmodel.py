@@ -147,7 +147,7 @@ class ParamsText(NodeVisitor):
         return f"port {n.params.port}"
 
     def visit_gain(self, n) -> str:
-        return f"x {n.params.value!r} as {n.params.cfmt}"
+        return f"* {n.params.value!r} as {n.params.cfmt}"
 
     def visit_compare(self, n) -> str:
         return f"op {n.params.op.value}"

@@ -23,6 +23,7 @@ string and the templates only loop and print.
 
 from __future__ import annotations
 
+from . import verilog_text as vtext
 from .arith import extend
 from .emit import GENERATOR, _env
 
@@ -254,7 +255,8 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
         count = f"{sensor.name}_count"
         values[names[sensor.name][0]] = count
         a, b = sensor.channels
-        decoders.append({"count": count, "inst": f"u_qdec_{sensor.state}", "a": a, "b": b})
+        decoders.append({"count": count, "lines": vtext.wrap(f"{modules['qdec']} u_qdec_{sensor.state} ",
+                                                             f"(.clk(clk), .clr(clear), .a({a}), .b({b}), .count({count}));")})
     for name, lo, hi in status_words(status_nodes):
         w = hi - lo + 1
         values[name] = f"core_status[{hi}:{lo}]" if w == 32 else f"{{{32 - w}'d0, core_status[{hi}:{lo}]}}"
