@@ -22,6 +22,7 @@ from ..atomic import make_public_dir
 from ..errors import PendcError
 from ..ir.graph import Graph
 from . import verilog_text as vtext
+from .arith import Block
 from .viewmodel import CoreView, build_view
 
 # the templates ship in the wheel as pendc/templates/ (pyproject package-data); in the source
@@ -63,10 +64,11 @@ def _blocks(view: CoreView) -> tuple[list, list]:
     decls = {name: (width, signed) for name, width, signed in net.decls}
     rhs = dict(net.assigns)
     piped: dict = {}        # block -> pipeline registers copying one of its wires
+    last = Block(("pipeline registers of values declared above",))   # for a source outside every block
     for name, width, signed, source, stage in view.dp.pipe_regs:
-        piped.setdefault(id(net.block_of[source]), []).append((name, width, signed, source, stage))
+        piped.setdefault(id(net.block_of.get(source, last)), []).append((name, width, signed, source, stage))
     ahead, blocks = [], []
-    for block in net.blocks:
+    for block in [*net.blocks, last]:
         lines = [ln for c in block.comments for ln in vtext.comment(c)]
         for kind, name in block.items:
             if kind == "instance":
@@ -84,7 +86,7 @@ def _blocks(view: CoreView) -> tuple[list, list]:
         for name, width, signed, source, stage in piped.get(id(block), []):
             lines += vtext.comment(f"{source} held for the later cycles (loaded at the end of cycle {stage})")
             lines += vtext.declaration("reg", name, width, signed)
-        if len(lines) > len(block.comments) or block.node is not None:
+        if block.items or block.node is not None or id(block) in piped:
             blocks.append({"lines": lines})
     return ahead, blocks
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 LINE_LIMIT = 110          # longest line the backend prints, where an unbreakable token allows it
 STEP = "    "             # one indentation step
 _OPEN, _CLOSE = "({[", ")}]"
+_OPERATORS = frozenset({"|", "||", "&", "&&", "+", "-", "*", "?", ":", "==", "!=", "<", "<=", ">", ">="})
 
 
 def _split_points(text: str) -> list:
@@ -27,28 +28,41 @@ def _split_points(text: str) -> list:
     return points
 
 
+def _is_operator_next(text: str, i: int) -> bool:
+    """Whether the space at ``i`` is followed by a binary operator token (``| b``, ``? a``)."""
+    j = text.find(" ", i + 1)
+    token = text[i + 1:j if j > 0 else len(text)]
+    return token in _OPERATORS
+
+
 def wrap(head: str, expr: str, tail: str = "", indent: str = STEP, limit: int = LINE_LIMIT) -> list:
     """``indent + head + expr + tail`` as lines of at most ``limit`` characters where the
-    expression's spaces allow it; continuation lines are indented one more step."""
+    expression's spaces allow it. A line breaks at its least nested space, before an operator
+    where it can (so a continuation line starts with ``|``, ``?``, ``:`` ...), and a
+    continuation line is indented one step, plus one column per bracket still open."""
     text = head + expr + tail
-    lines, first = [], True
+    lines, first, depth = [], True, 0
     while True:
-        pad = indent if first else indent + STEP
+        pad = indent if first else indent + STEP + " " * depth
         if len(pad) + len(text) <= limit:
             lines.append(pad + text)
             return lines
         room = limit - len(pad)
         floor = len(head.rstrip()) if first else 0      # never break inside the head (a declaration)
-        points = [(i, d) for i, d in _split_points(text) if floor <= i <= room]
+        # a line is never an operator alone
+        points = [(i, d) for i, d in _split_points(text) if floor <= i <= room and text[:i].strip() not in _OPERATORS]
         if not points:                          # nothing to break at within the limit: the first space after it
             points = [(i, d) for i, d in _split_points(text) if i >= max(floor, 1)][:1]
             if not points:
                 lines.append(pad + text)
                 return lines
         least = min(d for _, d in points)
-        cut = max(i for i, d in points if d == least)
+        best = [i for i, d in points if d == least]
+        before_operator = [i for i in best if _is_operator_next(text, i)]
+        cut = max(before_operator or best)
         lines.append(pad + text[:cut].rstrip())
         text = text[cut + 1:].lstrip()
+        depth += least
         first = False
 
 
