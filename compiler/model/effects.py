@@ -1,7 +1,7 @@
 """The effect catalogue of spec §8: each physical effect is one small object.
 
 An effect declares its parameters (name, unit, default, physical bounds) and
-contributes to the equations through *hooks* that :func:`pendc.model.plant.build_equations`
+contributes to the equations through *hooks* that :func:`pendc.model.cart.build_cart_equations`
 calls in one fixed order::
 
     input delay -> drive force -> drive reshaping -> force shaping -> motor lag

@@ -71,6 +71,8 @@ class FurutaEffect:
 
 
 class MotorDrive(FurutaEffect):
+    """The amplifier drives the DC motor on the arm; the back-EMF brakes it with speed."""
+
     name = "motor_drive"
     summary = "DC motor from the amplifier's voltage, back-EMF included: tau = k_t (u - k_m dphi_r) / R_m"
     # The QUBE-Servo 2's motor (Quanser's qube2_rotpen_param.m): R_m 8.4 ohm, k_t 0.042 N*m/A,
@@ -88,6 +90,8 @@ class MotorDrive(FurutaEffect):
 
 
 class VoltageLimit(FurutaEffect):
+    """The amplifier cannot put out more than its supply allows."""
+
     name = "voltage_limit"
     summary = "amplifier saturation: the motor sees the input clamped to +-V_max"
     params = (Param("V_max", "V", 10.0, 0.1, 24.0, "largest voltage the amplifier puts out"),)
@@ -98,6 +102,8 @@ class VoltageLimit(FurutaEffect):
 
 
 class ViscousArm(FurutaEffect):
+    """Viscous friction of the motor and the arm's bearing (Quanser's D_r)."""
+
     name = "viscous_arm"
     summary = "viscous damping of the arm, -D_r dphi_r"
     params = (Param("D_r", "N*m*s/rad", 0.0015, 0.0, 0.1, "equivalent viscous damping of the arm"),)
@@ -119,6 +125,8 @@ class CoulombArm(FurutaEffect):
 
 
 class ViscousPivot(FurutaEffect):
+    """Viscous friction of the pendulum's hinge (Quanser's D_p)."""
+
     name = "viscous_pivot"
     acts_on = "pendulum"
     summary = "viscous damping at the pendulum's hinge, -D_p dalpha_p"
@@ -129,6 +137,8 @@ class ViscousPivot(FurutaEffect):
 
 
 class CoulombPivot(FurutaEffect):
+    """Dry friction of the pendulum's hinge (no sticking rule: sgn(0) = 0)."""
+
     name = "coulomb_pivot"
     acts_on = "pendulum"
     summary = "dry friction at the pendulum's hinge, -tau_p sgn(dalpha_p)"
