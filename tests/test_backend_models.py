@@ -53,7 +53,12 @@ endmodule
 @pytest.mark.parametrize("effect", sorted(EFFECTS))
 def test_effect_reaches_the_verilog_bit_exactly(effect, tmp_path):
     model = load_model().with_effect(effect, EFFECTS[effect])
-    build = compile_model(model, BuildOptions(training_scale=0.1, check_seconds=0.3))
+    # Without the error budget: what is checked is that the effect's nodes reach the Verilog and
+    # the Verilog computes what the golden model computes, for whatever formats the graph has; the
+    # budget would only widen some of them, at the cost of two more numba compilations of the whole
+    # graph per round (most of this test's time). The budget's widening itself is bit-exact in
+    # the default model's regression (test_sim.py) and checked in test_error_budget.py.
+    build = compile_model(model, BuildOptions(training_scale=0.1, error_budget=False))
     view, files = render_core(build.graph, f"default + {effect}")
     write_tree(tmp_path / "hdl", files)
     golden = GoldenModel(build.graph, 1e-6)
