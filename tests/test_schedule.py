@@ -212,6 +212,15 @@ def test_delay_model_is_charged_per_cycle(plant):
     assert comb.estimated_period_ns > schedule_graph(plant, 10.0, None, SHAPE).estimated_period_ns
 
 
+def test_shared_unit_mux_grows_with_its_uses():
+    """A unit's operand mux: one LUT level up to four products, log2(uses) + 1 beyond (small's
+    units of 12-14 products: five levels, as routed)."""
+    from pendc.passes.delays import ECP5_SPEED6 as M
+    from pendc.passes.schedule import operand_mux_delay
+    assert operand_mux_delay(M, 2) == operand_mux_delay(M, 4) == M.lut_level
+    assert operand_mux_delay(M, 13) == 5 * M.lut_level > operand_mux_delay(M, 5) == 4 * M.lut_level
+
+
 def test_no_schedule_beats_the_step_bound(plant, wide_plant):
     """The critical chain of one step (pendc.passes.step_bound) is a lower bound of every
     schedule's estimated step under the same delay model, and its path runs from a state

@@ -17,6 +17,11 @@ products (GAIN, MUL and table interpolations) also wait for a cycle with a free 
 products in different cycles share a unit, whose operands a phase-selected mux
 chooses, so the core never needs more than ``dsp`` blocks. The states, FSMs and overflow flag update at the end of the last cycle.
 
+A product whose operands are registers may itself end a cycle: registered whole before its
+rounding (``product_reg``) or, when its two multiplier blocks with their partial-product sum
+do not fit the goal, as its two one-block partial products (``partial_reg``; the sum and the
+rounding run in the next cycle), so a 10 ns goal holds every product (``--preset fmax``).
+
 The delay model (pendc.passes.delays) is calibrated against nextpnr-ecp5's routed timing
 (routing included, flip-flop clock-to-out and setup charged to every cycle). The ``fast``
 preset tries clock goals of 5-30 ns and keeps the schedule whose *estimated* step
