@@ -17,7 +17,6 @@ import math
 
 from ..errors import PendcError
 from .bodies import DEFAULT_BODY, Body, body_named
-from .cart import PLANT_CONSTANTS  # noqa: F401  (re-exported: the cart's constants, as before)
 from .equations import Equations
 from .experiments import DEFAULT_EXPERIMENT
 from .interface import PlantInterface
