@@ -44,7 +44,7 @@ STATUS_BITS = (("RUNNING", "CONTROL.RUN"),
                ("BUSY", "a lockstep or single-step burst is in progress, cleared once the new state of its "
                         "last step is on the outputs"),
                ("OVERFLOW", "copy of OVERFLOW.STICKY"))
-_PREFIXES = (("", 1.0), ("m", 1e-3), ("u", 1e-6), ("n", 1e-9))
+_PREFIXES = (("", 1.0), ("m", 1e-3), ("\u00b5", 1e-6), ("n", 1e-9))   # SI prefixes (µ: micro)
 
 
 def control_bits(input_register: str) -> tuple:
@@ -76,7 +76,7 @@ def _bits(fields) -> str:
 
 
 def _amount(value: float, unit: str) -> str:
-    """``value`` ``unit`` with an SI prefix that keeps the number readable: 2.5e-6 m -> "2.5 um"."""
+    """``value`` ``unit`` with an SI prefix that keeps the number readable: 2.5e-6 m -> "2.5 µm"."""
     for prefix, scale in _PREFIXES:
         if abs(value) / scale >= 0.1:
             return f"{value / scale:.3g} {prefix}{unit}"
