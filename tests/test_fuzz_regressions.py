@@ -7,12 +7,10 @@ kind of case again.
 
 from __future__ import annotations
 
-import re
-
 import pytest
 
 from fuzzcases import case_source
-from fuzzharness import check_batch, simulator_available
+from fuzzharness import check_batch, every_adder_subtracts, simulator_available
 from fuzzshrink import shrink
 from graphgen import FuzzCase
 from pendc.ir.graph import Graph
@@ -189,11 +187,6 @@ def test_mux_select_beyond_its_inputs(tmp_path):
 
 
 
-def _every_adder_subtracts(files: dict) -> dict:
-    """A planted miscompile (no open defect is left to shrink)."""
-    return {name: re.sub(r"(assign n_\w+_x = n_\w+_a) \+ ", r"\1 - ", text) for name, text in files.items()}
-
-
 def test_shrinking_keeps_the_failure_and_drops_the_rest(tmp_path):
     """The shrinker on a planted miscompile padded with an unrelated node and a long input."""
     nodes = [make("k", Kind.CONST, qformat=QFormat(True, 6, 2), value=1.5),
@@ -202,9 +195,9 @@ def test_shrinking_keeps_the_failure_and_drops_the_rest(tmp_path):
              make("z", Kind.CAST, ("n",), qformat=QFormat(True, 12, 2)),
              make("t", Kind.ADD, ("s", "z"), qformat=QFormat(True, 12, 2))]
     big = case(QFormat(False, 8, 0), nodes, "t", u=(0, 0, 0, 255, 3) + (7,) * 15)
-    assert check_batch([big], tmp_path, "icarus", golden=0, mutate=_every_adder_subtracts).mismatches
-    small = shrink(big, tmp_path, "icarus", budget=25, mutate=_every_adder_subtracts)
-    assert check_batch([small], tmp_path, "icarus", golden=0, mutate=_every_adder_subtracts).mismatches
+    assert check_batch([big], tmp_path, "icarus", golden=0, mutate=every_adder_subtracts).mismatches
+    small = shrink(big, tmp_path, "icarus", budget=25, mutate=every_adder_subtracts)
+    assert check_batch([small], tmp_path, "icarus", golden=0, mutate=every_adder_subtracts).mismatches
     assert len(small.u) < len(big.u) and len(small.graph.nodes) < len(big.graph.nodes)
     namespace = {}
     exec("import math\nfrom graphgen import FuzzCase\nfrom pendc.ir.graph import Graph\n"
