@@ -250,7 +250,9 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     chunks = len(ints) // CHUNK
     tr = golden.run_steps(ints, every=CHUNK, record=tuple(state_names))
     if not tr.overflows:
-        vec["overflow"] = {"error": "the golden model does not overflow on the full-scale push"}
+        # a plant whose full push stays in range (its rates saturate, its angles wrap): start at
+        # the edge of a position register's format instead, moving out
+        vec["overflow"] = _overflow_from_edge(graph, iface, ports, state_names, int(ints[0]), dt)
     else:
         k_star = min(tr.overflows.values())
         nodes = sorted(n for n, s in tr.overflows.items() if s == k_star)
@@ -267,7 +269,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         vec["overflow"] = {
             "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
             "coarse": _rows(tr, ports)[: k0 // CHUNK + 1].copy(),
-            "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows),
+            "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows), "from_reset": True,
             "k0": k0, "state": _rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
         }
     log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
@@ -279,6 +281,52 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         rows = _rows(tr, ports)
         vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}
     return vec
+
+
+EDGE_STEPS = 1500      # steps from the deposited edge state to the overflow (the bus test's second burst)
+
+
+def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float) -> dict:
+    """The overflow scenario from a deposited state: the first reported position that has a rate
+    starts EDGE_STEPS steps of travel below the top of its register's format, its rate at half
+    its format's maximum, the input at full scale. Interpreter and compiled kernel must agree on
+    the first overflow (step and nodes)."""
+    from pendc.golden import GoldenStepper, register_integers
+
+    rate_of = {s.derivative_of: s.name for s in iface.states if s.derivative_of}
+    pos = next((p for p in ports.states if p in rate_of), None)
+    if pos is None:
+        return {"error": "the full push does not overflow and no reported position has a rate to push it out"}
+    rate = rate_of[pos]
+    v0 = 0.5 * graph[rate].qformat.max_value
+    start_real = {pos: graph[pos].qformat.max_value - v0 * EDGE_STEPS * dt, rate: v0}
+    start = {n: _reset_integer(graph, n) for n in state_names}
+    start.update(register_integers(graph, start_real))
+    u_win = np.full(EDGE_STEPS + 1000, q_full, dtype=np.int64)
+    rows, ovf = _interp_window(graph, start, u_win)
+    if not ovf:
+        return {"error": f"{pos} started at the top of its format does not overflow in {len(u_win)} steps"}
+    k_star = min(ovf.values())
+    nodes = sorted(n for n, s in ovf.items() if s == k_star)
+    stepper = GoldenStepper(graph)
+    stepper.reset(start_real)
+    stepper.advance(q_full, len(u_win), every_step=False)
+    first = min(stepper.overflows.values()) if stepper.overflows else None
+    compiled_nodes = sorted(n for n, s in stepper.overflows.items() if s == first)
+    if (first, compiled_nodes) != (k_star, nodes):
+        raise RuntimeError(f"golden engines disagree on the first overflow from the edge of {pos}: interpreter "
+                           f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
+    return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
+            "state": _rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
+
+
+def _reset_integer(graph, name) -> int:
+    """A state node's value after reset as its integer (FSMs: their Moore output word)."""
+    from pendc.ir.nodes import Kind
+    n = graph[name]
+    if n.kind is Kind.REGISTER:
+        return n.qformat.from_float(float(n.param("reset") or 0.0))
+    return _reset_word(graph, name)
 
 
 def _reset_word(graph, name):

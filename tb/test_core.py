@@ -168,7 +168,10 @@ async def encoders_decode(dut):
     """x4-decoded encoder lines track the states they read within one count."""
     stats = await _long_run(dut, "random", "random levels (encoders)")
     spans = {e.name: stats[f"span_{e.name}"] for e in core_ports().encoders}
-    assert any(s > 10 for s in spans.values()), f"no encoder moved more than 10 counts ({spans}): not an encoder test"
+    # 10 ms (quick) move a coarse encoder (the Furuta's 3 mrad counts) by a few counts only
+    least = 10 if profile() == "full" else 2
+    assert any(s >= least for s in spans.values()), \
+        f"no encoder moved {least} counts or more ({spans}): not an encoder test"
 
 
 # Beyond this many steps the overflow scenario starts from the golden state near the overflow
@@ -179,7 +182,9 @@ FULL_FROM_RESET_STEPS = 1_000_000
 
 @cocotb.test()
 async def overflow_full_push(dut):
-    """Beyond the training range the sticky flag rises when the golden model overflows."""
+    """Beyond the training range the sticky flag rises when the golden model overflows: the input's
+    full scale held from reset, or (a plant that stays in range under it) from a position deposited
+    at the top of its register's format."""
     o = vectors()["overflow"]
     assert "error" not in o, o.get("error")
     tb = CoreBench(dut)
@@ -187,7 +192,7 @@ async def overflow_full_push(dut):
     k_star, k0 = o["k_star"], o["k0"]
     core = dut.core
     wires = [(getattr(core, w), node, stage) for w, node, stage in vectors()["ovf_stages"]]
-    if profile() == "full" and k0 <= FULL_FROM_RESET_STEPS:
+    if profile() == "full" and o["from_reset"] and k0 <= FULL_FROM_RESET_STEPS:
         # from reset with Timer awaits: no overflow at any 1000th step up to k0
         def check(i):
             got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
@@ -200,7 +205,8 @@ async def overflow_full_push(dut):
         how = "from reset"
     else:
         await tb.load_state(o["state"], False)
-        how = f"from the golden state at step {k0}"
+        how = (f"from the golden state at step {k0}" if o["from_reset"] else
+               f"from the edge of a register's format ({', '.join(f'{k} = {v:g}' for k, v in o['start'].items())})")
     flagged = {}
 
     async def probe(j, cycle):
