@@ -64,9 +64,12 @@ class PlantState:
 
 @runtime_checkable
 class Plant(Protocol):
-    """What every plant offers: a model step ``dt`` (s), ``reset()`` and ``step(u_volts, n_steps)``."""
+    """What every plant offers: a model step ``dt`` (s), the core's names ``ports``
+    (:class:`~pendc.hil.core_ports.CorePorts`: its input, reported states and encoders, from the
+    plant interface), ``reset()`` and ``step(u_volts, n_steps)``."""
 
     dt: float
+    ports: object
 
     def reset(self) -> PlantState:
         """Back to power-on: every state at rest, encoders at zero."""
