@@ -102,11 +102,11 @@ def test_encoders_have_the_thesis_resolution(iface):
 
 
 def test_register_names_are_the_wrappers(iface):
-    """The bus register map (built by the backend, which does not read the interface yet) has a
+    """The bus register map (built by the backend from the interface) has a
     register of each name the interface gives."""
     from pendc.backend.wrapper import register_map
     ports = {p: {"width": 32, "signed": True, "frac": 20} for p in (iface.input.name, *iface.outputs)}
-    names = {r["name"] for r in register_map(ports)}
+    names = {r["name"] for r in register_map(ports, interface=iface)}
     regs = iface.register_names()
     assert regs["u"] == ("U",) and regs["theta"] == ("THETA_LO", "THETA_HI") and regs["enc_x"] == ("ENC_X_COUNT",)
     assert set(regs) == {"u", *iface.outputs, "enc_x", "enc_theta"}
@@ -238,15 +238,27 @@ def test_no_pass_names_a_state_of_the_plant():
     assert not clean, f"{clean} name no state now: strike them off NOT_YET_CONVERTED"
 
 
-# modules outside passes/ already converted: the list only grows (issue 12 point 1)
-CONVERTED_ELSEWHERE = ("golden.py", "backend/hdl.py")
+# The whole package outside model/ is scanned (issue 12 point 1). Files that still name a state of
+# one of the plants: the list only shrinks (a listed file that is clean fails the test). The
+# cart-pendulum's own controllers (hil/controllers.py) and the thesis' published formats
+# (reports.py) are physics of that plant and belong in model/ eventually; the rest are help texts
+# and examples that should come from the interface.
+OUTSIDE_MODEL_NOT_YET_CONVERTED = frozenset({
+    "cli.py", "cli_compare.py", "cli_data.py", "cli_hil.py", "cli_ident.py", "hil/controllers.py",
+    "hil/scenarios.py", "ident/datagen.py", "ident/evidence.py", "ident/ties.py", "reports.py",
+    "sim/encoders.py",
+})
 
 
-def test_converted_modules_outside_the_passes_name_no_state():
+def test_no_module_outside_the_model_names_a_state_of_either_plant():
     names = plant_names()
     root = PASSES.parent
-    offenders = {f: plant_words(root / f, names) for f in CONVERTED_ELSEWHERE}
+    files = sorted(f.relative_to(root).as_posix() for f in root.rglob("*.py") if "model" not in f.relative_to(root).parts)
+    assert "golden.py" in files and "backend/viewmodel.py" in files and "passes/lower.py" in files
+    offenders = {f: plant_words(root / f, names) for f in files if f not in OUTSIDE_MODEL_NOT_YET_CONVERTED}
     assert {k: v for k, v in offenders.items() if v} == {}
+    clean = sorted(f for f in OUTSIDE_MODEL_NOT_YET_CONVERTED if not plant_words(root / f, names))
+    assert not clean, f"{clean} name no state now: strike them off OUTSIDE_MODEL_NOT_YET_CONVERTED"
 
 
 def test_the_check_finds_a_plant_name(tmp_path):
