@@ -14,6 +14,7 @@ from pendc.model.bodies import BODIES, DEFAULT_BODY
 from pendc.model.effects import CATALOGUE
 from pendc.model.furuta_effects import FURUTA_CATALOGUE
 from pendc.model.modelfile import dumps_fitted, dumps_model, model_fingerprint, parse_model
+from test_furuta import flow  # the model's equations as a plain function, one definition
 
 QUBE = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"
 PLANT = '[plant]\nbody = "furuta"\ng = 9.81\nJ_r = 5.72e-5\nL_r = 0.085\nm_p = 0.024\nL_p = 0.129\n'
@@ -23,19 +24,6 @@ MOTOR = "[effects.motor_drive]\nR_m = 8.4\nk_t = 0.042\nk_m = 0.042\n"
 @pytest.fixture(scope="module")
 def qube():
     return pendc.load_model(QUBE)
-
-
-def flow(model):
-    """f(state, u) -> the state derivatives of ``model``'s equations, evaluated by sympy's
-    lambdify with every named intermediate inlined (xreplace: exact and quick)."""
-    eq = model.equations
-    values = dict(zip(eq.params, (sp.Float(v) for v in model.parameter_vector())))
-    derivs = []
-    for d in eq.derivatives:
-        for sym, value in reversed(eq.assignments):
-            d = d.xreplace({sym: value})
-        derivs.append(d.xreplace(values))
-    return sp.lambdify((eq.states, eq.input), derivs, "math")
 
 
 def test_the_shipped_model_has_the_published_figures(qube):
