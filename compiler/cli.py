@@ -12,6 +12,7 @@ import re
 import sys
 
 from .cli_data import MODEL_HELP, positive as _positive
+from .cli_simulate import cmd_simulate, initial_state
 from .errors import PendcError
 
 
@@ -54,25 +55,6 @@ class _Parser(argparse.ArgumentParser):
         raise PendcError(f"{prefix}: {message}" if prefix else message)
 
 
-def _state(text: str) -> tuple:
-    """``--x0``: comma-separated numbers (their count is checked against the model's states later)."""
-    parts = text.split(",")
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if not values:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, one per state, got {text!r}")
-    return values
-
-
-def _check_x0(x0, iface) -> None:
-    """``--x0`` has one value per reported state of the model (its plant interface's order)."""
-    if x0 is not None and len(x0) != len(iface.outputs):
-        raise PendcError(f"argument --x0: expected {len(iface.outputs)} numbers {','.join(iface.outputs)}, "
-                         f"got {len(x0)}")
-
-
 def _emit_json(obj) -> None:
     json.dump(obj, sys.stdout, indent=2, sort_keys=False)
     sys.stdout.write("\n")
@@ -89,78 +71,7 @@ def cmd_derive(args) -> int:
     return 0
 
 
-def cmd_simulate(args) -> int:
-    from .model.modelfile import load_model
-    from .sim.measurements import format_csv, read_measurements
-    from .atomic import check_file_output
-    from .sim.simulator import Simulator
-
-    if args.output not in (None, "-"):
-        check_file_output(args.output)   # before the run, which may compile the model first
-    model = load_model(args.model)
-    _check_x0(args.x0, model.interface)
-    data = read_measurements(args.input, required=("t", model.interface.input.name))
-    _check_input_volts(data, model.interface.input.name)
-    for w in data.warnings:
-        print(f"pendc: warning: {w}", file=sys.stderr)
-    if args.fixed:
-        from .golden import GoldenModel
-
-        if args.method != "euler":
-            raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
-        build = _build(model, args)
-        run = GoldenModel(build.graph, build.options.dt)(data.t, data.u, on_overflow=args.on_overflow,
-                                                          initial=args.x0)
-        result = run.result
-        if args.quantize:
-            _quantize_measured(result.states, model.interface)
-        columns = result.columns()
-        if args.on_overflow == "mark":
-            # every row computed after the sticky flag rose is marked, not just the first
-            columns["overflow"] = run.marked_rows()
-            if run.overflows:
-                node, step = min(run.overflows.items(), key=lambda kv: (kv[1], kv[0]))
-                print(f"pendc: warning: node '{node}' left its Q-format range at t = {step * build.options.dt:.6g} s; "
-                      f"{int(columns['overflow'].sum())} row(s) marked in column 'overflow'", file=sys.stderr)
-        method, dt = "fixed-point (bit-accurate)", build.options.dt
-    else:
-        if args.on_overflow != "error":
-            raise PendcError("--on-overflow applies to --fixed runs (the float model has no formats)")
-        sim = Simulator(model, dt=args.dt, method=args.method)
-        result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
-        columns = result.columns()
-        method, dt = args.method, args.dt
-    meta = {"generator": "pendc simulate", "model": model.source, "method": method,
-            "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
-    _write_output(args.output, format_csv(columns, meta))
-    return 0
-
-
-def _quantize_measured(states: dict, iface) -> None:
-    """Replace every encoder-read state by what its ×4 decoder reports (counts from the first
-    sample times the encoder's resolution), as ``--quantize`` asks."""
-    import numpy as np
-
-    from .sim.encoders import counts
-
-    for sensor in iface.sensors:
-        value = np.asarray(states[sensor.state], dtype=np.float64)
-        states[sensor.state] = value[0] + counts(value, sensor.resolution) * sensor.resolution
-
-
-def _check_input_volts(data, name: str) -> None:
-    """The input (column ``name``) beyond the rig's limit: millivolts (many rows) or an outlier (a
-    few), named by line, before a simulation of nonsense. Only the input: the other columns of a
-    file (a simulation's own output, say) are not read."""
-    from .sim import plausibility
-    from .sim.table import Table
-
-    table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
-    plausibility.check_bounded(table, name, data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
-                               ("millivolts", f"give {name} in volts"))
-
-
-def _write_output(output: str | None, text: str) -> None:
+def write_output(output: str | None, text: str) -> None:
     """``text`` to standard output (no ``-o``, or ``-o -``) or, atomically, to the file ``output``."""
     from .atomic import write_atomic
 
@@ -180,11 +91,12 @@ def cmd_stimulus(args) -> int:
     t, u = stimuli[args.name]
     from .model.modelfile import load_model
     name = load_model(getattr(args, "model", None)).interface.input.name
-    _write_output(args.output, format_csv({"t": t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
+    write_output(args.output, format_csv({"t": t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
 
 
-def _build(model, args):
+def build_model(model, args):
+    """The model compiled with the command's options (from the build cache when it has it)."""
     from .build_cache import compile_cached
     from .passes.pipeline import options_from_model
 
@@ -208,7 +120,7 @@ def cmd_build(args) -> int:
     if args.output == "-":
         raise PendcError("build: -o names the output folder; a build is a folder of files, not standard output")
     model = load_model(args.model)
-    build = _build(model, args)
+    build = build_model(model, args)
     # named by content and compiler version, never by path: the same model builds the same files anywhere
     source = build_source(model)
     request = {"target": build.options.target, "preset": args.preset, "ii": args.ii, "dsp": args.dsp}
@@ -250,7 +162,7 @@ def cmd_report(args) -> int:
             sys.stdout.write(format_synth_report(result))
         return 0
     model = load_model(args.model)
-    build = _build(model, args)
+    build = build_model(model, args)
     if args.what == "qformat":
         report = reports.qformat_report(build)
         if args.drift:
@@ -286,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
                                           "t,u,x,theta,dx,dtheta); default (or '-'): standard output")
     p.add_argument("--dt", type=_positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
-    p.add_argument("--x0", type=_state, help="initial state, one number per state in the model's order (the "
+    p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the model's order (the "
                                              "cart-pendulum: x,dx,theta,dtheta; default: at rest, all 0); "
                                              "with --fixed the state registers start there")
     p.add_argument("--quantize", action="store_true", help="quantise the encoder-read states (x and theta) to "

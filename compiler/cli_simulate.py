@@ -1,0 +1,100 @@
+"""``pendc simulate``: a model's float or bit-accurate run on an input file, and its argument checks."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .errors import PendcError
+
+
+def initial_state(text: str) -> tuple:
+    """``--x0``: comma-separated numbers (their count is checked against the model's states later)."""
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if not values:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, one per state, got {text!r}")
+    return values
+
+
+def _check_x0(x0, iface) -> None:
+    """``--x0`` has one value per reported state of the model (its plant interface's order)."""
+    if x0 is not None and len(x0) != len(iface.outputs):
+        raise PendcError(f"argument --x0: expected {len(iface.outputs)} numbers {','.join(iface.outputs)}, "
+                         f"got {len(x0)}")
+
+
+def cmd_simulate(args) -> int:
+    """Run the model (float, or bit-accurate with ``--fixed``) on the input file; CSV out."""
+    from .model.modelfile import load_model
+    from .sim.measurements import format_csv, read_measurements
+    from .atomic import check_file_output
+    from .sim.simulator import Simulator
+    from .cli import build_model, write_output   # shared with build and report; cli imports this module
+
+    if args.output not in (None, "-"):
+        check_file_output(args.output)   # before the run, which may compile the model first
+    model = load_model(args.model)
+    _check_x0(args.x0, model.interface)
+    data = read_measurements(args.input, required=("t", model.interface.input.name))
+    _check_input_volts(data, model.interface.input.name)
+    for w in data.warnings:
+        print(f"pendc: warning: {w}", file=sys.stderr)
+    if args.fixed:
+        from .golden import GoldenModel
+
+        if args.method != "euler":
+            raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
+        build = build_model(model, args)
+        run = GoldenModel(build.graph, build.options.dt)(data.t, data.u, on_overflow=args.on_overflow,
+                                                          initial=args.x0)
+        result = run.result
+        if args.quantize:
+            _quantize_measured(result.states, model.interface)
+        columns = result.columns()
+        if args.on_overflow == "mark":
+            # every row computed after the sticky flag rose is marked, not just the first
+            columns["overflow"] = run.marked_rows()
+            if run.overflows:
+                node, step = min(run.overflows.items(), key=lambda kv: (kv[1], kv[0]))
+                print(f"pendc: warning: node '{node}' left its Q-format range at t = {step * build.options.dt:.6g} s; "
+                      f"{int(columns['overflow'].sum())} row(s) marked in column 'overflow'", file=sys.stderr)
+        method, dt = "fixed-point (bit-accurate)", build.options.dt
+    else:
+        if args.on_overflow != "error":
+            raise PendcError("--on-overflow applies to --fixed runs (the float model has no formats)")
+        sim = Simulator(model, dt=args.dt, method=args.method)
+        result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
+        columns = result.columns()
+        method, dt = args.method, args.dt
+    meta = {"generator": "pendc simulate", "model": model.source, "method": method,
+            "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
+    write_output(args.output, format_csv(columns, meta))
+    return 0
+
+
+def _quantize_measured(states: dict, iface) -> None:
+    """Replace every encoder-read state by what its ×4 decoder reports (counts from the first
+    sample times the encoder's resolution), as ``--quantize`` asks."""
+    import numpy as np
+
+    from .sim.encoders import counts
+
+    for sensor in iface.sensors:
+        value = np.asarray(states[sensor.state], dtype=np.float64)
+        states[sensor.state] = value[0] + counts(value, sensor.resolution) * sensor.resolution
+
+
+def _check_input_volts(data, name: str) -> None:
+    """The input (column ``name``) beyond the rig's limit: millivolts (many rows) or an outlier (a
+    few), named by line, before a simulation of nonsense. Only the input: the other columns of a
+    file (a simulation's own output, say) are not read."""
+    from .sim import plausibility
+    from .sim.table import Table
+
+    table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
+    plausibility.check_bounded(table, name, data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
+                               ("millivolts", f"give {name} in volts"))
