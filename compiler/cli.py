@@ -25,22 +25,33 @@ class _Parser(argparse.ArgumentParser):
         # notation is a value, so `--dt -1e-6` is refused for being negative, not misread
         self._negative_number_matcher = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|nan)$")
 
+    def _get_formatter(self):
+        # help texts cite the plant through {plant:WORD}, filled from the interface when printed
+        from .cli_help import formatter_with_plant_words
+
+        return formatter_with_plant_words(self.formatter_class)(prog=self.prog)
+
     def format_help(self) -> str:
-        """argparse's help; fit and diagnose also list the effect catalogue (names for --add)."""
+        """argparse's help; fit and diagnose also list every body's effect catalogue (names for --add)."""
         text = super().format_help()
         if self.prog.split()[-1] in ("fit", "diagnose"):
-            from .model.effects import CATALOGUE
+            from .cli_help import effects_by_body
 
-            width = max(len(name) for name in CATALOGUE)
-            lines = [f"  {name:<{width}}  {effect.summary} [{', '.join(p.name for p in effect.params)}]"
-                     for name, effect in CATALOGUE.items()]
-            text += "\neffects (names for --add; parameters in brackets, free them with --free):\n" + \
-                "\n".join(lines) + "\n"
+            text += "\n" + effects_by_body()
         return text
 
     def parse_known_args(self, args=None, namespace=None):
         """argparse's, but a sub-command refuses what it does not take itself, naming itself and
-        what it does take (the top level would only say "unrecognized arguments")."""
+        what it does take (the top level would only say "unrecognized arguments"); a command
+        reading data also takes ``--<SIGNAL>-unit/-zero/-sign VALUE`` for ``--unit/--zero/--sign
+        SIGNAL=VALUE``."""
+        if args is not None and "--unit" in self._option_string_actions:
+            from .cli_data import expand_signal_options
+
+            try:
+                args = expand_signal_options(list(args), self._option_string_actions)
+            except PendcError as exc:
+                self.error(str(exc))
         parsed, extras = super().parse_known_args(args, namespace)
         if extras and self.prog != "pendc":
             takes = [a.option_strings[-1] for a in self._actions
@@ -83,6 +94,7 @@ def write_output(output: str | None, text: str) -> None:
 
 def cmd_stimulus(args) -> int:
     from .sim.measurements import format_csv
+    from .sim.signals import TIME
     from .sim.stimuli import named_stimuli
 
     stimuli = named_stimuli()
@@ -91,7 +103,7 @@ def cmd_stimulus(args) -> int:
     t, u = stimuli[args.name]
     from .model.modelfile import load_model
     name = load_model(getattr(args, "model", None)).interface.input.name
-    write_output(args.output, format_csv({"t": t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
+    write_output(args.output, format_csv({TIME: t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
 
 
@@ -191,18 +203,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="float simulation of a model on an input file")
     p.add_argument("--model", help=MODEL_HELP)
-    p.add_argument("--input", required=True, help="measurement file with columns t (s) and u (V): pendc's CSV "
+    p.add_argument("--input", required=True, help="measurement file with the time and the model's input as columns "
+                   "(the default model: {plant:time} in s and {plant:input} in {plant:input_unit}): pendc's CSV "
                    "(',' ';' tab or whitespace separated, '# key: value' comments) or MATLAB .mat; '-': standard "
                    "input; other columns are ignored")
-    p.add_argument("-o", "--output", help="output CSV (t, the input, the model's states; the cart-pendulum: "
-                                          "t,u,x,theta,dx,dtheta); default (or '-'): standard output")
+    p.add_argument("-o", "--output", help="output CSV: the time, the input and the model's states (the default "
+                                          "model: {plant:columns} then the rates); default (or '-'): standard "
+                                          "output")
     p.add_argument("--dt", type=_positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
     p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the model's order (the "
-                                             "cart-pendulum: x,dx,theta,dtheta; default: at rest, all 0); "
+                                             "default model: {plant:states}; default: at rest, all 0); "
                                              "with --fixed the state registers start there")
-    p.add_argument("--quantize", action="store_true", help="quantise the encoder-read states (x and theta) to "
-                                                           "x4 encoder counts")
+    p.add_argument("--quantize", action="store_true", help="quantise the states the model's encoders read (the "
+                                                           "default model: {plant:positions}) to x4 encoder counts")
     p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
     p.add_argument("--on-overflow", choices=("error", "mark"), default="error",
                    help="--fixed: a value leaving its Q-format range stops the run with an error naming the node "

@@ -64,8 +64,8 @@ def add_parser(sub) -> None:
     p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
                    "(default 0.5, as diagnose and fit)")
     p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
-                                     "cart-pendulum's x, theta or x,theta; default: every output the data move; "
-                                     "held or missing ones are left out with a note)")
+                                     "default model's: {plant:positions}, or any of them; default: every output "
+                                     "the data move; held or missing ones are left out with a note)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--html", help="write a self-contained HTML report here")
     p.set_defaults(func=cmd_compare)

@@ -16,48 +16,52 @@ import sys
 
 MODEL_HELP = "model file (default: models/sct_thesis_final.toml; '-': standard input)"
 
+# The examples name the default model's signals ({plant:WORD}: filled from its interface when
+# the help is printed, pendc.cli_help); the rules hold for any model's signals.
 FORMATS_HELP = """\
 measurement files:
-  CSV (pendc's own): '# key: value' comment lines, a header t,u,x,theta (s, V, m, rad;
-  theta from hanging, unwrapped), one row per sample. Also read: other column names,
-  ';' tab or whitespace separators (detected from the header), other units, any sample
-  rate (resampled to a uniform grid, at most 1 kHz unless --rate; a note says how), '-'
-  for standard input, and MATLAB .mat v5/v7 files (v7.3/HDF5: save with -v7): plain
-  arrays (a matrix's columns are NAME:1, NAME:2, ...), Simulink To Workspace
-  'Structure with time' / 'Structure' / 'Array' (one variable or one per block, e.g.
-  theta, x, u, tout), timeseries-like structs with Time and Data. A file that cannot be
-  mapped is refused with the names it holds.
+  CSV (pendc's own): '# key: value' comment lines, a header naming the time and the
+  model's signals ({plant:body}: {plant:columns}; SI units, periodic
+  positions from the model's zero, unwrapped), one row per sample. Also read: other
+  column names, ';' tab or whitespace separators (detected from the header), other units
+  (--unit or --<SIGNAL>-unit), any sample rate (resampled to a uniform grid, at most 1 kHz
+  unless --rate; a note says how), '-' for standard input, and MATLAB .mat v5/v7 files
+  (v7.3/HDF5: save with -v7): plain arrays (a matrix's columns are NAME:1, NAME:2, ...),
+  Simulink To Workspace 'Structure with time' / 'Structure' / 'Array' (one variable or
+  one per block, e.g. {plant:angle}, {plant:position}, {plant:input}, tout), timeseries-like structs with Time and
+  Data. A file that cannot be mapped is refused with the names it holds.
   Resampling: a uniform file faster than 1 kHz is averaged down to 1 kHz (boxcar blocks);
   a non-uniform one is interpolated linearly onto a uniform grid at its median step,
   unless a gap is longer than max(20 ms, 5 median steps), which is refused.
-  Plausibility checks, each a one-line error naming the column or line: t sampled slower
-  than 10 Hz (milliseconds?), |x| beyond 1 m in many rows (the track is 0.75 m long:
-  millimetres or centimetres?), |u| beyond 100 V (the drive takes 0-10 V: millivolts?),
-  theta beyond 200 or turning faster than 60 rad/s (degrees?); the same beyond the
-  limits in a few rows, or a theta sample 1 rad away from both neighbours, is an
-  outlier; NaN, inf, time not strictly increasing, rows with missing fields.
+  Plausibility checks, each a one-line error naming the column or line: time sampled
+  slower than 10 Hz (milliseconds?), a position in metres beyond 1 m in many rows (a
+  rig's travel: millimetres or centimetres?), the input beyond 10 times its full scale
+  (millivolts?), an angle beyond 200 or turning faster than 60 rad/s (degrees?); the
+  same beyond the limits in a few rows, or an angle sample 1 rad away from both
+  neighbours, is an outlier; NaN, inf, time not strictly increasing, rows with missing
+  fields.
 
-reading other formats, examples:
+reading other formats, examples (the signals of the default model, {plant:body}):
   CSV with other names, semicolons, degrees and millimetres:
-    %(prog)s run.csv --columns t=Time,theta=Theta1,x=CartPos,u=Vin --theta-unit deg --x-unit mm
+    %(prog)s run.csv --columns {plant:time}=Time,{plant:angle}=Theta1,{plant:position}=CartPos,{plant:input}=Vin --{plant:angle}-unit deg --{plant:position}-unit mm
   a spreadsheet export with ';' and decimal commas (both detected), angle from upright:
-    %(prog)s run.csv --columns t=Zeit,theta=Winkel,x=Position,u=Spannung --theta-zero upright
-  a text file without a header row (MATLAB writematrix), columns by number, angle and
-  position in encoder counts (2*pi/20000 rad and 2.5 um per count):
-    %(prog)s run.txt --columns t=1,theta=2,x=3,u=4 --theta-unit 3.14159265e-4 --x-unit 2.5e-6
+    %(prog)s run.csv --columns {plant:time}=Zeit,{plant:angle}=Winkel,{plant:position}=Position,{plant:input}=Spannung --{plant:angle}-zero upright
+  a text file without a header row (MATLAB writematrix), columns by number, positions in
+  encoder counts ({plant:angle_step} {plant:angle_unit} and {plant:position_step} {plant:position_unit} per count):
+    %(prog)s run.txt --columns {plant:time}=1,{plant:angle}=2,{plant:position}=3,{plant:input}=4 --{plant:angle}-unit {plant:angle_step} --{plant:position}-unit {plant:position_step}
   time in milliseconds, input in millivolts, tab-separated:
-    %(prog)s run.tsv --separator tab --t-unit ms --u-unit mV
-  Simulink 'Structure with time', one To Workspace block logging [theta x u] at 10 kHz,
-  theta in degrees from upright (decimated to 1 kHz):
-    %(prog)s swing.mat --columns theta=simout:1,x=simout:2,u=simout:3 --theta-unit deg --theta-zero upright
-  one To Workspace variable per signal (theta, x, u, tout): the names map themselves:
+    %(prog)s run.tsv --separator tab --{plant:time}-unit ms --{plant:input}-unit mV
+  Simulink 'Structure with time', one To Workspace block logging [{plant:angle} {plant:position} {plant:input}] at 10 kHz,
+  {plant:angle} in degrees from upright (decimated to 1 kHz):
+    %(prog)s swing.mat --columns {plant:angle}=simout:1,{plant:position}=simout:2,{plant:input}=simout:3 --unit {plant:angle}=deg --zero {plant:angle}=upright
+  one To Workspace variable per signal ({plant:angle}, {plant:position}, {plant:input}, tout): the names map themselves:
     %(prog)s run.mat
   Simulink 'Array' or 'Structure' (no time in the file): give the sample time:
-    %(prog)s run.mat --columns theta=data:1 --sample-time 1e-4 --experiment cart_held
-  a clamped-cart free swing with no x and no u column (filled with 0, listed as missing):
+    %(prog)s run.mat --columns {plant:angle}=data:1 --sample-time 1e-4 --experiment cart_held
+  a clamped-cart free swing with no {plant:position} and no {plant:input} column (filled with 0, listed as missing):
     %(prog)s swing.csv --experiment cart_held
   several experiments at once (one name per file) and known encoder steps:
-    %(prog)s held.csv cart.csv --experiment cart_held,pendulum_removed --resolution theta=3.1416e-4,x=2.5e-6
+    %(prog)s held.csv cart.csv --experiment cart_held,pendulum_removed --resolution {plant:angle}={plant:angle_step},{plant:position}={plant:position_step}
   from standard input:
     pendc simulate stim.csv | %(prog)s -
 """
@@ -158,30 +162,43 @@ def positive(text: str) -> float:
     return value
 
 
-def _unit(si_unit: str):
-    """An argparse type: a unit name of ``si_unit`` or a positive number."""
-    def parse(text: str) -> str:
-        from .sim.signals import UNIT_SCALES, unit_scale
-
-        if unit_scale(si_unit, text) is None:
-            names = ", ".join(UNIT_SCALES.get(si_unit, {si_unit: 1.0}))
-            raise argparse.ArgumentTypeError(f"{text!r}: use one of {names}, or the size of one file unit in "
-                                             f"{si_unit} (a positive number)")
-        return text
-    return parse
+# --<SIGNAL>-unit/-zero/-sign VALUE: --unit/--zero/--sign SIGNAL=VALUE, for any signal of any plant
+SIGNAL_OPTION = re.compile(r"--([A-Za-z_][\w-]*?)-(unit|zero|sign)(?:=(.*))?$", re.S)
 
 
-# --<SIGNAL>-unit options: the option, the signal's SI unit, what a number means, an example number.
-# Time's, then the SCT cart-pendulum's signals under the spellings its scripts use (any plant's
-# signal takes --unit NAME=UNIT); each sets ReadOptions' field of the same name.
-UNIT_OPTIONS = (
-    ("--t-unit", "s", "seconds", ""),
-    ("--x-unit", "m", "metres", "2.5e-6 for encoder counts"),
-    ("--u-unit", "V", "volts", ""),
-    ("--theta-unit", "rad", "radians", "3.14159e-4 = 2*pi/20000 for encoder counts"),
-)
-# The SCT pendulum angle's --<signal>-zero and --<signal>-sign (any periodic position: --zero, --sign)
-ANGLE_OPTIONS = ("--theta-zero", "--theta-sign")
+def expand_signal_options(words: list, known) -> list:
+    """``words`` with each ``--<SIGNAL>-unit VALUE`` (``-zero``, ``-sign``; also ``--OPT=VALUE``)
+    that is no option of the parser (``known``) rewritten as ``--unit SIGNAL=VALUE``
+    (``--zero``, ``--sign``): the per-signal spelling, checked against the model's signals
+    when the data are read. A hyphen in SIGNAL stands for an underscore."""
+    out, i = [], 0
+    while i < len(words):
+        word = words[i]
+        if word == "--":
+            out += words[i:]
+            break
+        match = SIGNAL_OPTION.fullmatch(word) if word.startswith("--") and word.split("=")[0] not in known else None
+        if match is None:
+            out.append(word)
+            i += 1
+            continue
+        name, setting, value = match.group(1).replace("-", "_"), match.group(2), match.group(3)
+        if value is None:
+            if i + 1 == len(words):
+                from .errors import PendcError
+
+                raise PendcError(f"argument {word}: expected one argument")
+            value, i = words[i + 1], i + 1
+        out += [f"--{setting}", f"{name}={value}"]
+        i += 1
+    return out
+
+
+class _MergeSettings(argparse.Action):
+    """``--unit``/``--zero``/``--sign``: repeated, the NAME=VALUE pairs add up (a later one wins)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **values})
 
 
 def add_data_options(p, many: bool = True) -> None:
@@ -192,7 +209,8 @@ def add_data_options(p, many: bool = True) -> None:
                    help="measurement file(s): CSV-like text ('-' for standard input) or MATLAB .mat")
     g = p.add_argument_group("reading the data (other formats; see the examples below)")
     g.add_argument("--columns", type=_mapping, default={}, metavar="MAP",
-                   help="map pendc's columns to the file's names: t=Time,theta=Theta1,x=Pos,u=Vin "
+                   help="map pendc's columns to the file's names: "
+                        "{plant:time}=Time,{plant:angle}=Theta1,{plant:position}=Pos,{plant:input}=Vin "
                         "(.mat: a variable, VAR:K for its K-th column, a Simulink signal label; "
                         "a text file without a header row: column numbers 1, 2, ...)")
     g.add_argument("--separator", default="auto", metavar="SEP",
@@ -204,38 +222,34 @@ def add_data_options(p, many: bool = True) -> None:
     g.add_argument("--encoding", default="utf-8", metavar="NAME",
                    help="text encoding of the header and comments (default utf-8; e.g. cp1252 for a "
                         "spreadsheet export with 'Winkel [°]')")
-    from .sim.signals import UNIT_SCALES
-
-    for flag, si, per, example in UNIT_OPTIONS:
-        axis = flag[2:-len("-unit")]
-        g.add_argument(flag, type=_unit(si), metavar="{" + ",".join(UNIT_SCALES[si]) + ",NUMBER}",
-                       help=f"unit of {axis} in the file (default {si}; a number: {per} per file unit"
-                            + (f", e.g. {example})" if example else ")"))
-    zero_flag, sign_flag = ANGLE_OPTIONS
-    angle = zero_flag[2:-len("-zero")]
-    g.add_argument(zero_flag, choices=("hanging", "upright"), default="hanging",
-                   help=f"where the file's {angle} is 0 (default hanging); upright: {angle} = {angle}_file + pi")
-    g.add_argument(sign_flag, type=int, choices=(1, -1), default=1,
-                   help=f"-1 when the file's {angle} grows counter-clockwise (pendc's grows clockwise, "
-                        "with x positive to the left; spec section 1)")
-    g.add_argument("--unit", type=_settings("unit", _unit_text), default={}, metavar="NAME=UNIT",
-                   help="units of any of the model's signals in the file, e.g. alpha_p=deg,phi_r=deg (a unit "
-                        "name or the size of one file unit in the signal's SI unit)")
-    g.add_argument("--zero", type=_settings("zero", _zero), default={}, metavar="NAME=hanging|upright",
-                   help="where the file's zero of a periodic position is, e.g. alpha_p=upright "
-                        "(upright: half a period from the model's zero)")
-    g.add_argument("--sign", type=_settings("sign", _sign), default={}, metavar="NAME=-1",
-                   help="-1 for a periodic position the file counts the other way")
+    per_signal = ("--<SIGNAL>-unit UNIT is the same as --unit SIGNAL=UNIT (for the default model: "
+                  "--{plant:time}-unit, --{plant:input}-unit, --{plant:position}-unit, --{plant:angle}-unit)")
+    g.add_argument("--unit", type=_settings("unit", _unit_text), default={}, action=_MergeSettings,
+                   metavar="NAME=UNIT",
+                   help="units of any of the model's signals (or the time) in the file, e.g. "
+                        "{plant:angle}=deg,{plant:position}=mm,{plant:time}=ms (a unit name or the size of one file "
+                        "unit in the signal's SI unit, e.g. {plant:angle}={plant:angle_step} for encoder counts); "
+                        + per_signal)
+    g.add_argument("--zero", type=_settings("zero", _zero), default={}, action=_MergeSettings,
+                   metavar="NAME=hanging|upright",
+                   help="where the file's zero of a periodic position is (default hanging: the model's zero), e.g. "
+                        "{plant:angle}=upright (upright: half a period from the model's zero); "
+                        "--<SIGNAL>-zero, e.g. --{plant:angle}-zero upright, is the same")
+    g.add_argument("--sign", type=_settings("sign", _sign), default={}, action=_MergeSettings, metavar="NAME=-1",
+                   help="-1 for a periodic position the file counts the other way round from the model "
+                        "(spec section 1); --<SIGNAL>-sign, e.g. --{plant:angle}-sign -1, is the same")
     g.add_argument("--experiment", metavar="NAME[,NAME...]",
                    help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
                         f"'# experiment:' line or free); one name for all files, or one per data file "
                         f"(--validate files then say theirs in a '# experiment:' line)")
     g.add_argument("--missing", default="", metavar="AXES",
-                   help="axes the file may lack, filled with 0 (u with --u-value), e.g. --missing u "
-                        "(cart_held allows x and u, pendulum_removed theta, without this option)")
-    g.add_argument("--u-value", type=finite, default=0.0, metavar="V", help="value of an absent u (default 0 V)")
+                   help="axes the file may lack, filled with 0 (the input with --u-value), e.g. --missing "
+                        "{plant:input} (an experiment allows the axes it holds still or removes without this option)")
+    g.add_argument("--u-value", type=finite, default=0.0, metavar="V",
+                   help="value of an absent input, in its unit (default 0)")
     g.add_argument("--resolution", type=_steps, default={}, metavar="STEPS",
-                   help="measurement steps, e.g. theta=3.1416e-4,x=2.5e-6 (default: estimated from the data)")
+                   help="measurement steps, e.g. {plant:angle}={plant:angle_step},{plant:position}={plant:position_step} "
+                        "(default: estimated from the data)")
     g.add_argument("--sample-time", type=positive, metavar="S",
                    help="sample time of a file without a time vector (Simulink 'Array'/'Structure')")
     g.add_argument("--rate", type=positive, metavar="HZ",
@@ -261,11 +275,8 @@ def reading_arguments(args) -> list:
         values = getattr(args, flag[2:], None) or {}
         if values:
             words += [flag, ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())]
-    legacy = [flag[2:].replace("-", "_") for flag, *_ in UNIT_OPTIONS] + [f[2:].replace("-", "_") for f in ANGLE_OPTIONS]
-    defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", **dict.fromkeys(legacy),
-                "experiment": None, "missing": "", "u_value": 0.0, "sample_time": None, "rate": None}
-    defaults.update({name: "hanging" for name in legacy if name.endswith("_zero")})
-    defaults.update({name: 1 for name in legacy if name.endswith("_sign")})
+    defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", "experiment": None, "missing": "",
+                "u_value": 0.0, "sample_time": None, "rate": None}
     for name, default in defaults.items():
         value = getattr(args, name, default)
         if value is not None and value != default:
@@ -286,16 +297,6 @@ def read_options(args, experiment: str | None = None, plant=None):
 
     missing = tuple(a.strip() for a in (getattr(args, "missing", "") or "").split(",") if a.strip())
     units, zero, sign = (dict(getattr(args, k, None) or {}) for k in ("unit", "zero", "sign"))
-    for flag, *_ in UNIT_OPTIONS:              # --<signal>-unit: the same as --unit <signal>=...
-        value = getattr(args, flag[2:].replace("-", "_"), None)
-        if value is not None:
-            units.setdefault(flag[2:-len("-unit")], value)
-    zero_flag, sign_flag = ANGLE_OPTIONS
-    angle = zero_flag[2:-len("-zero")]
-    if (getattr(args, zero_flag[2:].replace("-", "_"), None) or "hanging") != "hanging":
-        zero.setdefault(angle, getattr(args, zero_flag[2:].replace("-", "_")))
-    if float(getattr(args, sign_flag[2:].replace("-", "_"), 1) or 1) != 1.0:
-        sign.setdefault(angle, float(getattr(args, sign_flag[2:].replace("-", "_"))))
     return ReadOptions(
         columns=dict(getattr(args, "columns", None) or {}),
         separator=separator_from_name(getattr(args, "separator", None)),

@@ -128,7 +128,8 @@ def add_parsers(sub) -> None:
     p.set_defaults(func=cmd_hil)
 
     p = sub.add_parser("animate", help="virtual pendulum from a run.csv: self-contained HTML, GIF or MP4")
-    p.add_argument("run", help="run.csv of pendc hil (or any CSV with t, x, theta; '-': standard input)")
+    p.add_argument("run", help="run.csv of pendc hil (or any CSV with the time, the input and two measured "
+                               "positions, the translation first: {plant:columns}; '-': standard input)")
     p.add_argument("-o", "--output", required=True, help="pendulum.html, .gif or .mp4")
     p.add_argument("--fps", type=int, default=25, help="GIF/MP4 frames per second (default 25)")
     p.set_defaults(func=cmd_animate)

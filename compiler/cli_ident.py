@@ -226,8 +226,8 @@ def cmd_fit(args) -> int:
 def _add_ident_options(p) -> None:
     p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
     p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
-                                     "cart-pendulum's x, theta or x,theta; default: every output the data move; "
-                                     "held or missing ones are left out with a note)")
+                                     "default model's: {plant:positions}, or any of them; default: every output "
+                                     "the data move; held or missing ones are left out with a note)")
     p.add_argument("--json", action="store_true",
                    help="print the result as JSON instead of text (non-finite numbers as null)")
 
@@ -247,11 +247,12 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("fit", help="add effects, refit parameters, write a new model file",
                        description="Files of different experiments fit together, each simulated under its own "
-                                   "experiment; any plant constant (g M m L I) or effect parameter can be freed.")
+                                   "experiment; any plant constant ({plant:constants}) or effect parameter can be freed.")
     add_data_options(p)
     _add_ident_options(p)
     p.add_argument("--add", help="effects to add, comma-separated (their parameters are fitted)")
-    p.add_argument("--free", help="more parameters to fit, comma-separated (e.g. I,L,alpha,V_off)")
+    p.add_argument("--free", help="more parameters to fit, comma-separated: plant constants or effect parameters "
+                   "(e.g. I,L,alpha,V_off for the default model)")
     p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
     p.add_argument("-o", "--output", required=True, help="new model file")
     p.add_argument("--max-evaluations", type=int, default=200, help="budget of model evaluations (default 200)")

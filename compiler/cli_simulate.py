@@ -32,6 +32,7 @@ def cmd_simulate(args) -> int:
     from .model.modelfile import load_model
     from .sim.measurements import format_csv, read_measurements
     from .atomic import check_file_output
+    from .sim.signals import TIME
     from .sim.simulator import Simulator
     from .cli import build_model, write_output   # shared with build and report; cli imports this module
 
@@ -39,7 +40,7 @@ def cmd_simulate(args) -> int:
         check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
     _check_x0(args.x0, model.interface)
-    data = read_measurements(args.input, required=("t", model.interface.input.name))
+    data = read_measurements(args.input, required=(TIME, model.interface.input.name))
     _check_input_volts(data, model.interface.input.name)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)

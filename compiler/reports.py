@@ -13,15 +13,6 @@ from .ir.nodes import Kind
 from .passes.pipeline import BuildResult
 from .passes.qformats import thesis_format
 
-# spec §5: the thesis' formats and the two maxima it prints, for the plant the thesis built
-# (the cart-pendulum's interface name); the names are the nodes of that plant's graph
-THESIS_PLANT = "cart_pendulum"
-THESIS = {
-    "x": {"format": "FIX32_31"}, "dx": {"format": "FIX32_31"},
-    "ddx": {"format": "FIX32_26", "max": 18.39},
-    "theta": {"format": "FIX32_28"}, "dtheta": {"format": "FIX32_26"},
-    "ddtheta": {"format": "FIX32_24", "max": 83.21},
-}
 DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0)
 
 
@@ -34,10 +25,10 @@ def qformat_report(build: BuildResult) -> dict:
     """Per node: meaning, simulated max, thesis max/format where it printed one, chosen format,
     LSB in physical units and max |error| against float on the check stimuli."""
     from .model.interface import graph_interface
+    from .model.thesis_formats import thesis_formats
 
     g = build.graph
-    iface = graph_interface(g)
-    thesis = THESIS if iface is not None and iface.name == THESIS_PLANT else {}
+    thesis = thesis_formats(graph_interface(g))   # spec §5, for the plant the thesis built
     errors = build.error.node_errors if build.error else {}
     nodes = []
     for n in g.nodes:
