@@ -21,11 +21,13 @@ from pendc.ident.compare import (Comparison, allowed_outside, autocorrelation, c
 from pendc.ident.report_text import format_text as format_comparison
 from pendc.model.modelfile import load_model
 from pendc.sim import stimuli
-from pendc.sim.encoders import THETA_COUNT, X_COUNT
+from pendc.sim.encoders import encoder_resolution
 from pendc.sim.measurements import Measurement, format_csv, parse_measurements
 from pendc.sim.simulator import Simulator
 
 SPRING = {"k_c": 200.0, "x_0": 0.0}
+X_COUNT = encoder_resolution(None, "x")             # the default model's encoders: 2.5 um,
+THETA_COUNT = encoder_resolution(None, "theta")     # 0.314 mrad
 
 
 def measured(model, t, u, dt=1e-4, method="rk4", velocities=True) -> Measurement:

@@ -102,13 +102,13 @@ def test_docs_clamped_cart_story_error_falls(capsys, tmp_path, model, monkeypatc
     `pendc compare swing.mat --model lab --model fitted` must show the error falling first."""
     import scipy.io as sio
     from pendc.model.modelfile import save_model
-    from pendc.sim.encoders import quantize_theta
+    from pendc.sim.encoders import encoder_reading
     from pendc.ident import report_html
     truth = model.with_params({"m": 0.581 * 1.05, "L": 0.138867 * 1.05, "I": 6.21034e-3 * 1.05,
                                "b_theta": 0.0025}).for_experiment("cart_held")
     t = np.arange(0, 4, 1e-4)
     run = Simulator(truth, 1e-4, "rk4")(t, np.full_like(t, 5.0), x0=(0.0, 0.0, 1.2, 0.0))
-    values = np.degrees(quantize_theta(run["theta"]) - np.pi)[:, None]
+    values = np.degrees(encoder_reading(truth, "theta", run["theta"]) - np.pi)[:, None]
     sio.savemat(tmp_path / "swing.mat", {"pend": {"time": t[:, None], "signals": {
         "values": values, "dimensions": 1.0, "label": "Theta1", "blockName": "rig/Theta1"}}})
     lab = model.without_effect("viscous_pendulum")

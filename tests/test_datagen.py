@@ -7,7 +7,6 @@ import numpy as np
 from pendc import load_model
 from pendc.ident.datagen import (closed_loop_swing_up, degrade_input, demo_datasets, identification_experiment,
                                  make_dataset)
-from pendc.sim.encoders import THETA_COUNT, X_COUNT
 from pendc.sim.measurements import format_csv
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -18,14 +17,15 @@ def test_experiment_and_data_are_quantised_and_deterministic():
     assert t[-1] == 20.0 and np.all((u >= 0) & (u <= 10))
     a, b = make_dataset(load_model()), make_dataset(load_model())
     assert all(np.array_equal(a[k], b[k]) for k in a)
-    assert np.allclose(a["x"] / X_COUNT, np.round(a["x"] / X_COUNT), atol=1e-6)
-    assert np.allclose(a["theta"] / THETA_COUNT, np.round(a["theta"] / THETA_COUNT), atol=1e-6)
+    for sensor in load_model().interface.sensors:          # 2.5 um and 0.314 mrad, from the thesis
+        counts = a[sensor.state] / sensor.resolution
+        assert np.allclose(counts, np.round(counts), atol=1e-6)
     assert np.array_equal(a["u"], u)                              # the log holds the command
 
 
 def test_the_dac_and_noise_change_what_the_plant_sees():
     u = np.full(1000, 5.2646)
-    seen = degrade_input(u)
+    seen = degrade_input(u, load_model().interface.input.range)
     assert 0.001 < np.std(seen - u) < 0.01
 
 

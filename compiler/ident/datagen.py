@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.interface import InputRange
 from ..model.plant import PlantModel
 from ..sim.encoders import quantize
 from ..sim.signals import PlantSignals, signals_of
@@ -23,9 +24,11 @@ from ..sim.stimuli import V_CENTER
 FS = 1000.0
 
 
-def identification_experiment(duration: float = 20.0, center: float = V_CENTER, seed: int = 7):
+def identification_experiment(duration: float = 20.0, center: float = V_CENTER, seed: int = 7, plant=None):
     """The standard 20 s experiment: small and large steps, a chirp, a resonant swing-up
-    and a quiet end where the pendulum swings freely (damping shows there)."""
+    and a quiet end where the pendulum swings freely (damping shows there). The input stays
+    within the range the actuator of ``plant`` takes (a model or interface; default: the
+    default model's, the SCT drive's 0-10 V)."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(duration * FS)) + 1) / FS
     u = np.full_like(t, center)
@@ -42,16 +45,23 @@ def identification_experiment(duration: float = 20.0, center: float = V_CENTER, 
     m = (t >= 14 * seg) & (t < 16 * seg)                     # 14-16 s: random levels
     holds = rng.uniform(-2.0, 2.0, 40)
     u[m] = center + holds[((t[m] - 14 * seg) / 0.05).astype(int) % 40]
-    return t, np.clip(u, 0.0, 10.0)                          # 16-20 s: u = V_off, free swing
+    drive = signals_of(plant).interface.input.range
+    return t, np.clip(u, drive.lo, drive.hi)                 # 16-20 s: u = V_off, free swing
 
 
-def degrade_input(u: np.ndarray, dac_bits: int = 12, noise_v: float = 0.005, seed: int = 11,
-                  span: float = 10.0) -> np.ndarray:
-    """What the actuator sees: the DAC's quantised command (``dac_bits`` over ``span``, the SCT's
-    0-10 V) plus unmeasured noise."""
+def dac_output(u, input_range: InputRange, dac_bits: int = 12) -> np.ndarray:
+    """The command as a DAC of ``dac_bits`` over the actuator's whole range puts it out (the
+    nearest code, counted from the range's low end)."""
+    lsb = input_range.span / (2**dac_bits - 1)
+    return input_range.lo + np.round((np.asarray(u, float) - input_range.lo) / lsb) * lsb
+
+
+def degrade_input(u: np.ndarray, input_range: InputRange, dac_bits: int = 12, noise_v: float = 0.005,
+                  seed: int = 11) -> np.ndarray:
+    """What the actuator sees: the DAC's quantised command (:func:`dac_output` over the
+    plant's ``input_range``) plus unmeasured noise."""
     rng = np.random.default_rng(seed)
-    lsb = span / (2**dac_bits - 1)
-    return np.round(u / lsb) * lsb + rng.normal(0.0, noise_v, size=u.shape)
+    return dac_output(u, input_range, dac_bits) + rng.normal(0.0, noise_v, size=np.shape(u))
 
 
 def encoder_readings(signals: PlantSignals, positions: dict) -> dict:
@@ -68,25 +78,36 @@ def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noi
                  seed: int = 11, dt: float = 1e-6, experiment: str = "free", x0=None) -> dict:
     """Columns time, input, positions (``t, u, x, theta`` for the cart-pendulum) of one
     simulated ``experiment`` on ``true_model`` from the true state ``x0`` (default: at rest
-    at zero); positions as the sensors read them. The DAC spans the input's full scale."""
+    at zero); positions as the sensors read them. The DAC spans the input's range."""
     if t is None:
-        t, u = identification_experiment()
+        t, u = identification_experiment(plant=true_model)
     sig = signals_of(true_model)
-    applied = degrade_input(np.asarray(u, float), dac_bits, noise_v, seed, span=sig.interface.input.full_scale)
+    applied = degrade_input(np.asarray(u, float), sig.interface.input.range, dac_bits, noise_v, seed)
     res = Simulator(true_model.for_experiment(experiment), dt=dt)(t, applied, x0=x0)
     return {"t": np.asarray(t, float), sig.input: np.asarray(u, float),
             **encoder_readings(sig, {p: res.measured(p) for p in sig.positions})}
 
 
-def free_swing(true_model: PlantModel, duration: float = 30.0, theta0: float = 0.8, seed: int = 17) -> dict:
+def free_swing(true_model: PlantModel, duration: float = 30.0, angle0: float = 0.8, seed: int = 17) -> dict:
     """The thesis' pivot experiment: the cart clamped, the pendulum (the last periodic
-    position) released from ``theta0`` at rest; the drive is idle (the log holds u = V_off)."""
+    position) released from ``angle0`` at rest; the drive is idle (the log holds u = V_off)."""
     t = np.arange(int(round(duration * FS)) + 1) / FS
     u = np.full_like(t, true_model.parameter_values().get("V_off", V_CENTER))
     sig = signals_of(true_model)
     x0 = np.zeros(len(sig.mechanical))
-    x0[sig.index(sig.periodic[-1])] = theta0
+    x0[sig.index(sig.periodic[-1])] = angle0
     return make_dataset(true_model, t, u, seed=seed, experiment="cart_held", x0=tuple(x0))
+
+
+# The other lab's pivot: the catalogue's viscous pivot damping with this coefficient
+PIVOT_DAMPING = ("viscous_pendulum", 0.0025)
+
+
+def pivot_damping(base: PlantModel) -> tuple:
+    """``(parameter, value)`` of the other lab's pivot damping: the coefficient of the
+    catalogue's :data:`PIVOT_DAMPING` effect."""
+    effect, value = PIVOT_DAMPING
+    return base.catalogue[effect].params[0].name, value
 
 
 def unknown_pendulum(base: PlantModel) -> PlantModel:
@@ -94,8 +115,8 @@ def unknown_pendulum(base: PlantModel) -> PlantModel:
     5 % more inertia, and a stiffer pivot than the model says."""
     p = base.plant
     model = base.with_params({"m": p["m"] * 1.05, "L": p["L"] * 0.95, "I": p["I"] * 1.05})
-    return model.with_params({"b_theta": 0.0025}) if "viscous_pendulum" in model.effects else \
-        model.with_effect("viscous_pendulum", {"b_theta": 0.0025})
+    effect, damping = PIVOT_DAMPING[0], dict([pivot_damping(base)])
+    return model.with_params(damping) if effect in model.effects else model.with_effect(effect, damping)
 
 
 # Hidden effects added to the true model, with parameters large enough to matter on the rig.
@@ -127,8 +148,8 @@ def make_ripple_dataset(model: PlantModel, amplitude: float = 40.0, wavelength: 
     """Data with physics outside the catalogue: a rail ripple force A sin(2 pi x / wavelength)
     on the cart (a worn or uneven guide). It enters as an equivalent input offset updated
     every millisecond from the simulated position, since no catalogue effect can carry it."""
-    t, u = identification_experiment()
-    applied = degrade_input(u, dac_bits, noise_v, seed)
+    t, u = identification_experiment(plant=model)
+    applied = degrade_input(u, model.interface.input.range, dac_bits, noise_v, seed)
     alpha = model.effects["drive"]["alpha"]
     sim = Simulator(model, dt=1e-6)
     sig = sim.signals
@@ -149,7 +170,8 @@ def demo_datasets(base: PlantModel) -> dict:
     walkthroughs in docs/."""
     spring = base.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05})
     two = spring.with_effect("coulomb_pendulum", {"tau_c": 0.004})
-    t2, u2 = identification_experiment(seed=21)
+    t2, u2 = identification_experiment(seed=21, plant=base)
+    damping, value = pivot_damping(base)
     return {
         "hidden_spring": (make_dataset(spring), "Table 14 model plus a cable pulling the cart (cart_spring k_c=300 N/m, x_0=0.05 m)"),
         "hidden_spring_validation": (make_dataset(spring, t2, u2, seed=23), "the same plant, another experiment (for validation)"),
@@ -157,8 +179,8 @@ def demo_datasets(base: PlantModel) -> dict:
         "hidden_unexplained": (make_ripple_dataset(base), "a rail ripple force 40 sin(2 pi x / 0.06) N: not in the catalogue"),
         "hidden_spring_swing_up": (closed_loop_swing_up(spring), "the spring plant under a closed-loop energy swing-up controller"),
         "unknown_pendulum_swing": (free_swing(unknown_pendulum(base)),
-                                   "another pendulum (m +5 %, L -5 %, I +5 %, b_theta 0.0025) swinging freely "
-                                   "from 0.8 rad with the cart clamped", {"experiment": "cart_held"}),
+                                   f"another pendulum (m +5 %, L -5 %, I +5 %, {damping} {value:g}) swinging "
+                                   "freely from 0.8 rad with the cart clamped", {"experiment": "cart_held"}),
     }
 
 
@@ -179,7 +201,7 @@ def closed_loop_swing_up(model: PlantModel, duration: float = 10.0, gain_energy:
     sig = sim.signals
     cart, pendulum = sig.positions[0], sig.periodic[-1]     # the controller's two sensors
     i_cart, i_pend = sig.index(cart), sig.index(pendulum)
-    lsb = 10.0 / (2**dac_bits - 1)
+    drive = sig.interface.input.range
     state = np.zeros(len(sig.mechanical))
     state[i_pend] = 0.05
     t = np.arange(n + 1) * h
@@ -198,7 +220,7 @@ def closed_loop_swing_up(model: PlantModel, duration: float = 10.0, gain_energy:
         u_log[k], x_log[k], th_log[k] = u, xq, thq
         if k == n:
             break
-        applied = np.round(u / lsb) * lsb + rng.normal(0.0, noise_v)
+        applied = float(dac_output(u, drive, dac_bits)) + rng.normal(0.0, noise_v)
         seg = sim(np.array([t[k], t[k + 1]]), np.array([applied, applied]), x0=state)
         state = np.array([seg[s][-1] for s in sig.mechanical])
     return {"t": t, sig.input: u_log, cart: x_log, pendulum: th_log}

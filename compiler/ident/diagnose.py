@@ -288,4 +288,4 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     return Diagnosis(candidates=tuple(results), unexplained=unexplained,
                      correlations=residual_correlations(model, datasets) if unexplained else [],
                      baseline_cost=base_cost, noise_ratio=ratio, at_noise_level=quiet,
-                     notes=tuple(problem.notes) + tuple(skipped), tie=find_tie(results, floor) if explained else None)
+                     notes=tuple(problem.notes) + tuple(skipped), tie=find_tie(results, floor, model.rigid_body.notes) if explained else None)

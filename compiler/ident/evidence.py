@@ -160,43 +160,9 @@ def _corr(a, b) -> float:
     return float(a @ b / den) if den > 1e-300 else 0.0
 
 
-# What each catalogue effect adds, in words (keyed by effect name, for both bodies' catalogues)
-SENTENCES = {
-    "cart_spring": "the residual force on the cart grows with position and pulls the cart back (a spring or cable)",
-    "asymmetric_cart": "the residual force on the cart follows the sign of its velocity with a different size left "
-                       "and right",
-    "coulomb_cart": "the residual force on the cart follows the sign of its velocity: dry friction",
-    "viscous_cart": "the residual force on the cart is proportional to its speed",
-    "static_cart": "the cart stays stuck for inputs the model says would move it",
-    "coulomb_pendulum": "the residual torque at the pivot opposes the sign of the swing's rate: dry friction in the "
-                        "pivot",
-    "viscous_pendulum": "the residual torque at the pivot is proportional to the swing's rate and opposes it: "
-                        "viscous damping of the swing",
-    "drive_deadzone": "the cart does not respond to small inputs around V_off: a dead zone in the drive",
-    "force_limit": "the drive force stops growing for large inputs: a current limit",
-    "motor_lag": "the force builds up with a first-order lag after input changes",
-    "input_delay": "the response starts a fixed time after the input changes: a transport delay",
-    "velocity_limit": "the cart speed saturates",
-    "quadratic_pendulum": "the residual torque at the pivot grows with the square of the swing's rate and opposes "
-                          "it: air drag on the swing",
-    "theta_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
-    "x_offset": "the cart's forces look shifted along the track: an offset of the position sensor",
-    "end_stops": "the cart is pushed back hard near the ends of the track: end stops",
-    "viscous_arm": "the residual torque on the arm is proportional to its rate and opposes it: viscous damping of "
-                   "the arm",
-    "coulomb_arm": "the residual torque on the arm opposes the sign of its rate: dry friction in the motor and arm",
-    "viscous_pivot": "the residual torque at the hinge is proportional to the swing's rate and opposes it: viscous "
-                     "damping of the swing",
-    "coulomb_pivot": "the residual torque at the hinge opposes the sign of the swing's rate: dry friction in the "
-                     "hinge",
-    "voltage_limit": "the arm stops answering larger inputs: the amplifier saturates",
-    "alpha_offset": "the pendulum rests at an angle the sensor does not call zero: an offset of the angle encoder",
-}
-
-
 def describe_candidate(base: PlantModel, fitted: PlantModel, effect: str, datasets: list, score: float) -> str:
     """One or two sentences a control engineer can check against the plots."""
-    parts = [SENTENCES.get(effect, f"adding {effect} reduces the error")]
+    parts = [base.rigid_body.notes.evidence.get(effect, f"adding {effect} reduces the error")]
     values = ", ".join(f"{k} = {v:.4g}" for k, v in fitted.effects.get(effect, {}).items())
     r = _contribution_correlation(base, fitted, datasets)
     if r is not None:
@@ -269,20 +235,8 @@ def residual_correlations(model: PlantModel, datasets: list, top: int = 6) -> li
     return rows[:top]
 
 
-# What a strong correlation of the unexplained acceleration points at among the constants
-# the model already has (rather than a missing effect): which ones to free. Keys: the body
-# whose acceleration is off and what it follows ("angle": the angle or its sine, "rate":
-# the body's own rate, "input": the input about its centre); a hint applies only to a model
-# that has every parameter it names.
-PLANT_HINTS = (
-    ("pendulum", "angle", "I", "the swing's period is off (free I, or L)"),
-    ("pendulum", "rate", "b_theta", "the pivot damping is off"),
-    ("cart", "input", "alpha,V_off", "the drive gain or offset is off"),
-    ("cart", "rate", "b_x", "the viscous friction of the cart is off"),
-    ("pendulum", "rate", "D_p", "the hinge damping is off"),
-    ("arm", "rate", "D_r", "the arm's damping is off"),
-    ("arm", "input", "k_t", "the motor's torque constant is off"),
-)
+# How strong a correlation must be for a parameter hint (the body's notes say which
+# constants a residual following a signal points at)
 HINT_R = 0.4
 
 
@@ -299,7 +253,7 @@ def _signal_kind(model: PlantModel, body: str, signal: str) -> str | None:
 
 def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
     """``(parameters, reasons)`` to free when the strong correlations point at constants the
-    model has, or None."""
+    model has (its body's notes say which signal points at which constants), or None."""
     names = set(model.parameter_names())
     params, reasons = {}, {}
     for row in correlations:
@@ -307,7 +261,7 @@ def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
             break
         body = row["target"].rsplit(" ", 1)[0]
         kind = _signal_kind(model, body, row["signal"])
-        for hint_body, hint_kind, hint_params, reason in PLANT_HINTS:
+        for hint_body, hint_kind, hint_params, reason in model.rigid_body.notes.parameter_hints:
             if (hint_body, hint_kind) == (body, kind) and all(p in names for p in hint_params.split(",")):
                 params.update(dict.fromkeys(hint_params.split(",")))
                 reasons[reason] = None

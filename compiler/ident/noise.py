@@ -3,9 +3,9 @@
 When the model is complete, the shooting residual is what the measurement chain adds:
 encoder quantisation of the positions (and of the start states derived from them) and
 the unmeasured noise on the drive's input. This module measures that floor directly:
-the model itself is run on the file's input through the same chain (a 12-bit DAC and
-5 mV of input noise, as :mod:`pendc.ident.datagen` and the rig have them, quantised to
-the file's resolution), and the synthetic run is scored exactly like the data. A data
+the model itself is run on the file's input through the same chain (a 12-bit DAC over the
+input's range and 5 mV of input noise, as :mod:`pendc.ident.datagen` and the rig have them,
+quantised to the file's resolution), and the synthetic run is scored exactly like the data. A data
 residual not clearly above that floor holds nothing systematic for a missing effect
 to explain.
 """
@@ -53,7 +53,8 @@ def noise_run(model: PlantModel, problem: ShootingProblem, index: int, seed: int
     rec = problem.records[index]
     sim = Simulator(model.for_experiment(rec.experiment), dt=problem.sim.dt, method=problem.sim.method)
     s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0))
-    out, valid = sim.raw(rec.t, degrade_input(rec.u, seed=seed), s0, sim.param_vector)
+    applied = degrade_input(rec.u, model.interface.input.range, seed=seed)
+    out, valid = sim.raw(rec.t, applied, s0, sim.param_vector)
     if valid < rec.t.size:
         return None
     off = sim.offset_values(sim.param_vector)

@@ -12,7 +12,9 @@ rig was in). The partitions are read off the plant interface:
   one, else 0; ``LOW_DRIVE``: about the SCT's static break-away voltage, 0.40 V for Table 14);
 * **<position> position** for a translation (the cart on its track): centre or near an end
   (``TRACK_END`` of its unit: the outer third of each half of the SCT's 750 mm track);
-* **input saturation**: the input within ``SATURATION_MARGIN`` of its full scale or not.
+* **input saturation**: the input within ``SATURATION_MARGIN`` of the span of the range its
+  actuator takes (the interface's: the SCT drive's 0-10 V, the QUBE's ±10 V) from either end,
+  or not.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ STANDSTILL = {"m/s": 0.005, "rad/s": 0.05}   # per rate unit: below this the bod
 SMALL_SWING = 0.3            # rad from the angle's zero
 LOW_DRIVE = 0.5              # input units from its centre
 TRACK_END = {"m": 0.25}      # per position unit: beyond this the body is near an end of its travel
-SATURATION_MARGIN = 0.005    # fraction of the full scale
+SATURATION_MARGIN = 0.005    # fraction of the input range's span
 DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's offset for models without a drive effect
 
 
@@ -44,6 +46,14 @@ def input_centre(model) -> float:
         return float(values["V_off"])
     knows_offset = any(p.name == "V_off" for cls in model.catalogue.values() for p in cls.params)
     return DEFAULT_V_OFF if knows_offset else 0.0
+
+
+def saturation_limits(drive) -> tuple:
+    """``(low, high)``: an input at or below ``low`` or at or above ``high`` is saturated,
+    within ``SATURATION_MARGIN`` of the span of the range ``drive`` (an
+    :class:`~pendc.model.interface.InputRange`) from either end."""
+    margin = SATURATION_MARGIN * drive.span
+    return drive.lo + margin, drive.hi - margin
 
 
 def _number(value: float, unit: str) -> str:
@@ -92,11 +102,11 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=()) -> list:
         out.append(("track position" if p == lead else f"{p} position", [
             ("centre", f"|{p}| <= {end:g} {sig.unit(p)}", x <= end),
             ("near an end", f"|{p}| > {end:g} {sig.unit(p)}", x > end)]))
-    limit = spec.full_scale * (1.0 - SATURATION_MARGIN)
-    sat = np.abs(u) >= limit
+    low, high = saturation_limits(spec.range)
+    sat = (u <= low) | (u >= high)
     out.append(("input saturation", [
-        ("saturated", f"|{name}| >= {limit:g} {spec.unit}", sat),
-        ("in range", f"|{name}| < {limit:g} {spec.unit}", ~sat)]))
+        ("saturated", f"{name} <= {low:g} or >= {high:g} {spec.unit}", sat),
+        ("in range", f"{low:g} < {name} < {high:g} {spec.unit}", ~sat)]))
     return [(p, members) for p, members in out if p not in skip]
 
 

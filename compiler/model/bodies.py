@@ -19,6 +19,7 @@ from .experiments import EXPERIMENTS, FURUTA_EXPERIMENTS
 from .furuta import CONSTANTS as FURUTA_CONSTANTS
 from .furuta_effects import FURUTA_CATALOGUE, FURUTA_CONFLICTS
 from .furuta_plant import build_furuta_equations, build_furuta_interface
+from .identification_notes import CART_NOTES, FURUTA_NOTES, IdentificationNotes
 
 DEFAULT_BODY = "cart_pendulum"
 
@@ -27,8 +28,9 @@ DEFAULT_BODY = "cart_pendulum"
 class Body:
     """One rigid body: ``constants`` (name -> (unit, meaning)) that ``[plant]`` holds, its
     effect ``catalogue`` (name -> class) and ``conflicts`` (pairs of effects that define the
-    same part), its ``experiments`` (name -> what was held or removed), and the functions
-    that build a model's equations and plant interface."""
+    same part), its ``experiments`` (name -> what was held or removed), the functions
+    that build a model's equations and plant interface, and the ``notes`` identification
+    reports about its effects (:mod:`pendc.model.identification_notes`)."""
 
     name: str
     summary: str
@@ -38,15 +40,16 @@ class Body:
     experiments: dict
     equations: Callable
     interface: Callable
+    notes: IdentificationNotes
 
 
 BODIES: dict[str, Body] = {
     "cart_pendulum": Body("cart_pendulum", "servo cart on a ball screw with a free pendulum (the SCT rig)",
                           PLANT_CONSTANTS, CATALOGUE, CONFLICTS, EXPERIMENTS,
-                          build_cart_equations, build_cart_interface),
+                          build_cart_equations, build_cart_interface, CART_NOTES),
     "furuta": Body("furuta", "rotary (Furuta) pendulum: a motor-driven arm with a free pendulum at its end",
                    FURUTA_CONSTANTS, FURUTA_CATALOGUE, FURUTA_CONFLICTS, FURUTA_EXPERIMENTS,
-                   build_furuta_equations, build_furuta_interface),
+                   build_furuta_equations, build_furuta_interface, FURUTA_NOTES),
 }
 
 
@@ -63,3 +66,8 @@ def body_named(name, source: str = "") -> Body:
 def catalogue_of(body: str) -> dict:
     """The effect catalogue (name -> class) of the body called ``body``."""
     return body_named(body).catalogue
+
+
+def default_body() -> Body:
+    """The body a model file without ``[plant] body`` is (the cart-pendulum)."""
+    return BODIES[DEFAULT_BODY]

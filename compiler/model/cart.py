@@ -14,7 +14,7 @@ import sympy as sp
 from ..errors import PendcError
 from .effects import CATALOGUE, Symbols
 from .equations import Equations
-from .interface import InputSpec, PlantInterface, QuantitySpec, SensorSpec, StateSpec
+from .interface import PlantInterface, QuantitySpec, SensorSpec, StateSpec, input_spec
 from .lagrangian import COORDINATES, derive_rigid_body
 
 PLANT_CONSTANTS = {
@@ -128,7 +128,11 @@ def build_cart_equations(model) -> Equations:
 
 # -- the plant interface -----------------------------------------------------------------------
 
-INPUT = ("u", "V", "driver input voltage (V)", 10.0)      # name, unit, meaning, full scale (±10 V)
+INPUT = ("u", "V", "driver input voltage (V)")      # name, unit, meaning
+# What the drive takes (thesis II.1, Fig. II.4: "the input voltage having a range from 0 to
+# 10V"; spec section 3): a model file's [input] range overrides it. The input port's full
+# scale is the larger end, 10 V.
+INPUT_RANGE = (0.0, 10.0)
 # Named intermediates of build_equations (and the lag state of motor_lag), as the IR prints them
 QUANTITIES = {
     "F_m": ("N", "drive force after the motor lag (N)"), "F_in": ("N", "drive force on the cart (N)"),
@@ -140,6 +144,8 @@ FEED = 5e-3                           # m per spindle revolution
 # The rig's encoders (spec section 4): state, body, band (state units), lines, bands per revolution
 ENCODERS = (("x", "cart", FEED / 1000, 500, 1000),                 # 1000 bands/rev of the spindle (II.49)
             ("theta", "pendulum", 2 * math.pi / 10000, 5000, 10000))  # Heidenhain ROD 420 (II.50)
+# One count of each after x4 decoding (half a band): 2.5 um of cart travel, 0.314 mrad
+X_COUNT, THETA_COUNT = (band / 2 for _, _, band, _, _ in ENCODERS)
 # Error budget: half an encoder count over the check horizon, the count as the thesis prints it
 # (2.5 um, 0.314 mrad)
 BUDGETS = {"x": 2.5e-6 / 2, "theta": 3.14e-4 / 2}
@@ -158,7 +164,8 @@ SPIN_RATE = 10 * math.pi
 def build_cart_interface(model) -> PlantInterface:
     """The cart-pendulum's :class:`PlantInterface`: the rigid body's coordinates and rates
     (periodicity read off the Lagrangian), the velocity clamp of the model's effects, any lag
-    states, the driver input and the two encoders."""
+    states, the driver input (its range the model file's, else the thesis' 0-10 V) and the two
+    encoders."""
     eq = model.equations
     rb = derive_rigid_body()
     periods = dict(rb.periods)
@@ -180,7 +187,7 @@ def build_cart_interface(model) -> PlantInterface:
     state_names = {s.name for s in states}
     return PlantInterface(
         name="cart_pendulum", core="pendulum_core", states=tuple(states),
-        inputs=(InputSpec(*INPUT),),
+        inputs=(input_spec(INPUT, model.input_range or INPUT_RANGE),),
         sensors=tuple(SensorSpec(f"enc_{state}", state, body, band, lines, bands)
                       for state, body, band, lines, bands in ENCODERS),
         quantities=tuple(QuantitySpec(name, unit, meaning) for name, (unit, meaning) in QUANTITIES.items()

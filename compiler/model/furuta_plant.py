@@ -17,15 +17,17 @@ from ..errors import PendcError
 from .equations import Equations
 from .furuta import COORDINATES, derive_furuta
 from .furuta_effects import FURUTA_CATALOGUE, FurutaSymbols
-from .interface import InputSpec, PlantInterface, QuantitySpec, SensorSpec, StateSpec
+from .interface import PlantInterface, QuantitySpec, SensorSpec, StateSpec, input_spec
 
 # The positions each experiment measures
 MEASURED = {"arm_held": ("alpha_p",), "pendulum_removed": ("phi_r",)}
 
-# The amplifier's input: name, unit, meaning, full scale. Qube-Servo user manual: the PWM
-# amplifier's recommended output range is +-10 V (+-15 V at most); the model takes the
-# recommended range, as Quanser's own swing-up (tau_max = k_t 10 V / R_m) does.
-INPUT = ("u", "V", "motor voltage from the amplifier (V)", 10.0)
+# The amplifier's input: name, unit, meaning, and the range it takes. Qube-Servo user manual:
+# the PWM amplifier's recommended output range is +-10 V (+-15 V at most); the model takes the
+# recommended range, as Quanser's own swing-up (tau_max = k_t 10 V / R_m) does. A model file's
+# [input] range overrides it.
+INPUT = ("u", "V", "motor voltage from the amplifier (V)")
+INPUT_RANGE = (-10.0, 10.0)
 # Named intermediates of build_furuta_equations, as the IR prints them
 QUANTITIES = {
     "tau_motor": ("N*m", "motor torque on the arm (N*m)"),
@@ -128,7 +130,7 @@ def build_furuta_interface(model) -> PlantInterface:
         raise PendcError("internal error: the Furuta equations' states are not the rigid body's coordinates and rates")
     return PlantInterface(
         name="furuta", core="furuta_core", states=tuple(states),
-        inputs=(InputSpec(*INPUT),),
+        inputs=(input_spec(INPUT, model.input_range or INPUT_RANGE),),
         sensors=tuple(SensorSpec(f"enc_{state}", state, body, band, lines, bands)
                       for state, body, band, lines, bands in ENCODERS),
         quantities=tuple(QuantitySpec(name, unit, meaning) for name, (unit, meaning) in QUANTITIES.items()))

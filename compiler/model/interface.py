@@ -9,7 +9,7 @@ out by name lives here instead, in one frozen value:
   capacity of a periodic register (whole periods either way), a velocity clamp, the error
   tolerance the error budget holds a position to, and the rate the range analysis trains on
   from reset (a spinning pendulum);
-* the **inputs** with unit, meaning and full scale;
+* the **inputs** with unit, meaning, full scale and the range the actuator takes;
 * the **sensors** (quadrature encoders: which state each reads, its band width, lines and
   bands per revolution, hence its counts per unit);
 * the **named intermediate quantities** of the equations (their meanings for the IR);
@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from ..errors import PendcError
 
 INFO_KEY = "interface"
 
@@ -73,14 +75,80 @@ class StateSpec:
         return None if self.period is None or self.turns is None else self.period * self.turns
 
 
+def check_input_range(lo, hi, where: str) -> tuple:
+    """``(lo, hi)`` as floats: two finite numbers with ``lo < hi``; else a one-line
+    :class:`PendcError` naming ``where`` (a model file's ``input.range``, an input spec)."""
+    pair = (lo, hi)
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in pair):
+        raise PendcError(f"{where} must be two numbers [low, high], got [{lo!r}, {hi!r}]")
+    if not all(math.isfinite(v) for v in pair):
+        raise PendcError(f"{where} must be finite, got [{lo!r}, {hi!r}]")
+    if not lo < hi:
+        raise PendcError(f"{where} must have low < high, got [{lo!r}, {hi!r}]")
+    return float(lo), float(hi)
+
+
+@dataclass(frozen=True)
+class InputRange:
+    """The values an input's actuator takes, ``lo`` to ``hi`` in ``unit`` (the SCT drive:
+    0 to 10 V); beyond them it saturates."""
+
+    lo: float
+    hi: float
+    unit: str
+
+    @property
+    def span(self) -> float:
+        """``hi - lo``: what a DAC over the whole range spans."""
+        return self.hi - self.lo
+
+    @property
+    def centre(self) -> float:
+        """The middle of the range."""
+        return 0.5 * (self.lo + self.hi)
+
+    def describe(self) -> str:
+        """``0-10 V``, or ``±10 V`` for a range symmetric about zero."""
+        if self.lo == -self.hi:
+            return f"±{self.hi:g} {self.unit}"
+        return f"{self.lo:g}-{self.hi:g} {self.unit}"
+
+
 @dataclass(frozen=True)
 class InputSpec:
-    """One input of the plant: its port name, unit, meaning and full scale (largest |value|)."""
+    """One input of the plant: its port name, unit, meaning, full scale (the largest |value|
+    the hardware's input port holds) and the range ``lo`` .. ``hi`` its actuator takes (the
+    SCT drive 0-10 V, the QUBE's amplifier ±10 V; ±``full_scale`` when not given). The range
+    lies within ±``full_scale``: a one-line :class:`PendcError` otherwise."""
 
     name: str
     unit: str
     meaning: str
     full_scale: float
+    lo: float | None = None
+    hi: float | None = None
+
+    def __post_init__(self):
+        where = f"the range of input '{self.name}'"
+        lo = -self.full_scale if self.lo is None else self.lo
+        hi = self.full_scale if self.hi is None else self.hi
+        lo, hi = check_input_range(lo, hi, where)
+        if max(abs(lo), abs(hi)) > self.full_scale:
+            raise PendcError(f"{where} [{lo:g}, {hi:g}] {self.unit} exceeds its full scale ±{self.full_scale:g}")
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+
+    @property
+    def range(self) -> InputRange:
+        """What the actuator takes: ``InputRange(lo, hi, unit)``."""
+        return InputRange(self.lo, self.hi, self.unit)
+
+
+def input_spec(described: tuple, input_range: tuple) -> InputSpec:
+    """The :class:`InputSpec` of ``described`` (name, unit, meaning) taking ``input_range``
+    (lo, hi): the hardware port's full scale is the larger end's magnitude."""
+    lo, hi = input_range
+    return InputSpec(*described, full_scale=max(abs(lo), abs(hi)), lo=lo, hi=hi)
 
 
 @dataclass(frozen=True)

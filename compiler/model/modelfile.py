@@ -21,7 +21,7 @@ from ..errors import PendcError, open_input
 from .bodies import DEFAULT_BODY
 from .plant import PlantModel
 
-TOP_LEVEL = ("plant", "effects", "fit", "meta", "hardware")
+TOP_LEVEL = ("plant", "effects", "input", "fit", "meta", "hardware")
 
 
 def default_model_path() -> Path:
@@ -73,6 +73,8 @@ def model_fingerprint(model: PlantModel) -> str:
     read = {"plant": model.plant, "effects": model.effects, "hardware": model.hardware}
     if model.body != DEFAULT_BODY:     # the cart-pendulum's fingerprints stay what they were
         read["body"] = model.body
+    if model.input_range is not None:  # the input port's full scale follows the range
+        read["input"] = list(model.input_range)
     canonical = json.dumps(read, sort_keys=True, separators=(",", ":"), default=repr)
     return "sha256:" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:16]
 
@@ -114,7 +116,22 @@ def parse_model(text: str, source: str = "<model>") -> PlantModel:
     body = plant.get("body", DEFAULT_BODY)
     constants = {k: v for k, v in plant.items() if k != "body"}
     return PlantModel(plant=constants, effects=doc.get("effects", {}), free=tuple(free), source=source,
-                      hardware=hardware, body=body)
+                      hardware=hardware, body=body, input_range=_input_range(doc.get("input"), source))
+
+
+def _input_range(table, source: str):
+    """``[input] range = [low, high]`` (the input's unit): what the actuator takes; None when
+    the file does not say (the body's own range holds). PlantModel checks the numbers."""
+    if table is None:
+        return None
+    if not isinstance(table, dict) or set(table) - {"range"}:
+        raise PendcError(f"{source}: [input] may only hold 'range = [low, high]' (in the input's unit)")
+    if "range" not in table:
+        raise PendcError(f"{source}: [input] lacks 'range = [low, high]'")
+    pair = table["range"]
+    if not isinstance(pair, list) or len(pair) != 2:
+        raise PendcError(f"{source}: input.range must be [low, high], got {pair!r}")
+    return tuple(pair)
 
 
 def _check_intervals(intervals, source: str) -> None:
@@ -151,6 +168,8 @@ def dumps_model(model: PlantModel, meta: dict | None = None) -> str:
     for name, params in model.effects.items():
         lines += ["", f"[effects.{name}]"]
         lines += [f"{k} = {_number(v)}" for k, v in params.items()]
+    if model.input_range is not None:
+        lines += ["", "[input]", f"range = [{_number(model.input_range[0])}, {_number(model.input_range[1])}]"]
     if model.free:
         lines += ["", "[fit]", "free = [" + ", ".join(_string(p) for p in model.free) + "]"]
     scalars = {k: v for k, v in model.hardware.items() if not isinstance(v, dict)}
@@ -226,7 +245,8 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
     text = assemble("\n".join(out))
     try:
         back = parse_model(text, source="<fitted model>")
-        same = back.plant == model.plant and back.effects == model.effects and back.body == model.body
+        same = (back.plant == model.plant and back.effects == model.effects and back.body == model.body
+                and back.input_range == model.input_range)
     except PendcError:
         same = False
     if not same:

@@ -19,7 +19,7 @@ from ..errors import PendcError
 from .bodies import DEFAULT_BODY, Body, body_named
 from .equations import Equations
 from .experiments import DEFAULT_EXPERIMENT
-from .interface import PlantInterface
+from .interface import PlantInterface, check_input_range
 
 
 @dataclass(frozen=True)
@@ -33,8 +33,10 @@ class PlantModel:
     experiments (:mod:`pendc.model.experiments`: a held cart, a removed pendulum); it is never
     written to a model file. ``body`` names the rigid body (:data:`pendc.model.bodies.BODIES`;
     a model file's ``[plant] body = "..."``, the cart-pendulum when absent): which constants
-    ``plant`` holds and which effects exist. Construction validates everything and raises
-    :class:`PendcError` with a one-line reason.
+    ``plant`` holds and which effects exist. ``input_range`` is the model file's ``[input]
+    range = [low, high]`` (in the input's unit): what the actuator takes, when the file says
+    (else the body's own, e.g. the thesis' 0-10 V for the SCT drive). Construction validates
+    everything and raises :class:`PendcError` with a one-line reason.
     """
 
     plant: dict
@@ -44,9 +46,15 @@ class PlantModel:
     hardware: dict = field(default_factory=dict)   # compiler options; the compiler validates them
     experiment: str = DEFAULT_EXPERIMENT
     body: str = DEFAULT_BODY
+    input_range: tuple | None = None
 
     def __post_init__(self):
         rigid = body_named(self.body, self.source)
+        if self.input_range is not None:
+            pair = self.input_range
+            if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+                raise PendcError(f"{self._where()}input.range must be [low, high], got {pair!r}")
+            object.__setattr__(self, "input_range", check_input_range(*pair, f"{self._where()}input.range"))
         if self.experiment not in rigid.experiments:
             raise PendcError(f"unknown experiment '{self.experiment}' (known: {', '.join(rigid.experiments)})")
         plant = _validate_plant(self.plant, self.source, rigid)

@@ -1,24 +1,23 @@
-"""Encoder geometry (spec §4) and quantisation of float trajectories to ×4 counts.
+"""Quantisation of float trajectories to ×4 encoder counts, for any encoder a plant declares.
 
-The quadrature channels switch on an absolute band grid (bands fixed to the
-mechanics, the grid origin at x = 0 and theta = 0), and a ×4 decoder counts every
-edge of A and B, so one count is half a band. The real encoders start counting at
-power-on, so a decoded position is the initial position plus counts times resolution.
+Which encoder reads which position, and how far one count moves it, is the plant
+interface's (:class:`~pendc.model.interface.SensorSpec`: ``resolution``, one count after ×4
+decoding); this module only counts. The quadrature channels switch on an absolute band grid
+(bands fixed to the mechanics, the grid origin at the position's zero), and a ×4 decoder
+counts every edge of A and B, so one count is half a band. The real encoders start counting
+at power-on, so a decoded position is the initial position plus counts times resolution.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-FEED = 5e-3                          # m per spindle revolution (ball screw 12 x 5)
-CART_LINES = 500                     # lines per spindle revolution (emulated by the drive)
-PEND_LINES = 5000                    # Heidenhain ROD 420
-CART_BAND = 2 * math.pi / (2 * CART_LINES)    # rad of spindle angle per band (II.49)
-PEND_BAND = 2 * math.pi / (2 * PEND_LINES)    # rad of pendulum angle per band (II.50)
-X_COUNT = FEED / (4 * CART_LINES)             # 2.5 um of cart travel per ×4 count
-THETA_COUNT = 2 * math.pi / (4 * PEND_LINES)  # 0.314 mrad per ×4 count
+from ..errors import PendcError
+# The cart-pendulum's count sizes under their pre-interface names, for callers not yet
+# reading them from the interface (``interface.sensor_of(state).resolution``); the values are
+# the model's (pendc.model.cart.ENCODERS).
+from ..model.cart import THETA_COUNT, X_COUNT  # noqa: F401
+from .signals import signals_of
 
 
 def counts(value: np.ndarray, resolution: float) -> np.ndarray:
@@ -33,11 +32,24 @@ def quantize(value, resolution: float) -> np.ndarray:
     return value[0] + counts(value, resolution) * resolution
 
 
-def quantize_x(x: np.ndarray) -> np.ndarray:
-    """Cart position as a ×4 decoder on the drive's emulated encoder reports it (m)."""
-    return quantize(x, X_COUNT)
+def encoder_resolution(plant, position: str) -> float:
+    """One count of the encoder that reads ``position`` on ``plant`` (a model, interface or
+    signals; None: the default model); a one-line :class:`PendcError` if no encoder reads it."""
+    sig = signals_of(plant)
+    step = sig.resolution(position)
+    if step is None:
+        sensed = ", ".join(s.state for s in sig.interface.sensors) or "none"
+        raise PendcError(f"no encoder of plant '{sig.interface.name}' reads '{position}' (encoders read: {sensed})")
+    return step
 
 
-def quantize_theta(theta: np.ndarray) -> np.ndarray:
-    """Pendulum angle as a ×4 decoder on the ROD 420 reports it (rad)."""
-    return quantize(theta, THETA_COUNT)
+def encoder_reading(plant, position: str, values) -> np.ndarray:
+    """``values`` of ``position`` as the plant's encoder of it reports them (×4 counts of its
+    resolution, counted from the first sample). ``plant`` as for :func:`encoder_resolution`."""
+    return quantize(values, encoder_resolution(plant, position))
+
+
+def quantize_theta(angle: np.ndarray) -> np.ndarray:
+    """The default model's pendulum angle as its encoder reports it. Pre-interface name, kept
+    while tests/test_api.py calls it; new code calls :func:`encoder_reading`."""
+    return quantize(angle, THETA_COUNT)

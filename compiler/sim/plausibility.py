@@ -9,7 +9,8 @@ those of a laboratory rig, the SCT's in the thesis, spec §1 and II.56):
   more than the span: centimetres or millimetres), a few rows an outlier;
 - an input lies within ``INPUT_MARGIN`` times its full scale (the SCT drive takes 0-10 V,
   so 100 V): many rows beyond mean a smaller unit (millivolts), a few rows an outlier
-  (beyond the full scale is only a warning, as a clipped amplifier can show);
+  (outside the range the actuator takes, the interface's, is only a warning, as a clipped
+  amplifier can show);
 - rates stay below ``RATE_LIMIT`` of their unit;
 - an angle (a periodic position in radians) turns at most about 8π ≈ 25 rad/s on the
   SCT, so a sample that jumps away from both neighbours by more than ``ANGLE_SPIKE``

@@ -240,11 +240,12 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
 
 
 def _input_warning(source: str, sig: PlantSignals, columns: dict) -> list:
-    """Inputs beyond the interface's full scale: a warning (a clipped amplifier can show it)."""
+    """Inputs outside the range the interface's actuator takes: a warning (a clipped amplifier
+    can show it)."""
     if sig.input not in columns:
         return []
-    spec = sig.interface.input
-    return plaus.input_warning(source, sig.input, columns[sig.input], -spec.full_scale, spec.full_scale, spec.unit)
+    drive = sig.interface.input.range
+    return plaus.input_warning(source, sig.input, columns[sig.input], drive.lo, drive.hi, drive.unit)
 
 
 def _regrid(table: Table, t, columns: dict, options: ReadOptions):
@@ -319,7 +320,7 @@ def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
     if spec.name in columns:
         smaller = _smaller_units(spec.unit)
         plaus.check_bounded(table, spec.name, columns[spec.name], plaus.INPUT_MARGIN * spec.full_scale, spec.unit,
-                            f"the {spec.meaning.split(' (')[0]} spans ±{spec.full_scale:g} {spec.unit}",
+                            f"the {spec.meaning.split(' (')[0]} spans {spec.range.describe()}",
                             (_spelled(smaller[-1]) if smaller else "a unit mistake",
                              _unit_hint(options, spec.name, smaller[-1] if smaller else "...")))
     for name in [p for p in sig.positions if p in columns and sig.unit(p) in plaus.POSITION_LIMIT]:
