@@ -58,6 +58,8 @@ def qformat_report(build: BuildResult) -> dict:
 def format_qformat_report(report: dict) -> str:
     lines = ["Q-format assignment (" + report["rules"] + ")", ""]
     lines.append("Thesis rule with the thesis' maxima:")
+    if not report["thesis_rule_check"]:
+        lines.append("  (none: the thesis published no formats for this plant)")
     for name, r in report["thesis_rule_check"].items():
         ok = "ok" if r["rule_gives"] == r["thesis_format"] else "DIFFERS"
         lines.append(f"  {name:8s} max {r['thesis_max']:>8g} -> {r['rule_gives']} (thesis {r['thesis_format']}) {ok}")

@@ -41,14 +41,83 @@ def test_every_option_has_help(action):
 
 @pytest.mark.parametrize("command", ["fit", "diagnose"])
 def test_fit_and_diagnose_help_lists_every_effect(command, capsys):
+    """Every body's effects, each under its body's heading (the Furuta's too)."""
+    from pendc.model.bodies import BODIES
+
+    assert set(BODIES["cart_pendulum"].catalogue) == set(CATALOGUE) and len(BODIES) >= 2
     with pytest.raises(SystemExit) as info:
         main([command, "--help"])
     assert info.value.code == 0
     out = capsys.readouterr().out
     listed = out[out.index("effects (names for --add"):]
-    for name, effect in CATALOGUE.items():
-        line = next(line for line in listed.splitlines() if line.split()[:1] == [name])
-        assert effect.summary in line and all(p.name in line for p in effect.params)
+    headings = [listed.index(f"  {name} (") for name in BODIES]
+    assert headings == sorted(headings)
+    for (name, body), start, end in zip(BODIES.items(), headings, [*headings[1:], len(listed)]):
+        section = listed[start:end].splitlines()
+        for effect_name, effect in body.catalogue.items():
+            line = next(line for line in section if line.split()[:1] == [effect_name])
+            assert effect.summary in line and all(p.name in line for p in effect.params), (name, effect_name)
+
+
+def help_pages(parser, path=()):
+    """(command path, help text) of every (sub)parser."""
+    yield path, parser.format_help()
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from help_pages(sub, path + (name,))
+
+
+def test_help_examples_are_the_default_models_signals():
+    """The examples are filled from the plant interface: no placeholder is left, and the
+    words are the default model's states and input (not a copy of them in the CLI)."""
+    import pendc
+    from pendc.sim.signals import signals_of
+
+    sig = signals_of(pendc.load_model())
+    pages = dict(help_pages(build_parser()))
+    assert not [path for path, text in pages.items() if "{plant:" in text]
+    states = ",".join(sig.mechanical)
+    assert states in pages[("simulate",)]
+    compare = pages[("compare",)]
+    angle = next(p for p in sig.positions if sig.period(p) is not None)
+    assert f"--{angle}-unit deg" in compare and f"--{angle}-zero upright" in compare
+    assert "--outputs" in compare and ",".join(sig.positions) in compare
+
+
+def test_help_words_follow_the_plant():
+    """The same help text filled for the Furuta names its signals (both periodic: the first
+    is the angle, the other the position of the examples)."""
+    from pathlib import Path
+
+    import pendc
+    from pendc.cli_help import fill, plant_words
+    from pendc.sim.signals import signals_of
+
+    furuta = signals_of(pendc.load_model(Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"))
+    words = plant_words(furuta)
+    first, second = furuta.positions
+    assert (words["angle"], words["position"], words["input"]) == (first, second, furuta.input)
+    assert fill("--{plant:angle}-unit deg", words) == f"--{first}-unit deg"
+    step = furuta.interface.sensor_of(first).resolution
+    assert float(words["angle_step"]) == pytest.approx(step, rel=1e-4)
+
+
+def test_signal_options_are_any_signal_of_any_plant():
+    """--<SIGNAL>-unit/-zero/-sign VALUE is --unit/--zero/--sign SIGNAL=VALUE, for a name the CLI
+    never heard of; the settings add up, and a missing value is a one-line usage error."""
+    from pendc.cli_data import expand_signal_options
+    from pendc.errors import PendcError
+
+    args = build_parser().parse_args(["compare", "r.csv", "--arm-angle-unit", "deg", "--unit", "t=ms",
+                                      "--arm-angle-zero=upright", "--arm-angle-sign", "-1", "--u-value", "2"])
+    assert args.unit == {"arm_angle": "deg", "t": "ms"}
+    assert args.zero == {"arm_angle": "upright"} and args.sign == {"arm_angle": -1.0} and args.u_value == 2.0
+    assert expand_signal_options(["--a-unit", "mm", "--", "--b-unit"], {}) == ["--unit", "a=mm", "--", "--b-unit"]
+    with pytest.raises(PendcError, match=r"^compare: argument --a-unit: expected one argument$"):
+        build_parser().parse_args(["compare", "r.csv", "--a-unit"])
+    with pytest.raises(PendcError, match="--sign"):
+        build_parser().parse_args(["compare", "r.csv", "--a-sign", "2"])
 
 
 def test_version_is_the_package_version(capsys):
