@@ -4,7 +4,9 @@ analysis and the error budget (about half a minute).
 
 The key is a hash of the model file's canonical text, the build options and the source
 of the compiler itself; any change to one of them is a miss. Entries are pickles written
-atomically; an unreadable entry is ignored and rebuilt.
+atomically; an unreadable entry is ignored and rebuilt. Two processes that miss the same
+entry at once (two test workers, two terminals) compile it once: a miss takes an exclusive
+lock on a file next to the entry, and whoever waited for it reads the entry the first wrote.
 """
 
 from __future__ import annotations
@@ -13,8 +15,14 @@ import hashlib
 import os
 import pickle
 import tempfile
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:     # no flock (Windows): concurrent misses compile twice, as before the lock
+    fcntl = None
 
 from .codegen import cache_dir
 from .model.modelfile import dumps_model
@@ -52,23 +60,54 @@ def cache_path(model: PlantModel, options: BuildOptions) -> Path:
     return cache_dir("builds") / f"build_{build_key(model, options)}.pickle"
 
 
+def _read_entry(path: Path, model: PlantModel) -> BuildResult | None:
+    """The cached result at ``path`` for ``model``, or None (missing, stale or truncated)."""
+    if not path.exists():
+        return None
+    try:
+        with path.open("rb") as fh:
+            cached = pickle.load(fh)
+        return replace(cached, model=model)
+    except Exception:  # a stale or truncated entry is just a miss
+        return None
+
+
+@contextmanager
+def _entry_lock(path: Path):
+    """Exclusive lock on ``<entry>.lock`` for the time of one compilation (released when the
+    process ends, however it ends)."""
+    if fcntl is None:
+        yield
+        return
+    with open(path.with_name(path.name + ".lock"), "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def compile_cached(model: PlantModel, options: BuildOptions | None = None, use_cache: bool = True,
                    on_miss=None) -> BuildResult:
     """:func:`pendc.passes.pipeline.compile_model`, memoised on disk; ``on_miss()`` is called
-    before a real compilation (to tell a user why this takes half a minute)."""
+    before a real compilation (to tell a user why this takes half a minute). A process that
+    misses while another compiles the same entry waits for it and reads its result."""
     options = options or options_from_model(model)
+    if not use_cache:
+        if on_miss:
+            on_miss()
+        return compile_model(model, options)
     path = cache_path(model, options)
-    if use_cache and path.exists():
-        try:
-            with path.open("rb") as fh:
-                cached = pickle.load(fh)
-            return replace(cached, model=model)
-        except Exception:  # a stale or truncated entry is just a miss
-            pass
-    if on_miss:
-        on_miss()
-    result = compile_model(model, options)
-    if use_cache:
+    cached = _read_entry(path, model)
+    if cached is not None:
+        return cached
+    with _entry_lock(path):
+        cached = _read_entry(path, model)       # written while this process waited for the lock
+        if cached is not None:
+            return cached
+        if on_miss:
+            on_miss()
+        result = compile_model(model, options)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".build.")
         with os.fdopen(fd, "wb") as fh:
             pickle.dump(replace(result, model=None), fh)
