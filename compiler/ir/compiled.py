@@ -60,6 +60,15 @@ class CompiledGraph:
         tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
         self.tables.setflags(write=False)
+        # register resets are kernel arguments (a graph that differs only in a reset, like the
+        # spinning-pendulum training run, reuses the machine code)
+        dtype = np.int64 if mode == "fixed" else np.float64
+        self.resets = np.zeros(len(graph.nodes), dtype)
+        for i, n in enumerate(graph.nodes):
+            if n.kind is Kind.REGISTER:
+                value = float(n.params.reset)
+                self.resets[i] = n.qformat.from_float(value) if mode == "fixed" else value
+        self.resets.setflags(write=False)
         self._kernel = load_source(self.source, "pendc_ir").kernel
 
     def _input_matrix(self, inputs: dict, steps: int | None) -> tuple[np.ndarray, int]:
@@ -105,11 +114,11 @@ class CompiledGraph:
         ins, steps = self._input_matrix(inputs, steps)
         n = len(self.graph.nodes)
         dtype = np.int64 if self.mode == "fixed" else np.float64
-        out = np.empty(((steps + every - 1) // every, len(columns)), dtype)
+        out = np.empty((len(columns), (steps + every - 1) // every), dtype)   # a row per column: no copies
         mx, mn = np.zeros(n, dtype), np.zeros(n, dtype)
         ov = np.full(n, -1, np.int64)
-        self._kernel(ins, steps, every, self.tables, sel, out, bool(track_max), mx, mn, ov)
-        outputs = {c: np.ascontiguousarray(out[:, j]) for j, c in enumerate(columns)}
+        self._kernel(ins, steps, every, self.tables, self.resets, sel, out, bool(track_max), mx, mn, ov)
+        outputs = {c: out[j] for j, c in enumerate(columns)}
         nodes = self.graph.nodes
         if not track_max:
             maxima = {}

@@ -31,7 +31,7 @@ from .qformat import Rounding
 from .requant_source import Bounds, int_literal as _i, requant_lines
 from .visitor import NodeVisitor
 
-SOURCE_FORMAT = 1  # bump when the generated source changes shape
+SOURCE_FORMAT = 2  # bump when the generated source changes shape
 
 
 class _ExprPrinter(NumbaPrinter):
@@ -75,6 +75,8 @@ class _Gen(NodeVisitor, abstract=True):
         self.head, self.update = [], []
         self._bounds: dict = {}
         self._bounder = Bounds()
+        self.flags = []       # (node index, bool local): the node's range check fired this step
+        self.late = []        # lines after the step's nodes (FSM checks read inputs computed later)
 
     def comment(self, node) -> str:
         """The comment line that names a node in the kernel."""
@@ -92,7 +94,7 @@ class _Gen(NodeVisitor, abstract=True):
         return [f"v{i} = ins[{self.inputs.index(i)}, k]"]
 
     def visit_register(self, node, i):
-        self.head += [self.comment(node), f"s{i} = {self.reset(node)}"]
+        self.head += [self.comment(node), f"s{i} = rst[{i}]"]   # runtime data: a new reset reuses the kernel
         self.update.append(f"s{i} = v{self.idx[node.inputs[0]]}")
         return [f"v{i} = s{i}"]
 
@@ -118,12 +120,12 @@ class _Gen(NodeVisitor, abstract=True):
         return _i(node.qformat.from_float(value)) if self.fixed else _f(value)
 
     def fsm_output(self, i: int, node) -> list:
+        # a sum of products, not an if-chain: the state is always one of its indices, so exactly
+        # one term is nonzero (and the outputs are integers, exact in float too)
         outs = node.params.outputs
-        lines = []
-        for s, o in enumerate(outs):
-            head = "if" if s == 0 else "elif" if s < len(outs) - 1 else "else"
-            lines += [f"{head} s{i} == {s}:" if head != "else" else "else:", f"    v{i} = {self.num(int(o))}"]
-        return lines if len(outs) > 1 else [f"v{i} = {self.num(int(outs[0]))}"]
+        if len(outs) == 1:
+            return [f"v{i} = {self.num(int(outs[0]))}"]
+        return [f"v{i} = " + " + ".join(f"{self.num(int(o))} * (s{i} == {s})" for s, o in enumerate(outs))]
 
     def fsm_update(self, i: int, node) -> list:
         src = node.inputs[0]
@@ -139,21 +141,23 @@ class _Gen(NodeVisitor, abstract=True):
         else:
             def test(op, x):
                 return f"{v} {op.symbol} {_f(x)}"
-        outside = (f"{test(CompareOp.LT, p.lo)} or {test(CompareOp.GT, p.hi)}" if self.fixed
-                   else f"not ({_f(p.lo)} <= {v} <= {_f(p.hi)})")   # NaN is outside
-        lines = [f"if {outside}:",
-                 f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
+        outside = (f"({test(CompareOp.LT, p.lo)}) | ({test(CompareOp.GT, p.hi)})" if self.fixed
+                   else f"not (({_f(p.lo)} <= {v}) & ({v} <= {_f(p.hi)}))")   # NaN is outside
+        self.late.append(f"b{i} = {outside}")
+        self.flags.append(i)
         per_state = [p.rules_from(s) for s in range(len(p.states))]
         shared = all(r == per_state[0] for r in per_state)   # only "*" rules: no dispatch on the state
         dispatch = [(None, per_state[0])] if shared else [(s, r) for s, r in enumerate(per_state) if r]
-        for d, (s, rules) in enumerate(dispatch):
-            pad = "" if shared else "    "
-            if not shared:
-                lines.append(f"{'if' if d == 0 else 'elif'} s{i} == {s}:")
-            for r, rule in enumerate(rules):
-                lines += [f"{pad}{'if' if r == 0 else 'elif'} {test(rule.op, rule.threshold)}:",
-                          f"{pad}    s{i} = {p.states.index(rule.target)}"]
-        return lines
+        # first matching rule of the current state wins: guard = state & own test & no earlier test;
+        # at most one guard holds, so the next state is the current one plus one difference
+        terms = []
+        for s, rules in dispatch:
+            earlier = [] if s is None else [f"(s{i} == {s})"]
+            for rule in rules:
+                t = f"({test(rule.op, rule.threshold)})"
+                terms.append(f"({p.states.index(rule.target)} - s{i}) * ({' & '.join(earlier + [t])})")
+                earlier.append(f"(not {t})")
+        return [f"s{i} = s{i} + " + " + ".join(terms)] if terms else []
 
 
 class _FixedGen(_Gen):
@@ -168,11 +172,18 @@ class _FixedGen(_Gen):
         v = f"v{self.idx[name]}"
         return (f"({v} << {n})" if n else v), (lo << n, hi << n)
 
+    def rq(self, i, node, expr, rng, frac, tgt="", flag="") -> list:
+        """:func:`requant_lines`, noting the node's range-check flag."""
+        lines, flagged = requant_lines(i, node, expr, rng, frac, tgt, flag)
+        if flagged and not flag:
+            self.flags.append(i)
+        return lines
+
     def visit_gain(self, node, i):
         a = node.inputs[0]
         c = node.params.constant
         lo, hi = self.bounds(a)
-        return requant_lines(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
+        return self.rq(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
                             self.g[a].qformat.frac + node.params.cfmt.frac)
 
     def _pair(self, node) -> tuple:
@@ -181,42 +192,50 @@ class _FixedGen(_Gen):
 
     def visit_add(self, node, i):
         (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
-        return requant_lines(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
+        return self.rq(i, node, f"{x} + {y}", (xl + yl, xh + yh), frac)
 
     def visit_sub(self, node, i):
         (x, (xl, xh)), (y, (yl, yh)), frac = self._pair(node)
-        return requant_lines(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
+        return self.rq(i, node, f"{x} - {y}", (xl - yh, xh - yl), frac)
 
     def visit_compare(self, node, i):
         (x, _), (y, _), _ = self._pair(node)
-        return [f"v{i} = 1 if {x} {node.params.op.symbol} {y} else 0"]
+        return [f"v{i} = int({x} {node.params.op.symbol} {y})"]
 
     def visit_neg(self, node, i):
         a = node.inputs[0]
         lo, hi = self.bounds(a)
-        return requant_lines(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)
+        return self.rq(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)
 
     def visit_mul(self, node, i):
         a, b = node.inputs
         (al, ah), (bl, bh) = self.bounds(a), self.bounds(b)
         p = [al * bl, al * bh, ah * bl, ah * bh]
-        return requant_lines(i, node, f"v{self.idx[a]} * v{self.idx[b]}", (min(p), max(p)),
+        return self.rq(i, node, f"v{self.idx[a]} * v{self.idx[b]}", (min(p), max(p)),
                             self.g[a].qformat.frac + self.g[b].qformat.frac)
 
     def visit_cast(self, node, i):
         a = node.inputs[0]
-        return requant_lines(i, node, f"v{self.idx[a]}", self.bounds(a), self.g[a].qformat.frac)
+        return self.rq(i, node, f"v{self.idx[a]}", self.bounds(a), self.g[a].qformat.frac)
 
     def visit_mux(self, node, i):
         # a select beyond the data inputs picks the last one (pendc.ir.nodes)
-        ins = node.inputs
-        lines = []
+        # every candidate is computed (they have no side effects) and one selected arithmetically
+        ins, sel = node.inputs, f"v{self.idx[node.inputs[0]]}"
+        lines, terms, flags = [], [], []
         for j in range(1, len(ins)):
-            last = j == len(ins) - 1
-            lines.append("else:" if last else f"{'if' if j == 1 else 'elif'} v{self.idx[ins[0]]} == {j - 1}:")
-            lines += ["    " + s for s in requant_lines(i, node, f"v{self.idx[ins[j]]}", self.bounds(ins[j]),
-                                                       self.g[ins[j]].qformat.frac)]
-        return lines
+            guard = (f"({' & '.join(f'({sel} != {m})' for m in range(len(ins) - 2))})" if j == len(ins) - 1
+                     else f"({sel} == {j - 1})")
+            guard = "" if guard == "()" else guard
+            lines += self.rq(i, node, f"v{self.idx[ins[j]]}", self.bounds(ins[j]), self.g[ins[j]].qformat.frac,
+                             tgt=f"v{i}_{j}", flag=f"b{i}_{j}")
+            if any(s.startswith(f"b{i}_{j} = ") for s in lines):
+                flags.append(f"(b{i}_{j} & {guard})" if guard else f"b{i}_{j}")
+            terms.append(f"v{i}_{j} * {guard}" if guard else f"v{i}_{j}")
+        if flags:
+            lines.append(f"b{i} = {' | '.join(flags)}")
+            self.flags.append(i)
+        return lines + [f"v{i} = {' + '.join(terms)}"]
 
     def visit_slice(self, node, i):
         hi, lo = node.params.bits(self.g[node.inputs[0]].qformat.width)
@@ -239,18 +258,23 @@ class _FixedGen(_Gen):
         d, j, f = f"d{i}", f"j{i}", f"f{i}"
         lines = [f"{d} = {a} - {_i(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {shift}",
                  f"{f} = {d} & {_i((1 << shift) - 1)}"]
-        flag = [f"    if ov[{i}] < 0:", f"        ov[{i}] = k"]
+        jj, ff, y0 = f"jj{i}", f"ff{i}", f"y{i}"
         if p.periodic:
-            lines.append(f"{j} = {j} & {seg - 1}")
-        else:
-            lines += [f"if {j} < 0:"] + flag + [f"    {j} = 0", f"    {f} = 0", f"elif {j} >= {seg}:"]
-            lines += ([f"    if {j} != {seg} or {f} != 0:"] + ["    " + s for s in flag] if interp else flag)
-            lines += [f"    {j} = {seg if interp else seg - 1}", f"    {f} = 0"]
+            lines += [f"{jj} = {j} & {seg - 1}", f"{ff} = {f}"]
+            nxt = f"{jj} + 1"
+        else:   # beyond the domain: the end entry, no interpolation (flagged unless exactly the end)
+            out = (f"({j} < 0) | ({j} > {seg}) | (({j} == {seg}) & ({f} != 0))" if interp
+                   else f"({j} < 0) | ({j} >= {seg})")
+            lines += [f"b{i} = {out}", f"{jj} = min(max({j}, 0), {seg if interp else seg - 1})",
+                      f"{ff} = {f} * (1 - b{i})"]
+            self.flags.append(i)
+            nxt = f"min({jj} + 1, {seg})"    # at the end entry ff is 0: any entry of the table will do
         if not interp or shift == 0:
-            return lines + [f"v{i} = tab[{off} + {j}]"]
-        step = f"(tab[{off + 1} + {j}] - v{i}) * {f}"
+            return lines + [f"v{i} = tab[{off} + {jj}]"]
+        # ff == 0 adds (0 + half) >> shift == 0: the same as skipping the interpolation
+        step = f"(tab[{off} + {nxt}] - {y0}) * {ff}"
         rnd = f"({step} + {_i(1 << (shift - 1))})" if node.rounding is Rounding.NEAREST else step
-        return lines + [f"v{i} = tab[{off} + {j}]", f"if {f} != 0:", f"    v{i} = v{i} + ({rnd} >> {shift})"]
+        return lines + [f"{y0} = tab[{off} + {jj}]", f"v{i} = {y0} + ({rnd} >> {shift})"]
 
 
 class _FloatGen(_Gen):
@@ -282,7 +306,7 @@ class _FloatGen(_Gen):
 
     def visit_compare(self, node, i):
         a = self._a(node)
-        return [f"v{i} = 1.0 if {a[0]} {node.params.op.symbol} {a[1]} else 0.0"]
+        return [f"v{i} = 1.0 * ({a[0]} {node.params.op.symbol} {a[1]})"]
 
     def visit_mux(self, node, i):
         a = self._a(node)
@@ -325,6 +349,10 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
         if lines:
             body += [gen.comment(n)] + lines
     head, update = gen.head, gen.update
+    body += gen.late
+    if gen.flags:   # one rarely taken branch per step records every check that fired
+        body += [f"if {' | '.join(f'b{i}' for i in gen.flags)}:"]
+        body += [f"    ov[{i}] = ov[{i}] + (k - ov[{i}]) * ((ov[{i}] < 0) & b{i})" for i in gen.flags]
     varying = [i for i in range(len(nodes)) if i not in const_idx]
     if gen.fixed:
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        if x > mx[i]:",
@@ -335,7 +363,7 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
     loop = (["for k in range(steps):"] + ["    " + s for s in body]
             + ["    if track or c == 0:"] + [f"        buf[{i}] = v{i}" for i in varying]
             + ["        if c == 0:", "            for j in range(sel.shape[0]):",
-               "                out[row, j] = buf[sel[j]]", "            row += 1", "        if track:"]
+               "                out[j, row] = buf[sel[j]]", "            row += 1", "        if track:"]
             + ["        " + s for s in track]
             + ["    c += 1", "    if c == every:", "        c = 0"] + ["    " + s for s in update])
     lines = ([f"buf = np.zeros({len(nodes)}, {dtype})"] + head + ["c = 0", "row = 0"] + loop)
@@ -343,6 +371,6 @@ def kernel_source(graph: Graph, mode: str) -> tuple[str, dict]:
     src = (f'"""Generated by pendc.ir.compiled_source (format {SOURCE_FORMAT}): graph {graph.name}, '
            f'{fmt_note}."""\nimport math\n\nimport numpy as np\nfrom numba import njit\n\n\n'
            '@njit(cache=True, error_model="numpy")\n'
-           "def kernel(ins, steps, every, tab, sel, out, track, mx, mn, ov):\n"
+           "def kernel(ins, steps, every, tab, rst, sel, out, track, mx, mn, ov):\n"
            + "".join(f"    {s}\n" for s in lines) + "    return row\n")
     return src, dict(gen.offsets)

@@ -71,27 +71,40 @@ class Bounds(NodeVisitor):
         return _frange(n.qformat) if lut_table_ok(n) else UNKNOWN
 
 
-def requant_lines(i: int, node, expr: str, rng: tuple, frac: int) -> list:
-    """Lines assigning ``requantize(expr, frac, node's format, rounding, overflow)`` to ``v<i>``,
-    flagging ``ov[i]``; ``rng`` bounds ``expr``, so checks that cannot fire are left out."""
+def requant_lines(i: int, node, expr: str, rng: tuple, frac: int, tgt: str = "", flag: str = "") -> tuple:
+    """(lines, flagged): lines assigning ``requantize(expr, frac, node's format, rounding, overflow)``
+    to ``tgt`` (default ``v<i>``), and, where ``rng`` (the bounds of ``expr``) lets a range check fire,
+    the check's outcome to the bool ``flag`` (default ``b<i>``; ``flagged`` tells whether it exists).
+
+    Branch-free and single-assignment (saturation by min/max, wrapping unconditionally since it
+    is the identity in range): numba's SSA pass costs blocks x redefined variables."""
     fmt, rnd, ovf = node.qformat, node.rounding, node.overflow
-    tgt, t = f"v{i}", f"t{i}"
+    tgt, flag = tgt or f"v{i}", flag or f"b{i}"
+    t, r = "t" + tgt[1:], "r" + tgt[1:]
     lo, hi = rng
     shift = frac - fmt.frac
     if shift < 0:
         n = -shift
         shifted = f"{t} << {n}" if n < 64 else "0"   # shifts >= 64: only 0 can be in range
         if fmt.contains(lo << n) and fmt.contains(hi << n):
-            return [f"{t} = {expr}", f"{tgt} = {shifted}"]
+            return [f"{t} = {expr}", f"{tgt} = {shifted}"], False
         up, down = fmt.max_int >> n, -((-fmt.min_int) >> n)
-        conds = (([f"{t} > {int_literal(up)}"] if hi > up else [])
-                 + ([f"{t} < {int_literal(down)}"] if lo < down else []))
-        if ovf is Overflow.SATURATE:
-            fix = f"{int_literal(fmt.max_int)} if {t} > 0 else {int_literal(fmt.min_int)}"
-        else:
+        conds = (([f"({t} > {int_literal(up)})"] if hi > up else [])
+                 + ([f"({t} < {int_literal(down)})"] if lo < down else []))
+        top, bottom = int_literal(fmt.max_int), int_literal(fmt.min_int)
+        if ovf is not Overflow.SATURATE:
             fix = wrap_expr(f"({t} << {n})", fmt) if n < 64 else "0"
-        return [f"{t} = {expr}", f"if {' or '.join(conds)}:", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                f"    {tgt} = {fix}", "else:", f"    {tgt} = {shifted}"]
+        elif n >= 64:
+            fix = f"{top} * ({t} > 0) + {bottom} * ({t} < 0)"
+        elif I64_MIN <= (down - 1) << n and (up + 1) << n <= I64_MAX:
+            # clamp to one step beyond the range first, so the shift cannot leave int64
+            c = f"max({t}, {int_literal(down - 1)})" if lo < down else t
+            c = f"min({c}, {int_literal(up + 1)})" if hi > up else c
+            fix = f"min(max({c} << {n}, {bottom}), {top})"
+        else:
+            fix = f"{top} * ({t} > {int_literal(up)}) + {bottom} * ({t} < {int_literal(down)})" \
+                  f" + ({t} << {n}) * (({t} <= {int_literal(up)}) & ({t} >= {int_literal(down)}))"
+        return [f"{t} = {expr}", f"{flag} = {' | '.join(conds)}", f"{tgt} = {fix}"], True
     lines = []
     if shift > 0:
         if rnd is Rounding.TRUNCATE:
@@ -106,21 +119,18 @@ def requant_lines(i: int, node, expr: str, rng: tuple, frac: int) -> list:
         lo, hi = shift_round(lo, shift, rnd), shift_round(hi, shift, rnd)
     else:
         e = expr
-    lines.append(f"{tgt} = {e}")
     if fmt.signed and fmt.width == 64:
-        return lines  # int64 itself: nothing can leave the range
-    conds = ([f"{tgt} > {int_literal(fmt.max_int)}"] if hi > fmt.max_int else []) + \
-            ([f"{tgt} < {int_literal(fmt.min_int)}"] if lo < fmt.min_int else [])
+        return lines + [f"{tgt} = {e}"], False  # int64 itself: nothing can leave the range
+    top, bottom = int_literal(fmt.max_int), int_literal(fmt.min_int)
+    conds = ([f"({r} > {top})"] if hi > fmt.max_int else []) + ([f"({r} < {bottom})"] if lo < fmt.min_int else [])
     if not conds:
-        return lines
+        return lines + [f"{tgt} = {e}"], False
     if ovf is Overflow.SATURATE:
-        top, bottom = int_literal(fmt.max_int), int_literal(fmt.min_int)
-        fix = (f"{top} if {tgt} > {top} else {bottom}" if len(conds) == 2
-               else top if hi > fmt.max_int else bottom)
+        fix = f"max({r}, {bottom})" if lo < fmt.min_int else r
+        fix = f"min({fix}, {top})" if hi > fmt.max_int else fix
     else:
-        fix = wrap_expr(tgt, fmt)
-    return lines + [f"if {' or '.join(conds)}:", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                    f"    {tgt} = {fix}"]
+        fix = wrap_expr(r, fmt)
+    return lines + [f"{r} = {e}", f"{flag} = {' | '.join(conds)}", f"{tgt} = {fix}"], True
 
 
 def wrap_expr(e: str, fmt: QFormat) -> str:
