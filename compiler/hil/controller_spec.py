@@ -1,8 +1,9 @@
 """``--controller builtin|swing-up|balance|hold|package.module:Class``: find and build a controller.
 
-``builtin``, ``swing-up`` and ``balance`` are the cart-pendulum's; ``hold`` (a PD hold of the
-first encoder-read position at its power-on value, :mod:`pendc.hil.position_hold`) drives any
-plant.
+``builtin``, ``swing-up`` and ``balance`` drive any plant that is one pendulum on one driven
+coordinate (the cart-pendulum, the Furuta pendulum: :mod:`pendc.hil.pendulum_roles`); ``hold``
+(a PD hold of the first encoder-read position at its power-on value,
+:mod:`pendc.hil.position_hold`) drives any plant.
 
 A user's class plugs in with no change to pendc: it needs ``reset()`` and
 ``step(measurement) -> volts``; its constructor may take ``model`` (the
@@ -31,8 +32,9 @@ BUILTIN_CONTROLLERS = {
 }
 
 
-def make_controller(spec: str, model: PlantModel, period: float = 1e-3, x_ref=0.0):
-    """The controller that ``spec`` names, designed for ``model`` at ``period``."""
+def make_controller(spec: str, model: PlantModel, period: float = 1e-3, position_ref=0.0):
+    """The controller that ``spec`` names, designed for ``model`` at ``period`` (``position_ref``:
+    the balance's set point of the actuated position)."""
     if spec in BUILTIN_CONTROLLERS:
         cls = BUILTIN_CONTROLLERS[spec]
         if cls is PositionHold:
@@ -40,7 +42,7 @@ def make_controller(spec: str, model: PlantModel, period: float = 1e-3, x_ref=0.
         consts = PendulumConstants.from_model(model)
         if cls is EnergySwingUp:
             return cls(consts, period)
-        return cls(consts, period, x_ref=x_ref)
+        return cls(consts, period, position_ref=position_ref)
     cls = load_controller_class(spec)
     try:
         params = inspect.signature(cls).parameters

@@ -5,12 +5,16 @@ only what the rig's controller sees, a :class:`Measurement` (time and the ×4 en
 counts, also converted to positions). An optional ``mode`` attribute (a short word)
 is logged per period. Velocities come from a filtered difference of the positions.
 
-The controllers here are the cart-pendulum's (energy swing-up, LQR about the upright):
-their physics is that plant's, but they name its states as its plant interface does
-(:attr:`PendulumConstants.cart`, :attr:`PendulumConstants.angle`), never by literals.
+The controllers here drive any plant that is one pendulum on one driven coordinate (the SCT
+cart-pendulum, the Furuta pendulum's rotary arm): they address its states by role
+(:mod:`pendc.hil.pendulum_roles`: the actuated coordinate, the pendulum angle, counted from
+hanging down, upright half a turn away), and every gain in volts comes from the model's own
+linearisation (:mod:`pendc.hil.linearize`). The swing-up is pendulum physics: the energy of
+the pendulum swinging about its pivot with the actuated coordinate held, per unit of its
+inertia, and the push on the pivot that changes it.
 
-Conventions (plant spec §1): x positive to the left, theta from hanging, clockwise
-positive, upright at theta = ±pi; u > V_off pushes the cart to +x.
+Conventions are each plant's (the SCT rig: x positive to the left, the angle clockwise
+positive, u > V_off pushes the cart to +x); nothing here depends on them.
 """
 
 from __future__ import annotations
@@ -21,17 +25,26 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.plant import PlantModel
-from .linearize import DiscreteLqr, UprightLinearModel, design_lqr, linearise_upright
+from .linearize import DiscreteLqr, UprightLinearModel, design_lqr, linearise_at_rest
+from .numeric_model import NumericModel
+from .pendulum_roles import PendulumRoles, pendulum_roles
 
-U_MIN, U_MAX = 0.0, 10.0       # V, the driver's input range
+U_MIN, U_MAX = 0.0, 10.0       # V, the SCT driver's input range: the loop's DAC for a controller declaring none
 FRICTION_SMOOTHING = 0.05     # V, width of the smoothed sign in the friction compensation
 VELOCITY_TAU = 0.004           # s, time constant of the velocity filter
-# LQR weights: 1/(acceptable excursion)^2 for x, dx, phi, dphi and the input
+# LQR weights: 1/(acceptable excursion)^2 for the actuated position, its rate, the angle from
+# the upright, its rate and the input (each in its state's unit, the input in volts)
 LQR_Q = (1 / 0.01**2, 1 / 0.5**2, 1 / 0.02**2, 1 / 0.5**2)
 LQR_R = 1 / 1.0**2
 # supervisor: switch to balance within CATCH_ANGLE (rad) of the upright below CATCH_RATE (rad/s),
 # back to swinging beyond DROP_ANGLE
 CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
+# swing-up, in units of gravity's pull as the pendulum feels a push of its pivot (on the SCT
+# cart, g = 9.80665 m/s^2 of cart acceleration): the peak push, 5 m/s^2 on the SCT cart, and
+# the push per unit of missing energy (as a fraction of the upright's), the 100 m/s^2 per J
+# the swing-up was tuned with on the SCT pendulum, whose m g L is m L = 0.581 kg x 0.138867 m times g
+SWING_PIVOT_ACCEL = 5.0 / 9.80665
+SWING_GAIN = 100 * 0.581 * 0.138867
 
 
 @dataclass(frozen=True)
@@ -75,9 +88,11 @@ class Measurement:
         raise AttributeError(f"the measurement has no '{name}'")
 
 
-def wrap_upright(theta: float) -> float:
-    """Angle from the upright, in (-pi, pi]: 0 at theta = ±pi, ±3pi ..."""
-    return math.pi - (math.pi - (theta - math.pi)) % (2 * math.pi)
+def wrap_upright(angle: float, period: float = 2 * math.pi) -> float:
+    """Angle from the upright, in (-period/2, period/2]: 0 at half a period from hanging down
+    (pi, 3 pi, -pi ... for radians)."""
+    half = 0.5 * period
+    return half - (half - (angle - half)) % period
 
 
 class FilteredDifference:
@@ -103,119 +118,146 @@ class FilteredDifference:
 
 @dataclass(frozen=True)
 class PendulumConstants:
-    """What the controllers need of the model: energy terms, the cart's linear response and the
-    names of the two measured positions (from the plant interface)."""
+    """What the controllers need of the model: the coordinates by role, the linearisation at
+    the upright, the pendulum's physics with the actuated coordinate held (``omega0_sq``, the
+    square of its natural frequency, rad²/s²) and ``coupling``, the pendulum's angular
+    acceleration per unit acceleration of the actuated coordinate when hanging (it goes with
+    the cosine of the angle), and the input's range (volts, low and high)."""
 
-    mgl: float        # m g L, the potential energy from hanging to the pivot height (J)
-    inertia: float    # m L^2 + I about the pivot (kg m^2)
+    roles: PendulumRoles
     lin: UprightLinearModel
-    cart: str = ""    # the measured translation (the interface's encoder-read, non-periodic position)
-    angle: str = ""   # the measured pendulum angle (its encoder-read periodic position)
+    omega0_sq: float
+    coupling: float
+    input_range: tuple
+
+    @property
+    def actuated(self) -> str:
+        """The measured position the input drives (a cart's, an arm's)."""
+        return self.roles.actuated.position
+
+    @property
+    def angle(self) -> str:
+        """The measured pendulum angle."""
+        return self.roles.pendulum.position
+
+    def upright_error(self, angle: float) -> float:
+        """The pendulum's angle from the upright, in (-period/2, period/2]."""
+        return wrap_upright(angle, self.roles.pendulum.period)
 
     @classmethod
     def from_model(cls, model: PlantModel) -> "PendulumConstants":
-        """Read the constants and linearise the model at the upright."""
-        p = model.parameter_values()
-        cart, angle = measured_positions(model.interface)
-        return cls(mgl=p["m"] * p["g"] * p["L"], inertia=p["m"] * p["L"] ** 2 + p["I"],
-                   lin=linearise_upright(model), cart=cart, angle=angle)
+        """Find the roles, linearise the model at the upright and at the hanging rest."""
+        numeric = NumericModel.of(model)
+        roles = pendulum_roles(model, numeric)
+        hanging = linearise_at_rest(numeric, roles, 0.0)
+        return cls(roles=roles, lin=linearise_at_rest(numeric, roles, roles.upright),
+                   omega0_sq=held_pendulum_stiffness(hanging), coupling=float(hanging.B[3, 0] / hanging.B[1, 0]),
+                   input_range=(model.interface.input.lo, model.interface.input.hi))
 
 
-def measured_positions(iface) -> tuple[str, str]:
-    """(translation, angle): the encoder-read non-periodic and periodic states of a cart-pendulum
-    interface; a plant without exactly one of each is not one these controllers can drive."""
-    from ..errors import PendcError
-    read = [iface.state(s.state) for s in iface.sensors]
-    linear = [s.name for s in read if not s.periodic]
-    angles = [s.name for s in read if s.periodic]
-    if len(linear) != 1 or len(angles) != 1:
-        raise PendcError(f"the builtin controllers drive a cart-pendulum (one measured translation, one measured "
-                         f"angle); plant '{iface.name}' measures {', '.join(s.name for s in read) or 'nothing'}")
-    return linear[0], angles[0]
+def held_pendulum_stiffness(hanging: UprightLinearModel) -> float:
+    """omega0^2 of the pendulum with the actuated coordinate held, from the free linearisation
+    at the hanging rest. With mass matrix M and gravity stiffness k on the angle alone, the
+    angle column of A is -k M^-1 e2 and B is b M^-1 e1; M^-1 being symmetric, they give k M^-1,
+    and the held pendulum's k / M22 is det(k M^-1) / (k M^-1)11 = -A[3,2] + A[1,2] B[3] / B[1]."""
+    A, B = hanging.A, hanging.B[:, 0]
+    return float(-A[3, 2] + A[1, 2] * B[3] / B[1])
 
 
 class _VelocityObserver:
-    """Cart and pendulum rates from the encoder positions, as a real controller must get them."""
+    """Actuated and pendulum rates from the encoder positions, as a real controller must get them."""
 
     def __init__(self, period: float):
-        self.vx = FilteredDifference(period)
-        self.vth = FilteredDifference(period)
+        self.actuated_rate = FilteredDifference(period)
+        self.angle_rate = FilteredDifference(period)
 
     def reset(self) -> None:
         """Back to the initial state (velocity filters empty)."""
-        self.vx.reset()
-        self.vth.reset()
+        self.actuated_rate.reset()
+        self.angle_rate.reset()
 
     def observe(self, meas: Measurement) -> tuple[float, float]:
-        """Update the velocity filters; return (dx, dtheta)."""
-        return self.vx.update(meas.position(self.c.cart)), self.vth.update(meas.position(self.c.angle))
+        """Update the velocity filters; return (actuated rate, pendulum rate)."""
+        return (self.actuated_rate.update(meas.position(self.c.actuated)),
+                self.angle_rate.update(meas.position(self.c.angle)))
 
 
 class EnergySwingUp(_VelocityObserver):
-    """Energy pumping (Åström–Furuta): a cart acceleration k (E_up - E) sign(dtheta cos theta),
-    saturated, plus a spring and damper that keep the cart near the track centre. The
-    acceleration is turned into volts by inverting the model's linear cart response
-    (a = A[1,1] dx + B[1] (u - u0)), so the gains mean the same on any drive."""
+    """Energy pumping (Åström–Furuta) on the pendulum's energy per unit inertia with the
+    actuated coordinate held, E = ½ w² - omega0² cos(a) (a the angle from hanging, w its rate;
+    upright at rest: E = omega0²). An acceleration a_c of the actuated coordinate changes it
+    at dE/dt = coupling cos(a) w a_c, so the push is ``gain`` (1 - E / omega0²) sign(coupling
+    w cos a), saturated at ``accel_max``, plus a spring and damper that keep the actuated
+    coordinate near 0. Both are in the actuated coordinate's unit/s² (defaults
+    ``SWING_GAIN`` and ``SWING_PIVOT_ACCEL`` times gravity as the pivot feels it,
+    omega0² / |coupling|: 79.1 and 5 m/s² on the SCT cart). The acceleration is turned into
+    volts by inverting the model's linear response of the actuated coordinate
+    (a = A[1,1] v + B[1] (u - u0)), so the gains mean the same on any drive."""
 
     mode = "swing"
 
-    def __init__(self, consts: PendulumConstants, period: float = 1e-3, gain: float = 100.0,
-                 accel_max: float = 5.0, centre_k: float = 12.0, centre_d: float = 6.0):
+    def __init__(self, consts: PendulumConstants, period: float = 1e-3, gain: float | None = None,
+                 accel_max: float | None = None, centre_k: float = 12.0, centre_d: float = 6.0):
         self.c = consts
         self.period = period
-        self.gain, self.accel_max = gain, accel_max
+        self.input_range = consts.input_range
+        # the pendulum feels coupling * a_c as gravity feels omega0^2: gravity in the actuated unit/s^2
+        gravity = consts.omega0_sq / abs(consts.coupling)
+        self.gain = SWING_GAIN * gravity if gain is None else gain
+        self.accel_max = SWING_PIVOT_ACCEL * gravity if accel_max is None else accel_max
         self.centre_k, self.centre_d = centre_k, centre_d
         super().__init__(period)
 
-    def energy(self, theta: float, dtheta: float) -> float:
-        """Pendulum energy, zero at the pivot height (upright at rest has E = m g L)."""
-        return 0.5 * self.c.inertia * dtheta**2 - self.c.mgl * math.cos(theta)
+    def energy(self, angle: float, rate: float) -> float:
+        """The pendulum's energy per unit inertia, zero at the pivot height (upright at rest: omega0²)."""
+        phase = 2 * math.pi * angle / self.c.roles.pendulum.period
+        return 0.5 * rate**2 - self.c.omega0_sq * math.cos(phase)
 
-    def command(self, meas: Measurement, dx: float, dtheta: float) -> float:
+    def command(self, meas: Measurement, actuated_rate: float, angle_rate: float) -> float:
         """Volts for the filtered state (used by the supervisor too)."""
-        theta, x = meas.position(self.c.angle), meas.position(self.c.cart)
-        c = math.cos(theta)
-        # at rest (dtheta = 0) push anyway: energy pumping needs a first swing to work on
-        direction = -1.0 if dtheta * c < 0 else 1.0
-        pump = self.gain * (self.c.mgl - self.energy(theta, dtheta)) * direction
-        pump = max(-self.accel_max, min(self.accel_max, pump))
-        accel = pump - self.centre_k * x - self.centre_d * dx
+        angle, position = meas.position(self.c.angle), meas.position(self.c.actuated)
+        c = math.cos(2 * math.pi * angle / self.c.roles.pendulum.period)
+        # at rest (no angle rate) push anyway: energy pumping needs a first swing to work on
+        direction = -1.0 if self.c.coupling * angle_rate * c < 0 else 1.0
+        missing = 1.0 - self.energy(angle, angle_rate) / self.c.omega0_sq
+        pump = max(-self.accel_max, min(self.accel_max, self.gain * missing * direction))
+        accel = pump - self.centre_k * position - self.centre_d * actuated_rate
         a11, b1 = self.c.lin.A[1, 1], self.c.lin.B[1, 0]
-        return self.c.lin.u0 + (accel - a11 * dx) / b1
+        return self.c.lin.u0 + (accel - a11 * actuated_rate) / b1
 
     def step(self, meas: Measurement) -> float:
         """One control period."""
-        dx, dtheta = self.observe(meas)
-        return self.command(meas, dx, dtheta)
+        return self.command(meas, *self.observe(meas))
 
 
 class LqrBalance(_VelocityObserver):
-    """Discrete LQR about the upright on (x - x_ref, dx, phi, dphi), phi = theta - pi wrapped.
-    The gain comes from the model's own linearisation (see :mod:`pendc.hil.linearize`).
-    ``x_ref`` may be a float or a function of time (the 4 cm step scenario)."""
+    """Discrete LQR about the upright on (p - p_ref, v, phi, dphi): the actuated position and
+    its rate, the angle from the upright (wrapped) and its rate. The gain comes from the
+    model's own linearisation (see :mod:`pendc.hil.linearize`). ``position_ref`` (the actuated
+    coordinate's set point) may be a float or a function of time (the 4 cm step scenario)."""
 
     mode = "balance"
 
-    def __init__(self, consts: PendulumConstants, period: float = 1e-3, x_ref=0.0,
+    def __init__(self, consts: PendulumConstants, period: float = 1e-3, position_ref=0.0,
                  q_diag=LQR_Q, r: float = LQR_R):
         self.c = consts
         self.period = period
+        self.input_range = consts.input_range
         self.lqr: DiscreteLqr = design_lqr(consts.lin, period, q_diag, r)
-        self.x_ref = x_ref if callable(x_ref) else (lambda t, v=float(x_ref): v)
+        self.position_ref = position_ref if callable(position_ref) else (lambda t, v=float(position_ref): v)
         super().__init__(period)
 
-    def command(self, meas: Measurement, dx: float, dtheta: float) -> float:
+    def command(self, meas: Measurement, actuated_rate: float, angle_rate: float) -> float:
         """Volts for the filtered state."""
-        err = np.array([meas.position(self.c.cart) - self.x_ref(meas.t), dx,
-                        wrap_upright(meas.position(self.c.angle)), dtheta])
+        err = np.array([meas.position(self.c.actuated) - self.position_ref(meas.t), actuated_rate,
+                        self.c.upright_error(meas.position(self.c.angle)), angle_rate])
         du = -float(self.lqr.K @ err)
         # dry friction compensation: add the volts that the friction eats in the commanded direction
         return self.lqr.u0 + du + self.c.lin.u_coulomb * math.tanh(du / FRICTION_SMOOTHING)
 
     def step(self, meas: Measurement) -> float:
         """One control period."""
-        dx, dtheta = self.observe(meas)
-        return self.command(meas, dx, dtheta)
+        return self.command(meas, *self.observe(meas))
 
 
 class Supervisor:
@@ -223,10 +265,11 @@ class Supervisor:
     fall back to the swing-up when it leaves a wider window (hysteresis: no chattering).
     Both controllers see every sample, so their filters are warm at a switch."""
 
-    def __init__(self, consts: PendulumConstants, period: float = 1e-3, x_ref=0.0,
+    def __init__(self, consts: PendulumConstants, period: float = 1e-3, position_ref=0.0,
                  catch_angle: float = CATCH_ANGLE, catch_rate: float = CATCH_RATE, drop_angle: float = DROP_ANGLE):
         self.swing = EnergySwingUp(consts, period)
-        self.balance = LqrBalance(consts, period, x_ref=x_ref)
+        self.balance = LqrBalance(consts, period, position_ref=position_ref)
+        self.input_range = consts.input_range
         self.catch_angle, self.catch_rate, self.drop_angle = catch_angle, catch_rate, drop_angle
         self.mode = "swing"
 
@@ -238,13 +281,12 @@ class Supervisor:
 
     def step(self, meas: Measurement) -> float:
         """One control period: update the filters, pick the controller, command."""
-        dx, dtheta = self.swing.observe(meas)
+        actuated_rate, angle_rate = self.swing.observe(meas)
         self.balance.observe(meas)
-        phi = wrap_upright(meas.position(self.swing.c.angle))
-        if self.mode == "swing" and abs(phi) < self.catch_angle and abs(dtheta) < self.catch_rate:
+        phi = self.swing.c.upright_error(meas.position(self.swing.c.angle))
+        if self.mode == "swing" and abs(phi) < self.catch_angle and abs(angle_rate) < self.catch_rate:
             self.mode = "balance"
         elif self.mode == "balance" and abs(phi) > self.drop_angle:
             self.mode = "swing"
         active = self.balance if self.mode == "balance" else self.swing
-        return active.command(meas, dx, dtheta)
-
+        return active.command(meas, actuated_rate, angle_rate)

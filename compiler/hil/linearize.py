@@ -1,12 +1,14 @@
-"""Linearisation of a model at the upright equilibrium, from its own sympy equations.
+"""Linearisation of a pendulum model at rest, upright or hanging, from its own sympy equations.
 
 The balance controller is designed on this linear model, so it follows whatever the
-model file says (parameters and effects) instead of gains typed in for one rig.
+model file says (parameters and effects) instead of gains typed in for one rig. The states
+are addressed by role (:mod:`pendc.hil.pendulum_roles`: the actuated coordinate, a cart or a
+rotary arm, and the pendulum's angle), so one linearisation serves every such plant.
 
-Non-smooth terms need a rule. Coulomb and Stribeck friction jump at ẋ = 0 and the
-sticking branch would make the cart look immovable (ẍ = 0 for any small input), so
-the Jacobian is the mean of the two one-sided Jacobians with the cart moving slowly
-left and right (ẋ = ±``EPS_V``): the Coulomb jumps cancel, the slopes (viscous,
+Non-smooth terms need a rule. Coulomb and Stribeck friction jump at zero velocity of the
+actuated coordinate and the sticking branch would make it look immovable (no acceleration for
+any small input), so the Jacobian is the mean of the two one-sided Jacobians with it moving
+slowly either way (rate ±``EPS_V``): the Coulomb jumps cancel, the slopes (viscous,
 Stribeck) stay. Extra states such as a motor lag are removed by residualisation
 (their fast dynamics taken at steady state), because a controller cannot measure them.
 An input delay and the velocity bound are not part of the linear model.
@@ -14,29 +16,30 @@ An input delay and the velocity bound are not part of the linear model.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import sympy as sp
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
+from .numeric_model import NumericModel
+from .pendulum_roles import PendulumRoles, pendulum_roles, restoring_stiffness
 
-EPS_V = 1e-6   # m/s: "moving slowly" for the one-sided Jacobians
+EPS_V = 1e-6   # "moving slowly" for the one-sided Jacobians (the actuated rate's unit: m/s, rad/s)
 U_SPAN = 0.5   # V: the input gain is the mean slope over u0 +- U_SPAN (a dead zone has zero slope at u0)
 
 
 @dataclass(frozen=True)
 class UprightLinearModel:
-    """ds/dt = A (s - s_up) + B (u - u0) about the upright, s = (x, dx, phi, dphi)
-    with phi = theta - pi (theta = pi upright, angles as in the plant spec)."""
+    """ds/dt = A (s - s_0) + B (u - u0) about a rest point, s = (p, v, phi, dphi): the actuated
+    position and its rate, the pendulum angle from the point (phi = angle - upright for the
+    upright) and its rate."""
 
     A: np.ndarray
     B: np.ndarray
     u0: float
-    u_coulomb: float = 0.0   # volts that balance the cart's dry friction when it moves slowly
+    u_coulomb: float = 0.0   # volts that balance the actuated coordinate's dry friction when it moves slowly
 
 
 @dataclass(frozen=True)
@@ -50,79 +53,72 @@ class DiscreteLqr:
     period: float
 
 
-def _no_delta(expr: sp.Expr) -> sp.Expr:
-    # d sign(v)/dv is a DiracDelta, zero away from v = 0 where the Jacobian is evaluated
-    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
-
-
 def mechanical_order(model: PlantModel) -> list:
-    """Indices into the model's states of (translation, its rate, angle, its rate), from the
-    plant interface (:func:`pendc.hil.controllers.measured_positions` names the two positions),
-    followed by every other state (a motor lag...)."""
-    from .controllers import measured_positions
-
-    iface = model.interface
-    cart, angle = measured_positions(iface)
-    names = [s.name for s in model.equations.states]
-
-    def rate_of(position):
-        rate = next((s.name for s in iface.states if s.derivative_of == position), None)
-        if rate is None:
-            raise PendcError(f"the plant interface names no rate of '{position}'")
-        return rate
-    main = [names.index(n) for n in (cart, rate_of(cart), angle, rate_of(angle))]
-    return main + [i for i in range(len(names)) if i not in main]
+    """Indices into the model's states of (actuated position, its rate, pendulum angle, its
+    rate), by role (:func:`pendc.hil.pendulum_roles.pendulum_roles`), followed by every other
+    state (a motor lag...)."""
+    return pendulum_roles(model).order(len(model.equations.states))
 
 
-def linearise_upright(model: PlantModel) -> UprightLinearModel:
-    """The model's linearisation at rest with the translation at 0 and the angle at pi (upright),
-    with the input that holds it there; states ordered (translation, rate, angle, rate)."""
-    eq = model.equations
-    order = mechanical_order(model)
-    states = [list(eq.states)[i] for i in order]
-    derivatives = [list(eq.derivatives)[i] for i in order]
-    values = dict(zip(eq.params, model.parameter_vector()))
-    rhs = [eq.inline(d).subs(values) for d in derivatives]
-    u = eq.input
-    variables = states + [u]
-    jac = [[_no_delta(sp.diff(f, v)) for v in variables] for f in rhs]
-    f_num = sp.lambdify(variables, rhs, modules=["numpy"])
-    j_num = sp.lambdify(variables, jac, modules=["numpy"])
+def linearise_upright(model: PlantModel, numeric: NumericModel | None = None,
+                      roles: PendulumRoles | None = None) -> UprightLinearModel:
+    """The model's linearisation at rest with the actuated position at 0 and the pendulum
+    upright, with the input that holds it there; states ordered (p, v, phi, dphi)."""
+    numeric = numeric or NumericModel.of(model)
+    roles = roles or pendulum_roles(model, numeric)
+    return linearise_at_rest(numeric, roles, roles.upright)
+
+
+def linearise_at_rest(numeric: NumericModel, roles: PendulumRoles, angle: float) -> UprightLinearModel:
+    """The linearisation at rest with the actuated position at 0 and the pendulum at ``angle``
+    (0 hanging, ``roles.upright`` upright), with the input that holds the actuated coordinate
+    still; a one-line :class:`PendcError` if that is no equilibrium of the pendulum."""
+    n = len(numeric.names)
+    order = roles.order(n)
+    act_rate, pend_rate = roles.actuated.rate_index, roles.pendulum.rate_index
 
     # extra states (motor lag ...) take their steady value for the held input, found by iteration
-    def point(u_val: float, sign: float) -> list:
-        s = [0.0, sign * EPS_V, math.pi, 0.0] + [0.0] * (len(states) - 4)
-        for _ in range(50):
-            d = f_num(*s, u_val)
-            if len(states) == 4:
+    def point(u_val: float, sign: float) -> np.ndarray:
+        s = np.zeros(n)
+        s[act_rate] = sign * EPS_V
+        s[roles.pendulum.index] = angle
+        extra = order[4:]
+        for _ in range(50 if extra else 0):
+            d = numeric.derivatives(s, u_val)
+            jj = numeric.jacobian(s, u_val)
+            step = np.linalg.solve(jj[np.ix_(extra, extra)], -d[extra])
+            s[extra] += step
+            if np.all(np.abs(step) <= 1e-13 * (1.0 + np.abs(s[extra]))):   # a linear lag: one step
                 break
-            jj = np.array(j_num(*s, u_val), dtype=float)
-            extra = slice(4, len(states))
-            step = np.linalg.solve(jj[extra, extra], -np.array(d[4:], dtype=float))
-            s[4:] = list(np.array(s[4:]) + step)
         return s
 
-    def cart_acceleration(u_val: float) -> float:
-        return 0.5 * sum(float(f_num(*point(u_val, sg), u_val)[1]) for sg in (1.0, -1.0))
+    def acceleration(u_val: float, sign: float, of: int = act_rate) -> float:
+        return float(numeric.derivatives(point(u_val, sign), u_val)[of])
 
-    u0 = _solve_hold_input(cart_acceleration)
-    a_left, a_right = (float(f_num(*point(u0, sg), u0)[1]) for sg in (1.0, -1.0))
-    jacobians = [np.array(j_num(*point(u0, sg), u0), dtype=float) for sg in (1.0, -1.0)]
-    J = 0.5 * (jacobians[0] + jacobians[1])
+    def mean_acceleration(u_val: float) -> float:
+        return 0.5 * sum(acceleration(u_val, sg) for sg in (1.0, -1.0))
+
+    u0 = _solve_hold_input(mean_acceleration)
+    a_left, a_right = (acceleration(u0, sg) for sg in (1.0, -1.0))
+    tilt = 0.5 * sum(acceleration(u0, sg, pend_rate) for sg in (1.0, -1.0))
+    if not abs(tilt) < 1e-6 * max(1.0, abs(restoring_stiffness(numeric, roles.pendulum))):
+        raise PendcError(f"the pendulum of plant '{roles.plant}' is not at rest at {angle:g} "
+                         f"{roles.pendulum.unit} (angular acceleration {tilt:.3g})")
+    J = 0.5 * sum(numeric.jacobian(point(u0, sg), u0) for sg in (1.0, -1.0))
+    J = J[np.ix_(order, order + [n])]
     if not np.all(np.isfinite(J)):
-        raise PendcError("the model's linearisation at the upright is not finite (a non-smooth term at rest?)")
-    n = len(states)
+        raise PendcError("the model's linearisation at rest is not finite (a non-smooth term at rest?)")
     A = J[:, :n]
     B = np.zeros((n, 1))
     for sg in (1.0, -1.0):
         s0 = point(u0, sg)
-        up, down = (np.array(f_num(*s0, u0 + d), dtype=float) for d in (U_SPAN, -U_SPAN))
+        up, down = (numeric.derivatives(s0, u0 + d)[order] for d in (U_SPAN, -U_SPAN))
         B[:, 0] += 0.5 * (up - down) / (2 * U_SPAN)
     if n > 4:   # residualise the unmeasured fast states
         A22_inv = np.linalg.inv(A[4:, 4:])
         B = B[:4] - A[:4, 4:] @ A22_inv @ B[4:]
         A = A[:4, :4] - A[:4, 4:] @ A22_inv @ A[4:, :4]
-    # the dry friction's jump between moving left and right, in volts of drive
+    # the dry friction's jump between moving either way, in volts of drive
     u_coulomb = max(0.0, -(a_left - a_right) / (2 * B[1, 0])) if B[1, 0] != 0 else 0.0
     return UprightLinearModel(A=A, B=B.reshape(4, 1), u0=float(u0), u_coulomb=float(u_coulomb))
 

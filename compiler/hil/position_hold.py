@@ -21,7 +21,8 @@ import sympy as sp
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .controllers import FilteredDifference, Measurement
-from .linearize import U_SPAN, _no_delta, _solve_hold_input
+from .linearize import U_SPAN, _solve_hold_input
+from .numeric_model import _no_delta
 
 HOLD_OMEGA = 8.0          # rad/s: natural frequency of the held coordinate
 HOLD_ZETA = 0.8           # damping ratio

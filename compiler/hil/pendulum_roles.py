@@ -1,0 +1,96 @@
+"""The roles of a pendulum plant's coordinates: the one the input drives and the pendulum's angle.
+
+The balance and swing-up controllers address the state vector by role, never by a state's
+name: the **actuated** coordinate (a cart's position, a rotary arm's angle) and the
+**pendulum** angle, each with its rate, its unit and its index in the model's state vector.
+The plant interface gives the measured positions (its encoders' states), their rates
+(``derivative_of``), units and periods; which of the two is the pendulum is physics, read off
+the model's own equations: the pendulum's angle is the measured *periodic* position that
+gravity restores (its acceleration at rest falls as the angle grows: d²q/dt² = -k q with
+k > 0), the actuated one is the other measured position (a cart or an arm, on which gravity
+does not act). The angle counts from hanging down, so the upright is half a turn away.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PendcError
+from ..model.plant import PlantModel
+from .numeric_model import NumericModel
+
+PROBE = 1e-4   # a small displacement (in the position's unit) for the stiffness at rest
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A measured position and its rate: names, units, the position's period (None for a
+    translation) and their indices in the model's state vector."""
+
+    position: str
+    rate: str
+    unit: str
+    rate_unit: str
+    period: float | None
+    index: int
+    rate_index: int
+
+
+@dataclass(frozen=True)
+class PendulumRoles:
+    """The coordinates of a pendulum plant by role (see the module docstring)."""
+
+    plant: str
+    actuated: Coordinate
+    pendulum: Coordinate
+
+    @property
+    def upright(self) -> float:
+        """The pendulum angle at the upright: half a period from hanging down."""
+        return 0.5 * self.pendulum.period
+
+    def order(self, n_states: int) -> list:
+        """Indices into the state vector of (actuated position, its rate, pendulum angle, its
+        rate) followed by every other state (a motor lag...)."""
+        main = [self.actuated.index, self.actuated.rate_index, self.pendulum.index, self.pendulum.rate_index]
+        return main + [i for i in range(n_states) if i not in main]
+
+
+def _coordinate(iface, numeric: NumericModel, position: str) -> Coordinate:
+    spec = iface.state(position)
+    rate = next((s for s in iface.states if s.derivative_of == position), None)
+    if rate is None:
+        raise PendcError(f"the plant interface names no rate of '{position}'")
+    return Coordinate(position, rate.name, spec.unit, rate.unit, spec.period,
+                      numeric.index(position), numeric.index(rate.name))
+
+
+def restoring_stiffness(numeric: NumericModel, coord: Coordinate) -> float:
+    """-d(acceleration)/d(position) of ``coord`` at rest (every state 0, no input): positive
+    for a pendulum hanging under gravity, zero for a free cart or arm."""
+    n = len(numeric.names)
+    accel = []
+    for sign in (1.0, -1.0):
+        state = np.zeros(n)
+        state[coord.index] = sign * PROBE
+        accel.append(numeric.derivatives(state, 0.0)[coord.rate_index])
+    return -(accel[0] - accel[1]) / (2 * PROBE)
+
+
+def pendulum_roles(model: PlantModel, numeric: NumericModel | None = None) -> PendulumRoles:
+    """The actuated coordinate and the pendulum of ``model`` (see the module docstring); a
+    one-line :class:`PendcError` for a plant that is not one pendulum on one driven coordinate."""
+    iface = model.interface
+    numeric = numeric or NumericModel.of(model)
+    measured = [_coordinate(iface, numeric, s.state) for s in iface.sensors]
+    pendulums = [c for c in measured if c.period is not None and restoring_stiffness(numeric, c) > 0]
+    others = [c for c in measured if c not in pendulums]
+    if len(measured) != 2 or len(pendulums) != 1:
+        what = ", ".join(c.position for c in measured) or "nothing"
+        raise PendcError(f"the swing-up and balance controllers drive one pendulum (a measured angle that gravity "
+                         f"restores) on one other measured coordinate; plant '{iface.name}' "
+                         f"({model.experiment} experiment) measures {what} and "
+                         f"{len(pendulums)} of them is such an angle")
+    return PendulumRoles(plant=iface.name, actuated=others[0], pendulum=pendulums[0])
