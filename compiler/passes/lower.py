@@ -53,8 +53,13 @@ def turn_counter(state: str) -> str:
 class _Lowerer:
     """Turns sympy expressions into nodes, sharing structurally equal subexpressions."""
 
-    def __init__(self, variables: dict, interface: PlantInterface):
+    def __init__(self, variables: dict, interface: PlantInterface, turns_phase: bool = False,
+                 deep_last: bool = False, narrow_abs: bool = False):
         self.variables = dict(variables)      # sympy Symbol -> node name
+        self.turns_phase = turns_phase        # periodic tables read state/period less whole turns
+        self.deep_last = deep_last            # sums add their deepest term last (see term_depth)
+        self.narrow_abs = narrow_abs          # |a| of a cast of a, not of a itself (see lower_model)
+        self.depth: dict = {}                 # assigned Symbol -> how deep its value lies in the step
         self.nodes: list = []
         self.memo: dict = {}                  # expression -> node name
         self.placeholders: dict = {}          # Dummy -> non-smooth expression it stands for
@@ -137,6 +142,8 @@ class _Lowerer:
             return self.emit(Kind.MUX, [sel, nb, na], hint, meaning)
         if isinstance(e, sp.Abs):
             a = self.value(e.args[0], f"{hint}_arg")
+            if self.narrow_abs:     # round once, then negate and select in the narrow format
+                a = self.value_key(("abs_arg", a), lambda: self.emit(Kind.CAST, [a], f"{a}_for_abs"))
             return self.emit(Kind.MUX, [self.sign_bit(a), a, self.negated(a)], f"abs_{a}", meaning or f"|{a}|")
         if isinstance(e, sp.sign):
             return self.times_sign(self.const(1.0), e.args[0], hint)
@@ -200,24 +207,46 @@ class _Lowerer:
                               value=period, max_abs=period * (spec.turns + 1))
             phase = self.emit(Kind.SUB, [state, whole], f"{name}_phase",
                               f"{spec.label} less its whole turns ({spec.unit})")
-            over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{name}_phase_over", op=CompareOp.GE)
-            under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{name}_phase_under", op=CompareOp.LT)
-            down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
-            step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
-            self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step],
-                                   max_abs=float(spec.turns + 1)))
-            self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=0.0,
-                                   max_abs=float(spec.turns + 1), meaning=f"whole turns of the {spec.body} (counter)"))
-            self.used_names |= {counter, f"{counter}_next"}
+            self._turn_counter(spec, phase, half)
             return phase
         return self.value_key(("phase", name), build)
+
+    def turns(self, var) -> str:
+        """A periodic state in turns less its whole turns (the table address of ``turns_phase``):
+        the state times 1/period, then the turn counter subtracted from its integer bits. One
+        product and an adder from the state register, where :meth:`phase` puts two products and a
+        subtraction in front of the table (counter x period, state less it, x 1/period)."""
+        spec: StateSpec = self.periodic[var]
+        name = spec.name
+        counter = turn_counter(name)
+
+        def build():
+            scaled = self.emit(Kind.GAIN, [self.variables[var]], f"{name}_in_turns",
+                               f"{spec.label} in turns, whole turns included", value=1.0 / spec.period)
+            turns = self.emit(Kind.SUB, [scaled, counter], f"{name}_turns",
+                              f"{spec.label} less its whole turns, in turns")
+            self._turn_counter(spec, turns, 0.5)
+            return turns
+        return self.value_key(("turns", name), build)
+
+    def _turn_counter(self, spec: StateSpec, phase: str, half: float) -> None:
+        """The whole-turns register of ``spec``, stepped when ``phase`` leaves [-half, half)."""
+        counter = turn_counter(spec.name)
+        over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{spec.name}_phase_over", op=CompareOp.GE)
+        under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{spec.name}_phase_under", op=CompareOp.LT)
+        down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
+        step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
+        self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step], max_abs=float(spec.turns + 1)))
+        self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=0.0,
+                               max_abs=float(spec.turns + 1), meaning=f"whole turns of the {spec.body} (counter)"))
+        self.used_names |= {counter, f"{counter}_next"}
 
     def table(self, expr, var, hint: str) -> str:
         """A LUT node for ``expr`` (a smooth function of ``var``)."""
         v = sp.Symbol("v", real=True)
         spec = self.periodic.get(var)
         if spec is not None and _periodic(expr, var, spec.period):
-            source = self.value_key(("turns", spec.name), lambda: self.emit(
+            source = self.turns(var) if self.turns_phase else self.value_key(("turns", spec.name), lambda: self.emit(
                 Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
                 value=1.0 / spec.period))
             text = sp.sstr(expr.subs(var, sp.nsimplify(spec.period, [sp.pi]) * v))
@@ -252,6 +281,8 @@ class _Lowerer:
                 groups[tables[0]] += groups.pop((None, rest))
         acc = None
         keys = list(groups)
+        if self.deep_last:      # the term that is ready last joins the sum last: one adder after it
+            keys.sort(key=lambda k: self.term_depth(*k))
         for i, (var, rest) in enumerate(keys):
             coeff = groups[(var, rest)]
             part_hint = f"{hint}_{_slug(rest)}" if rest != 1 else f"{hint}_0"
@@ -270,6 +301,24 @@ class _Lowerer:
             else:
                 acc = self.emit(Kind.SUB if negative else Kind.ADD, [acc, part], name_hint, m)
         return acc if acc is not None else self.const(0.0)
+
+    def expr_depth(self, e) -> int:
+        """A rank of how late ``e``'s value is ready in a step: states and the input 0, an
+        assigned symbol one more than its expression, a non-smooth operation (a table of
+        ``|dx|``, compares and muxes) two more than its argument."""
+        def symbol(s) -> int:
+            if s in self.placeholders:
+                return 2 + self.expr_depth(self.placeholders[s])
+            return self.depth.get(s, 0)
+        deepest = max((symbol(s) for s in e.free_symbols), default=0)
+        return deepest + (2 if e.has(*_NONSMOOTH) else 0)
+
+    def term_depth(self, var, rest) -> int:
+        """:meth:`expr_depth` of a term of :meth:`sum_of_terms` (table variable ``var`` times ``rest``),
+        one more for the table read and one more for a product."""
+        tabled = var is not None
+        base = max(self.expr_depth(rest), self.expr_depth(var) if tabled else 0)
+        return base + tabled + (rest != 1)
 
     def _factors(self, rest):
         out = []
@@ -319,11 +368,27 @@ def _slug(expr) -> str:
     return "_".join(sorted(str(s.name) for s in expr.free_symbols))[:40] or "term"
 
 
-def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> Graph:
+def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold_dt: bool = False,
+                turns_phase: bool = False, deep_last: bool = False, narrow_abs: bool = False) -> Graph:
     """The untyped IR graph of one model step of ``dt`` seconds (forward Euler, IV.4-IV.7).
 
     Outputs: the states the plant interface reports and, with ``encoders``, the two channel
     levels of each of its encoders. The interface rides along in the graph's ``info``.
+
+    Two arithmetic choices shorten the critical chain of a step (docs/hardware.md, "What blocks
+    100 ns per step"); both change the arithmetic, so the golden model, which follows the graph:
+
+    * ``fold_dt``: the increment ``dt * s'`` is lowered as one sum of terms, so ``dt`` lands in
+      the tables and gains of the derivative (``dx_inc = F_cart*(dt T1)(theta) + ...``) and no
+      separate ``derivative x dt`` product sits between the sums and the integrator;
+    * ``turns_phase``: a periodic state's tables are addressed by ``state/period - turns``
+      (:meth:`_Lowerer.turns`) instead of ``(state - period*turns)/period``;
+    * ``deep_last``: every sum adds its terms in the order their values are ready
+      (:meth:`_Lowerer.term_depth`), so the friction loop's ``F_cart`` term passes one adder
+      to the increment, not three;
+    * ``narrow_abs``: ``|a|`` is taken of a cast of ``a`` (its own format, from its range): a
+      wide state (``dx``, 56 bits) is rounded once, before the negation, instead of by the
+      negation, the select and the table address each.
     """
     eq = model.equations
     iface = model.interface
@@ -332,12 +397,15 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> G
     values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
     port = iface.input
     variables = {eq.input: port.name, **{s: s.name for s in eq.states}}
-    low = _Lowerer(variables, iface)
+    low = _Lowerer(variables, iface, turns_phase=turns_phase, deep_last=deep_last, narrow_abs=narrow_abs)
     low.nodes.append(make(port.name, Kind.INPUT, port=port.name, max_abs=port.full_scale, meaning=port.meaning))
 
     inlined: dict = {}
+    assigned: dict = {}                  # symbol -> its expression (fold_dt lowers dt * it anew)
     for sym, expr in eq.assignments:
         expr = expr.subs(values).subs(inlined)
+        assigned[sym] = expr
+        low.depth[sym] = 1 + low.expr_depth(expr)
         free = expr.free_symbols
         if not free or (len(free) == 1 and free <= set(low.periodic)):
             inlined[sym] = expr          # constants and functions of one angle alone go into tables
@@ -352,8 +420,14 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> G
     increments = {}
     for state, deriv in zip(eq.states, eq.derivatives):
         spec = iface.state(state.name)
-        d = low.value(deriv.subs(values).subs(inlined), f"d_{state.name}")
-        inc = low.emit(Kind.GAIN, [d], f"{state.name}_inc", f"{state.name} increment per step", value=float(dt))
+        deriv = deriv.subs(values).subs(inlined)
+        if fold_dt:
+            # the derivative's own node (if any) goes dead and fold_constants drops it
+            inc = low.value(sp.expand(sp.Float(dt) * assigned.get(deriv, deriv)), f"{state.name}_inc",
+                            f"{state.name} increment per step")
+        else:
+            d = low.value(deriv, f"d_{state.name}")
+            inc = low.emit(Kind.GAIN, [d], f"{state.name}_inc", f"{state.name} increment per step", value=float(dt))
         increments[state.name] = inc
         total = low.emit(Kind.ADD, [state.name, inc], f"{state.name}_sum")
         if spec.velocity_bound is not None:
@@ -371,8 +445,23 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True) -> G
             enc_nodes, levels = lower_encoder(sensor.name, increments[sensor.state], sensor.band, sensor.body)
             nodes += enc_nodes
             outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
+    if fold_dt:      # the derivatives' own nodes (``ddx``) feed nothing now
+        nodes = _live(nodes, outputs)
     return Graph.build(iface.core, nodes, outputs,
                        info=(("dt", float(dt)), ("model", model.source), (INFO_KEY, iface)))
+
+
+def _live(nodes: list, outputs: list) -> list:
+    """The nodes an output or a register reads, directly or not (registers always stay)."""
+    by_name = {n.name: n for n in nodes}
+    todo = [node for _, node in outputs] + [n.name for n in nodes if n.kind is Kind.REGISTER]
+    seen: set = set()
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo.extend(by_name[name].inputs)
+    return [n for n in nodes if n.name in seen]
 
 
 def _clamp(low: _Lowerer, value: str, spec: StateSpec) -> str:

@@ -54,6 +54,12 @@ class BuildOptions:
     ranges: dict = field(default_factory=dict)
     qformats: dict = field(default_factory=dict)
     engine: str = "compiled"
+    # a shorter critical chain of a step (pendc.passes.lower.lower_model: fold_dt, turns_phase,
+    # deep_last, narrow_abs): dt folded into the derivatives' tables and gains, periodic tables
+    # addressed by state/period less whole turns, every sum's latest term added last, |dx| rounded
+    # once; a different arithmetic
+    # (and golden model) from the default build's, held to the same error budget
+    short_chain: bool = False
 
     def __getattr__(self, name: str):
         # Transitional, read-only: ``options.budget_<state>`` as before the plant interface (the
@@ -91,6 +97,16 @@ class BuildResult:
     ranges: Ranges
     error: ErrorReport | None
     resources: Resources
+
+
+# The arithmetic a schedule preset builds with (the CLI passes these to options_from_model): the
+# step-time presets take the short-chain arithmetic; the others keep the default build's.
+PRESET_OPTIONS = {"fast": {"short_chain": True}, "fmax": {"short_chain": True}}
+
+
+def preset_options(preset: str | None) -> dict:
+    """The BuildOptions overrides of a schedule preset (none for presets not in PRESET_OPTIONS)."""
+    return dict(PRESET_OPTIONS.get(preset or "", {}))
 
 
 def training_stimuli(scale: float = 1.0) -> dict:
@@ -185,7 +201,8 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
     opt = validate_options(options) if options is not None else options_from_model(model)
     budgets = opt.budgets_for(model.interface)
-    graph = _checked(lower_model(model, dt=opt.dt), "lower_model")
+    graph = _checked(lower_model(model, dt=opt.dt, fold_dt=opt.short_chain, turns_phase=opt.short_chain,
+                                        deep_last=opt.short_chain, narrow_abs=opt.short_chain), "lower_model")
     graph = _checked(fold_constants(graph), "fold_constants")
     graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
     untyped = graph

@@ -38,6 +38,7 @@ from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.qformat import QFormat
+from ..ir.visitor import NodeVisitor
 from .delays import ECP5_SPEED6, DelayModel, model_for
 from .resources import dsp_for, product_widths
 
@@ -112,28 +113,62 @@ class Schedule:
                 "cycles": {str(c): sorted(n for n, s in self.stage.items() if s == c) for c in range(self.ii)}}
 
 
-def node_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)) -> float:
-    """Estimated routed delay of a node's own logic (ns); tables: the address part."""
-    k = n.kind
-    ins = [graph[i].qformat for i in n.inputs]
-    # a comparison's flag is never rounded (pendc.backend.viewmodel.visit_compare aligns its inputs)
-    rounds = any(q.frac > n.qformat.frac for q in ins) if ins and k is not Kind.COMPARE else False
-    in_width = max((q.width for q in ins), default=n.qformat.width)
-    if k in (Kind.GAIN, Kind.MUL):
-        wa, wb = product_widths(graph, n)
+class NodeDelay(NodeVisitor):
+    """Estimated routed delay of a node's own logic (ns), one method per kind; tables: the
+    address part. Built for one graph, delay model and multiplier shape."""
+
+    def __init__(self, graph: Graph, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)):
+        self.graph, self.model, self.shape = graph, model, shape
+
+    def _inputs(self, n) -> list:
+        return [self.graph[i].qformat for i in n.inputs]
+
+    def _requant(self, n) -> float:
+        """The rounding adder of a node whose inputs carry more fraction bits than its output."""
+        ins = self._inputs(n)
+        rounds = any(q.frac > n.qformat.frac for q in ins)
+        return self.model.add(max(q.width for q in ins)) if rounds else 0.0
+
+    def _product(self, n, coefficient_frac: int) -> float:
+        wa, wb = product_widths(self.graph, n)
         # the rounding constant is added to the full product before it is cut to the output format
-        frac = ins[0].frac + (QFormat.parse(n.param("cfmt")).frac if k is Kind.GAIN else ins[1].frac)
-        return model.product(wa, wb, dsp_for(wa, wb, shape)) + (model.add(wa + wb) if frac > n.qformat.frac else 0.0)
-    requant = model.add(in_width) if rounds else 0.0
-    if k in (Kind.ADD, Kind.SUB, Kind.NEG, Kind.COMPARE):
-        return model.add(in_width + 1) + requant
-    if k is Kind.CAST:
-        return requant
-    if k is Kind.MUX:
-        return model.mux(len(n.inputs) - 1) + requant
-    if k is Kind.LUT:       # address: offset subtraction, then a clamp unless the table wraps
-        return model.add(ins[0].width + 1) + (0.0 if n.param("periodic") else model.mux(3))
-    return 0.0
+        frac = self._inputs(n)[0].frac + coefficient_frac
+        return (self.model.product(wa, wb, dsp_for(wa, wb, self.shape))
+                + (self.model.add(wa + wb) if frac > n.qformat.frac else 0.0))
+
+    def _adder(self, n) -> float:
+        return self.model.add(max(q.width for q in self._inputs(n)) + 1) + self._requant(n)
+
+    def _source(self, n) -> float:
+        return 0.0
+
+    visit_const = visit_input = visit_register = visit_fsm = visit_slice = _source
+    visit_add = visit_sub = visit_neg = _adder
+
+    def visit_gain(self, n) -> float:
+        return self._product(n, QFormat.parse(n.param("cfmt")).frac)
+
+    def visit_mul(self, n) -> float:
+        return self._product(n, self._inputs(n)[1].frac)
+
+    def visit_compare(self, n) -> float:
+        # a comparison's flag is never rounded (pendc.backend.viewmodel.visit_compare aligns its inputs)
+        return self.model.add(max(q.width for q in self._inputs(n)) + 1)
+
+    def visit_cast(self, n) -> float:
+        return self._requant(n)
+
+    def visit_mux(self, n) -> float:
+        return self.model.mux(len(n.inputs) - 1) + self._requant(n)
+
+    def visit_lut(self, n) -> float:
+        # address: offset subtraction, then a clamp unless the table wraps
+        return self.model.add(self._inputs(n)[0].width + 1) + (0.0 if n.param("periodic") else self.model.mux(3))
+
+
+def node_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)) -> float:
+    """Estimated routed delay of a node's own logic (ns); tables: the address part (:class:`NodeDelay`)."""
+    return NodeDelay(graph, model, shape).visit(n)
 
 
 def interp_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple = (18, 18)) -> float:
