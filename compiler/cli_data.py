@@ -203,7 +203,9 @@ class _MergeSettings(argparse.Action):
 
 def add_data_options(p, many: bool = True) -> None:
     """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
-    from .model.experiments import EXPERIMENTS
+    from .model.bodies import BODIES
+
+    experiments = "; ".join(f"{', '.join(body.experiments)} ({name})" for name, body in BODIES.items())
 
     p.add_argument("data", nargs="+" if many else 1,
                    help="measurement file(s): CSV-like text ('-' for standard input) or MATLAB .mat")
@@ -239,7 +241,7 @@ def add_data_options(p, many: bool = True) -> None:
                    help="-1 for a periodic position the file counts the other way round from the model "
                         "(spec section 1); --<SIGNAL>-sign, e.g. --{plant:angle}-sign -1, is the same")
     g.add_argument("--experiment", metavar="NAME[,NAME...]",
-                   help=f"what was held or removed: {', '.join(EXPERIMENTS)} (default: the file's "
+                   help=f"what was held or removed, by the model's body: {experiments} (default: the file's "
                         f"'# experiment:' line or free); one name for all files, or one per data file "
                         f"(--validate files then say theirs in a '# experiment:' line)")
     g.add_argument("--missing", default="", metavar="AXES",
