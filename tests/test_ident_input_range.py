@@ -133,3 +133,12 @@ def test_the_unit_check_quotes_the_range(sct):
     text = format_csv({"t": t, "u": np.full(400, 5000.0), "x": np.zeros(400), "theta": np.zeros(400)})
     with pytest.raises(PendcError, match=r"spans 0-10 V\): use --u-unit mV"):
         parse_measurements(text, source="mv.csv", options=ReadOptions(plausible=True))
+
+
+def test_without_a_drive_offset_the_input_rests_mid_range(sct, qube):
+    from pendc.ident.regimes import DEFAULT_V_OFF, input_centre
+
+    assert input_centre(sct) == sct.effects["drive"]["V_off"]
+    undriven = parse_model("[plant]\n" + "\n".join(f"{k} = {v!r}" for k, v in sct.plant.items()) + "\n", "rigid.toml")
+    assert input_centre(undriven) == DEFAULT_V_OFF == 5.0       # Table 3's nominal V_off: 0-10 V's middle
+    assert input_centre(qube) == 0.0

@@ -9,7 +9,8 @@ rig was in). The partitions are read off the plant interface:
 * **<body> angle** for the last periodic position (the pendulum): small or large swing from
   its zero (``SMALL_SWING``: sin(theta) ~ theta still holds within 1.5 %);
 * **drive**: the input near or far from its centre (the drive's offset V_off if the model has
-  one, else 0; ``LOW_DRIVE``: about the SCT's static break-away voltage, 0.40 V for Table 14);
+  one, else the middle of the input's range; ``LOW_DRIVE``: about the SCT's static break-away
+  voltage, 0.40 V for Table 14);
 * **<position> position** for a translation (the cart on its track): centre or near an end
   (``TRACK_END`` of its unit: the outer third of each half of the SCT's 750 mm track);
 * **input saturation**: the input within ``SATURATION_MARGIN`` of the span of the range its
@@ -30,7 +31,7 @@ SMALL_SWING = 0.3            # rad from the angle's zero
 LOW_DRIVE = 0.5              # input units from its centre
 TRACK_END = {"m": 0.25}      # per position unit: beyond this the body is near an end of its travel
 SATURATION_MARGIN = 0.005    # fraction of the input range's span
-DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's offset for models without a drive effect
+DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's nominal offset (the middle of 0-10 V)
 
 
 def wrap_angle(angle, period: float = 2 * math.pi):
@@ -39,13 +40,13 @@ def wrap_angle(angle, period: float = 2 * math.pi):
 
 
 def input_centre(model) -> float:
-    """The input the plant rests at: the model's drive offset ``V_off``, the SCT's default
-    offset for a cart-pendulum model without a drive effect, else 0."""
+    """The input the plant rests at: the model's drive offset ``V_off``, else the middle of the
+    range its actuator takes (the SCT drive's nominal 5 V of its 0-10 V, as Table 3 has it;
+    0 for the QUBE's ±10 V amplifier)."""
     values = model.parameter_values()
     if "V_off" in values:
         return float(values["V_off"])
-    knows_offset = any(p.name == "V_off" for cls in model.catalogue.values() for p in cls.params)
-    return DEFAULT_V_OFF if knows_offset else 0.0
+    return model.interface.input.range.centre
 
 
 def saturation_limits(drive) -> tuple:
