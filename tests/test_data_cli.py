@@ -62,7 +62,7 @@ HOSTILE = {
     "time_in_ms": (csv(scaled(BASE, t=1e3)), [], ["t looks like milliseconds", "--t-unit ms", "last t = 19999"]),
     "x_in_mm": (csv(scaled(BASE, x=1e3)), [], ["column 'x' looks like millimetres", "--x-unit mm", "0.75 m"]),
     "x_in_cm": (csv(scaled(BASE, x=1e2)), [], ["looks like centimetres", "--x-unit cm"]),
-    "u_in_mV": (csv(scaled(BASE, u=1e3)), [], ["column 'u' looks like millivolts", "--u-unit mV", "±10 V"]),
+    "u_in_mV": (csv(scaled(BASE, u=1e3)), [], ["column 'u' looks like millivolts", "--u-unit mV", "spans 0-10 V"]),
     "theta_in_degrees": (csv(scaled(BASE, theta=180 / math.pi * 5)), [], ["'theta' looks like degrees",
                                                                          "--theta-unit deg"]),
     "outlier_x": (csv(with_row(BASE, "x", 1233, 1e30)), [], ["line 1235: x = 1e+30 is an outlier"]),
