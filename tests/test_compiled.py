@@ -247,12 +247,49 @@ def test_vectorised_quantisation_is_the_scalar_rule(fmt):
 def test_source_is_deterministic_and_independent_of_table_contents(hand):
     g, cg = hand
     again = hand_graph()
-    assert kernel_source(again, "fixed") == kernel_source(g, "fixed") and cg.source == kernel_source(g, "fixed")[0]
+    assert kernel_source(again, "fixed") == kernel_source(g, "fixed")
+    assert cg.source == kernel_source(g, "fixed", runtime_data=True)[0]
     pend = lower_model(load_model())
     assert kernel_source(pend, "float") == kernel_source(lower_model(load_model()), "float")
     refilled = g.map_nodes(lambda n: n.with_params(table=tuple(0 for _ in n.param("table")))
                            if n.kind is Kind.LUT else n)
-    assert kernel_source(refilled, "fixed")[0] == cg.source
+    assert kernel_source(refilled, "fixed", runtime_data=True)[0] == cg.source
+
+
+def test_kernel_reused_across_register_resets_matches_each_interpreter(hand):
+    """Register resets are kernel data: a graph differing only in resets (the spinning training
+    run) compiles to the same source and machine code, and each run is its own interpreter's."""
+    g, cg = hand
+    reset = {"r1_nt": 3.25, "r2_ts": -7.5, "r1_ns": 31.0}          # r1_ns: saturates at once
+    other = g.map_nodes(lambda n: n.with_params(reset=reset[n.name]) if n.name in reset else n)
+    again = CompiledGraph(other, "fixed")
+    assert again.source == cg.source and again._kernel is cg._kernel
+    inputs = random_inputs(400, seed=5)
+    for graph, compiled in ((g, cg), (other, again)):
+        assert_same(compiled.run(inputs, track_max=True), FixedInterpreter(graph).run(inputs, track_max=True))
+    assert again.run(inputs).outputs["r2_ts"][0] == -480 != cg.run(inputs).outputs["r2_ts"][0]
+    flt, flt2 = CompiledGraph(g, "float"), CompiledGraph(other, "float")
+    assert flt2._kernel is flt._kernel
+    assert_same(flt2.run(inputs, track_max=True), FloatInterpreter(other).run(inputs, track_max=True), exact=False)
+
+
+def test_step_is_single_assignment_and_nearly_branch_free(hand):
+    """What keeps numba's compile cheap (its SSA pass costs blocks x redefined variables): in the
+    step loop every node's locals are assigned once, and the only branches are the per-step
+    record/overflow blocks, not one per range check."""
+    import ast
+    g, cg = hand
+    loop = next(n for n in ast.walk(ast.parse(cg.source)) if isinstance(n, ast.For) and n.target.id == "k")
+    assigned = [t.id for st in ast.walk(loop) if isinstance(st, ast.Assign) for t in st.targets
+                if isinstance(t, ast.Name)]
+    node_locals = [x for x in assigned if x[0] in "vtrbdfjy" and x[1:2].isdigit() or x[:2] in ("jj", "ff")]
+    repeated = sorted({x for x in node_locals if node_locals.count(x) > 1})
+    assert node_locals and not repeated, repeated
+    ifs = [n for n in ast.walk(loop) if isinstance(n, (ast.If, ast.IfExp))]
+    flagged = sum(1 for n in ifs if isinstance(n, ast.If) and isinstance(n.test, ast.BinOp)
+                  and "ov[" in ast.unparse(n.test))
+    assert flagged > 20                                             # one guarded store per checked node
+    assert len(ifs) - flagged <= 8 and not any(isinstance(n, ast.IfExp) for n in ifs)
 
 
 def test_cache_dir_from_environment(tmp_path, monkeypatch):

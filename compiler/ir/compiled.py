@@ -56,7 +56,7 @@ class CompiledGraph:
                 raise ValueError(f"UFIX64 does not fit the int64 golden model: {', '.join(wide[:5])}")
         self.graph, self.mode = graph, mode
         self.index = {n.name: i for i, n in enumerate(graph.nodes)}
-        self.source, offsets = kernel_source(graph, mode)
+        self.source, offsets = kernel_source(graph, mode, runtime_data=True)
         tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
         self.tables.setflags(write=False)
