@@ -143,6 +143,26 @@ def _unit_text(text: str) -> str:
     return text
 
 
+def _input_value(text: str) -> tuple:
+    """``V`` or ``INPUT=V``: (the input's name or None, a finite number)."""
+    name, eq, value = text.rpartition("=")
+    if eq and not NAME.match(name.strip()):
+        raise argparse.ArgumentTypeError(f"expected V or INPUT=V with the model's input and a number, got {text!r}")
+    return (name.strip() if eq else None), finite(value)
+
+
+def _checked_input_value(args, plant) -> float:
+    """The value of an absent input from ``--input-value``; a name given must be ``plant``'s input."""
+    from .errors import PendcError
+    from .sim.signals import signals_of
+
+    name, value = getattr(args, "input_value", None) or (None, 0.0)
+    if name is not None and name != signals_of(plant).input:
+        raise PendcError(f"--{name.replace('_', '-')}-value: '{name}' is not the model's input "
+                         f"(its input is '{signals_of(plant).input}')")
+    return float(value)
+
+
 def finite(text: str) -> float:
     """An argparse type: a finite number."""
     try:
@@ -162,15 +182,18 @@ def positive(text: str) -> float:
     return value
 
 
-# --<SIGNAL>-unit/-zero/-sign VALUE: --unit/--zero/--sign SIGNAL=VALUE, for any signal of any plant
-SIGNAL_OPTION = re.compile(r"--([A-Za-z_][\w-]*?)-(unit|zero|sign)(?:=(.*))?$", re.S)
+# --<SIGNAL>-unit/-zero/-sign VALUE: --unit/--zero/--sign SIGNAL=VALUE, for any signal of any plant;
+# --<INPUT>-value V: --input-value INPUT=V (the name checked against the model's input when read)
+SIGNAL_OPTION = re.compile(r"--([A-Za-z_][\w-]*?)-(unit|zero|sign|value)(?:=(.*))?$", re.S)
+SETTING_OPTION = {"unit": "--unit", "zero": "--zero", "sign": "--sign", "value": "--input-value"}
 
 
 def expand_signal_options(words: list, known) -> list:
     """``words`` with each ``--<SIGNAL>-unit VALUE`` (``-zero``, ``-sign``; also ``--OPT=VALUE``)
     that is no option of the parser (``known``) rewritten as ``--unit SIGNAL=VALUE``
-    (``--zero``, ``--sign``): the per-signal spelling, checked against the model's signals
-    when the data are read. A hyphen in SIGNAL stands for an underscore."""
+    (``--zero``, ``--sign``; ``--<INPUT>-value V`` as ``--input-value INPUT=V``): the
+    per-signal spelling, checked against the model's signals when the data are read. A
+    hyphen in SIGNAL stands for an underscore."""
     out, i = [], 0
     while i < len(words):
         word = words[i]
@@ -189,7 +212,7 @@ def expand_signal_options(words: list, known) -> list:
 
                 raise PendcError(f"argument {word}: expected one argument")
             value, i = words[i + 1], i + 1
-        out += [f"--{setting}", f"{name}={value}"]
+        out += [SETTING_OPTION[setting], f"{name}={value}"]
         i += 1
     return out
 
@@ -245,10 +268,11 @@ def add_data_options(p, many: bool = True) -> None:
                         f"'# experiment:' line or free); one name for all files, or one per data file "
                         f"(--validate files then say theirs in a '# experiment:' line)")
     g.add_argument("--missing", default="", metavar="AXES",
-                   help="axes the file may lack, filled with 0 (the input with --u-value), e.g. --missing "
+                   help="axes the file may lack, filled with 0 (the input with --input-value), e.g. --missing "
                         "{plant:input} (an experiment allows the axes it holds still or removes without this option)")
-    g.add_argument("--u-value", type=finite, default=0.0, metavar="V",
-                   help="value of an absent input, in its unit (default 0)")
+    g.add_argument("--input-value", type=_input_value, default=(None, 0.0), metavar="[INPUT=]V",
+                   help="value of an absent input, in its unit (default 0); --<INPUT>-value V, e.g. "
+                        "--{plant:input}-value 5, is the same")
     g.add_argument("--resolution", type=_steps, default={}, metavar="STEPS",
                    help="measurement steps, e.g. {plant:angle}={plant:angle_step},{plant:position}={plant:position_step} "
                         "(default: estimated from the data)")
@@ -278,7 +302,10 @@ def reading_arguments(args) -> list:
         if values:
             words += [flag, ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())]
     defaults = {"separator": "auto", "decimal": "auto", "encoding": "utf-8", "experiment": None, "missing": "",
-                "u_value": 0.0, "sample_time": None, "rate": None}
+                "sample_time": None, "rate": None}
+    given_input = getattr(args, "input_value", None) or (None, 0.0)
+    if given_input[1] != 0.0:
+        words += ["--input-value", f"{given_input[1]!r}"]
     for name, default in defaults.items():
         value = getattr(args, name, default)
         if value is not None and value != default:
@@ -306,7 +333,7 @@ def read_options(args, experiment: str | None = None, plant=None):
         encoding=getattr(args, "encoding", None) or "utf-8",
         units=units, zero=zero, sign=sign, plant=plant,
         experiment=experiment, resolution=dict(getattr(args, "resolution", None) or {}),
-        allow_missing=missing, u_value=float(getattr(args, "u_value", 0.0) or 0.0),
+        allow_missing=missing, u_value=_checked_input_value(args, plant),
         sample_time=getattr(args, "sample_time", None), rate=getattr(args, "rate", None), uniform=True,
         plausible=True)
 

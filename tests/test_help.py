@@ -112,12 +112,36 @@ def test_signal_options_are_any_signal_of_any_plant():
     args = build_parser().parse_args(["compare", "r.csv", "--arm-angle-unit", "deg", "--unit", "t=ms",
                                       "--arm-angle-zero=upright", "--arm-angle-sign", "-1", "--u-value", "2"])
     assert args.unit == {"arm_angle": "deg", "t": "ms"}
-    assert args.zero == {"arm_angle": "upright"} and args.sign == {"arm_angle": -1.0} and args.u_value == 2.0
+    assert args.zero == {"arm_angle": "upright"} and args.sign == {"arm_angle": -1.0}
+    assert args.input_value == ("u", 2.0)     # the input's name is checked when the data are read
     assert expand_signal_options(["--a-unit", "mm", "--", "--b-unit"], {}) == ["--unit", "a=mm", "--", "--b-unit"]
     with pytest.raises(PendcError, match=r"^compare: argument --a-unit: expected one argument$"):
         build_parser().parse_args(["compare", "r.csv", "--a-unit"])
     with pytest.raises(PendcError, match="--sign"):
         build_parser().parse_args(["compare", "r.csv", "--a-sign", "2"])
+
+
+def test_the_value_of_an_absent_input_names_the_models_input():
+    """--<INPUT>-value V is --input-value INPUT=V: the default model's input passes, another name
+    is refused naming the model's input, and the Furuta's input is its own interface's."""
+    from pathlib import Path
+
+    import pendc
+    from pendc.cli_data import read_options
+    from pendc.errors import PendcError
+
+    cart = pendc.load_model()
+    name = cart.interface.input.name
+    args = build_parser().parse_args(["compare", "r.csv", f"--{name}-value", "-2.5"])
+    assert read_options(args, plant=cart).u_value == -2.5
+    assert read_options(build_parser().parse_args(["compare", "r.csv", "--input-value", "4"])).u_value == 4.0
+    wrong = build_parser().parse_args(["compare", "r.csv", "--volts-value", "1"])
+    with pytest.raises(PendcError, match=f"'volts' is not the model's input \\(its input is '{name}'\\)"):
+        read_options(wrong, plant=cart)
+    furuta = pendc.load_model(Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml")
+    furuta_input = furuta.interface.input.name
+    args = build_parser().parse_args(["compare", "r.csv", f"--{furuta_input}-value", "1"])
+    assert read_options(args, plant=furuta).u_value == 1.0
 
 
 def test_version_is_the_package_version(capsys):
