@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.qformat import QFormat
+from ..ir.visitor import NodeVisitor
 
 BRAM_BITS = 36 * 1024
 # ECP5 DP16KD aspect ratios (depth, width): a table word (entry and stored slope) in the cheapest
@@ -92,62 +93,97 @@ def estimate_resources(graph: Graph, shape: tuple = (18, 18)) -> Resources:
     """Count resources of a typed graph (every node has a Q-format); DSP blocks of ``shape``."""
     mults: Counter = Counter()
     products = []
-    dsp = dsp18 = lut_bits = brams = bram16 = reg_bits = adders = adder_bits = muxes = cmps = luts = 0
+    tally: Counter = Counter()
+    counter = _ResourceCount()
     for n in graph.nodes:
-        w = n.qformat.width
         widths = product_widths(graph, n)
         if widths is not None:
             wa, wb = widths
             mults[f"{wa}x{wb}"] += 1
-            dsp += dsp_for(wa, wb, shape)
-            dsp18 += dsp18_for(wa, wb)
+            tally["dsp"] += dsp_for(wa, wb, shape)
+            tally["dsp18"] += dsp18_for(wa, wb)
             products.append({"node": n.name, "kind": n.kind.value, "widths": f"{wa}x{wb}",
                              "dsp": dsp_for(wa, wb, shape)})
-        if n.kind in (Kind.MUL, Kind.GAIN):
-            pass
-        elif n.kind is Kind.LUT:
-            bits = len(n.param("table")) * w
-            lut_bits += bits
-            brams += math.ceil(bits / BRAM_BITS)
-            word = w + (slope_bits(n.param("table")) if n.param("interpolate") else 0)
-            entries = len(n.param("table"))
-            if entries & (entries - 1) and entries - (1 << (entries.bit_length() - 1)) <= 32:
-                entries = 1 << (entries.bit_length() - 1)   # Yosys keeps the interpolation's extra entry in logic
-            bram16 += min(math.ceil(entries / d) * math.ceil(word / wd) for d, wd in DP16KD)
-            luts += 1
-        elif n.kind is Kind.REGISTER:
-            reg_bits += w
-        elif n.kind is Kind.FSM:
-            reg_bits += max(1, (len(n.param("states")) - 1).bit_length())
-        elif n.kind in (Kind.ADD, Kind.SUB, Kind.NEG):
-            adders += 1
-            adder_bits += w
-        elif n.kind is Kind.MUX:
-            muxes += 1
-        elif n.kind is Kind.COMPARE:
-            cmps += 1
+        tally.update(counter.visit(n))
     depth, path = longest_path(graph)
     fabric = fabric_estimate(graph)
-    return Resources(multipliers=dict(sorted(mults.items())), dsp18=dsp18, lut_bits=lut_bits, brams=brams,
-                     register_bits=reg_bits, adders=adders, adder_bits=adder_bits, muxes=muxes,
-                     comparators=cmps, luts=luts, logic_depth=depth, critical_path=path,
-                     dsp=dsp, dsp_shape=f"{shape[0]}x{shape[1]}", products=tuple(products),
-                     lut4_est=fabric["lut4"], carry_est=fabric["carry"], bram16=bram16)
+    return Resources(multipliers=dict(sorted(mults.items())), dsp18=tally["dsp18"], lut_bits=tally["lut_bits"],
+                     brams=tally["brams"], register_bits=tally["register_bits"], adders=tally["adders"],
+                     adder_bits=tally["adder_bits"], muxes=tally["muxes"], comparators=tally["comparators"],
+                     luts=tally["luts"], logic_depth=depth, critical_path=path,
+                     dsp=tally["dsp"], dsp_shape=f"{shape[0]}x{shape[1]}", products=tuple(products),
+                     lut4_est=fabric["lut4"], carry_est=fabric["carry"], bram16=tally["bram16"])
 
 
-_FREE = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM, Kind.SLICE, Kind.CAST)
+class _ResourceCount(NodeVisitor):
+    """Per kind, what one typed node adds to the tally of :func:`estimate_resources` (its
+    multiplier, counted from :func:`product_widths` for every kind, aside)."""
+
+    def _nothing(self, n) -> dict:
+        return {}
+
+    # products are counted by product_widths; constants, inputs, slices and casts are wiring
+    visit_const = visit_input = visit_gain = visit_mul = visit_slice = visit_cast = _nothing
+
+    def visit_lut(self, n) -> dict:
+        w = n.qformat.width
+        table = n.param("table")
+        bits = len(table) * w
+        word = w + (slope_bits(table) if n.param("interpolate") else 0)
+        entries = len(table)
+        if entries & (entries - 1) and entries - (1 << (entries.bit_length() - 1)) <= 32:
+            entries = 1 << (entries.bit_length() - 1)   # Yosys keeps the interpolation's extra entry in logic
+        return {"lut_bits": bits, "brams": math.ceil(bits / BRAM_BITS), "luts": 1,
+                "bram16": min(math.ceil(entries / d) * math.ceil(word / wd) for d, wd in DP16KD)}
+
+    def visit_register(self, n) -> dict:
+        return {"register_bits": n.qformat.width}
+
+    def visit_fsm(self, n) -> dict:
+        return {"register_bits": max(1, (len(n.param("states")) - 1).bit_length())}
+
+    def _adder(self, n) -> dict:
+        return {"adders": 1, "adder_bits": n.qformat.width}
+
+    visit_add = visit_sub = visit_neg = _adder
+
+    def visit_mux(self, n) -> dict:
+        return {"muxes": 1}
+
+    def visit_compare(self, n) -> dict:
+        return {"comparators": 1}
+
+
+class _PathCost(NodeVisitor):
+    """Per kind, a node's length on a combinational path: None for a state element or source
+    (a path starts there), 0 for wiring (slices and casts), 1 for logic."""
+
+    def _source(self, n):
+        return None
+
+    def _wiring(self, n):
+        return 0
+
+    def _logic(self, n):
+        return 1
+
+    visit_const = visit_input = visit_register = visit_fsm = _source
+    visit_slice = visit_cast = _wiring
+    visit_gain = visit_add = visit_sub = visit_neg = visit_mul = visit_lut = visit_mux = visit_compare = _logic
 
 
 def longest_path(graph: Graph) -> tuple[int, tuple]:
     """Longest chain of logic nodes between state elements (slices and casts are wiring)."""
     depth: dict = {}
     prev: dict = {}
+    cost = _PathCost()
     for n in graph.nodes:                       # evaluation order is topological
-        if n.kind in (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM):
+        length = cost.visit(n)
+        if length is None:
             depth[n.name], prev[n.name] = 0, None
             continue
         best = max(n.inputs, key=lambda i: depth[i])
-        depth[n.name] = depth[best] + (0 if n.kind in _FREE else 1)
+        depth[n.name] = depth[best] + length
         prev[n.name] = best
     end = max(depth, key=lambda k: (depth[k], k)) if depth else None
     path = []
@@ -157,6 +193,73 @@ def longest_path(graph: Graph) -> tuple[int, tuple]:
     return (depth[path[0]] if path else 0), tuple(reversed(path))
 
 
+def _carry_cells(width: int) -> int:
+    """2-bit carry cells (ECP5 CCU2C) of a ripple adder of ``width`` bits."""
+    return (width + 2) // 2
+
+
+class _FabricCost(NodeVisitor):
+    """Per kind, ``{"lut4": n, "carry": n}`` of one typed node in the fabric, as
+    :func:`fabric_estimate` describes."""
+
+    def _free(self, n, graph) -> dict:
+        return {}
+
+    # sources, state registers' flip-flops and bit selections cost no LUT4 or carry cell
+    visit_const = visit_input = visit_register = visit_slice = _free
+
+    @staticmethod
+    def _aligned(n, graph) -> tuple:
+        """(fraction bits, width) of the inputs of a sum or compare aligned on their binary point."""
+        ins = [graph[i].qformat for i in n.inputs]
+        frac = max(q.frac for q in ins)
+        return frac, max(q.width - q.frac for q in ins) + frac + 1
+
+    def visit_compare(self, n, graph) -> dict:
+        return {"carry": _carry_cells(self._aligned(n, graph)[1])}
+
+    def _sum(self, n, graph) -> dict:
+        # the sum's carry chain, then its rounding to the output's fraction and its range check
+        frac, width = self._aligned(n, graph)
+        out = n.qformat
+        return {"lut4": (width - out.width + 2) // 3 if width > out.width else 0,
+                "carry": _carry_cells(width) + (_carry_cells(width + 1) if frac > out.frac else 0)}
+
+    visit_add = visit_sub = _sum
+
+    def visit_neg(self, n, graph) -> dict:
+        return {"carry": _carry_cells(n.qformat.width + 1)}
+
+    def visit_cast(self, n, graph) -> dict:
+        fin, out = graph[n.inputs[0]].qformat, n.qformat
+        carry = _carry_cells(fin.width + 1) if fin.frac > out.frac else 0
+        dropped = (fin.width - fin.frac) - (out.width - out.frac)
+        return {"lut4": (dropped + 2) // 3 if dropped > 0 else 0, "carry": carry}
+
+    def _product(self, n, graph) -> dict:
+        wa, wb = product_widths(graph, n)
+        tiles = dsp18_for(wa, wb)
+        return {"lut4": (wa + wb - n.qformat.width + 2) // 3 if wa + wb > n.qformat.width else 0,
+                "carry": (tiles - 1) * _carry_cells(wa + wb) // 2 + _carry_cells(wa + wb)}
+
+    visit_gain = visit_mul = _product
+
+    def visit_mux(self, n, graph) -> dict:
+        return {"lut4": n.qformat.width * (len(n.inputs) - 2)}
+
+    def visit_lut(self, n, graph) -> dict:
+        carry = _carry_cells(graph[n.inputs[0]].qformat.width + 1)
+        lut4 = 0 if n.param("periodic") else 3 * n.param("addr_bits")
+        widths = product_widths(graph, n)
+        if widths is not None:
+            carry += _carry_cells(sum(widths) + 1) + _carry_cells(n.qformat.width + 1)
+        return {"lut4": lut4, "carry": carry}
+
+    def visit_fsm(self, n, graph) -> dict:
+        return {"lut4": 4 * len(n.param("states")),
+                "carry": len(n.param("transitions")) * _carry_cells(graph[n.inputs[0]].qformat.width + 1)}
+
+
 def fabric_estimate(graph: Graph) -> dict:
     """LUT4s and 2-bit carry cells (ECP5 CCU2C) of a typed graph's adders, roundings, muxes,
     compares and overflow checks, the way ``pendc.backend`` spells them: a ripple adder of w
@@ -164,48 +267,11 @@ def fabric_estimate(graph: Graph) -> dict:
     per 3 dropped bits; products spread over several DSP blocks add their partial products
     in the fabric. Pipeline registers and shared-multiplier muxes of a schedule are not in
     the graph: ``pendc report synth`` counts those."""
-    carry = lut4 = 0
-
-    def add(width: int) -> int:
-        return (width + 2) // 2
-
+    total: Counter = Counter({"lut4": 0, "carry": 0})
+    cost = _FabricCost()
     for n in graph.nodes:
-        ins = [graph[i].qformat for i in n.inputs]
-        out = n.qformat
-        k = n.kind
-        if k in (Kind.ADD, Kind.SUB, Kind.COMPARE):
-            frac = max(q.frac for q in ins)
-            width = max(q.width - q.frac for q in ins) + frac + 1
-            carry += add(width)
-            if k is not Kind.COMPARE:
-                carry += add(width + 1) if frac > out.frac else 0
-                lut4 += (width - out.width + 2) // 3 if width > out.width else 0
-        elif k is Kind.NEG:
-            carry += add(out.width + 1)
-        elif k is Kind.CAST:
-            if ins[0].frac > out.frac:
-                carry += add(ins[0].width + 1)
-            dropped = (ins[0].width - ins[0].frac) - (out.width - out.frac)
-            lut4 += (dropped + 2) // 3 if dropped > 0 else 0
-        elif k in (Kind.GAIN, Kind.MUL):
-            wa, wb = product_widths(graph, n)
-            tiles = dsp18_for(wa, wb)
-            carry += (tiles - 1) * add(wa + wb) // 2 + add(wa + wb)
-            lut4 += (wa + wb - out.width + 2) // 3 if wa + wb > out.width else 0
-        elif k is Kind.MUX:
-            lut4 += out.width * (len(n.inputs) - 2)
-        elif k is Kind.LUT:
-            fin = ins[0]
-            carry += add(fin.width + 1)
-            if not n.param("periodic"):
-                lut4 += 3 * n.param("addr_bits")
-            widths = product_widths(graph, n)
-            if widths is not None:
-                carry += add(sum(widths) + 1) + add(out.width + 1)
-        elif k is Kind.FSM:
-            carry += len(n.param("transitions")) * add(ins[0].width + 1)
-            lut4 += 4 * len(n.param("states"))
-    return {"lut4": lut4, "carry": carry}
+        total.update(cost.visit(n, graph))
+    return {"lut4": total["lut4"], "carry": total["carry"]}
 
 
 def schedule_lut4(schedule: dict) -> dict:
