@@ -2,8 +2,9 @@
 
 It changes the arithmetic, not the mathematics: in real numbers it computes the same step as
 the default lowering (a second, independent code path), and its structure has no
-``derivative x dt`` product on the integrators, its periodic tables read ``state/period -
-turns``, and each sum adds its latest term last."""
+``derivative x dt`` product on the integrators, the whole turns its periodic tables' address
+subtracts come from a register, |dx| is taken of a cast of dx, and each sum adds its latest
+term last."""
 
 import numpy as np
 import pytest
@@ -96,14 +97,19 @@ def test_abs_of_a_cast(graphs):
     assert short[abs_short.inputs[2]].inputs == (cast.name,)
 
 
-def test_periodic_tables_read_turns_from_the_state(graphs):
-    _, short = graphs
-    turns = short["theta_turns"]
-    assert turns.kind is Kind.SUB and turns.inputs[1] == "theta_turn"
-    scaled = short[turns.inputs[0]]
-    assert scaled.kind is Kind.GAIN and scaled.inputs == ("theta",)
-    assert "theta_whole_turns" not in short.by_name and "theta_phase" not in short.by_name
-    assert {n.inputs[0] for n in short.of_kind(Kind.LUT) if n.param("periodic")} == {"theta_turns"}
+def test_whole_turns_come_from_a_register(graphs):
+    """The phase subtracts a register of period x turns, loaded from the counter's next value
+    (the default: a product of the counter in the step itself)."""
+    default, short = graphs
+    assert default["theta_whole_turns"].kind is Kind.GAIN
+    assert default["theta_whole_turns"].inputs == ("theta_turn",)
+    phase = short["theta_phase"]
+    assert phase.kind is Kind.SUB and phase.inputs == ("theta", "theta_whole_turns")
+    whole = short["theta_whole_turns"]
+    assert whole.kind is Kind.REGISTER
+    loaded = short[whole.inputs[0]]
+    assert loaded.kind is Kind.GAIN and loaded.inputs == ("theta_turn_next",)
+    assert loaded.param("value") == pytest.approx(2 * np.pi)
 
 
 def test_option_and_presets():

@@ -202,32 +202,30 @@ class _Lowerer:
 
         def build():
             state = self.variables[var]
-            whole = self.emit(Kind.GAIN, [counter], f"{name}_whole_turns",
-                              f"{spec.quantity} of the whole turns ({spec.unit})",
-                              value=period, max_abs=period * (spec.turns + 1))
+            if self.turns_phase:
+                whole = self._whole_turns_register(spec)
+            else:
+                whole = self.emit(Kind.GAIN, [counter], f"{name}_whole_turns",
+                                  f"{spec.quantity} of the whole turns ({spec.unit})",
+                                  value=period, max_abs=period * (spec.turns + 1))
             phase = self.emit(Kind.SUB, [state, whole], f"{name}_phase",
                               f"{spec.label} less its whole turns ({spec.unit})")
             self._turn_counter(spec, phase, half)
             return phase
         return self.value_key(("phase", name), build)
 
-    def turns(self, var) -> str:
-        """A periodic state in turns less its whole turns (the table address of ``turns_phase``):
-        the state times 1/period, then the turn counter subtracted from its integer bits. One
-        product and an adder from the state register, where :meth:`phase` puts two products and a
-        subtraction in front of the table (counter x period, state less it, x 1/period)."""
-        spec: StateSpec = self.periodic[var]
-        name = spec.name
-        counter = turn_counter(name)
-
-        def build():
-            scaled = self.emit(Kind.GAIN, [self.variables[var]], f"{name}_in_turns",
-                               f"{spec.label} in turns, whole turns included", value=1.0 / spec.period)
-            turns = self.emit(Kind.SUB, [scaled, counter], f"{name}_turns",
-                              f"{spec.label} less its whole turns, in turns")
-            self._turn_counter(spec, turns, 0.5)
-            return turns
-        return self.value_key(("turns", name), build)
+    def _whole_turns_register(self, spec: StateSpec) -> str:
+        """``period x turns`` held in a register loaded with ``period x turns_next``: the
+        product runs at the end of the previous step, off the path from the state register to
+        the tables (``turns_phase``; in real numbers the same value as the default's product)."""
+        name, counter = f"{spec.name}_whole_turns", turn_counter(spec.name)
+        bound = spec.period * (spec.turns + 1)
+        self.nodes.append(make(f"{name}_next", Kind.GAIN, [f"{counter}_next"], value=spec.period, max_abs=bound,
+                               meaning=f"{spec.quantity} of the whole turns of the next step ({spec.unit})"))
+        self.nodes.append(make(name, Kind.REGISTER, [f"{name}_next"], reset=0.0, max_abs=bound,
+                               meaning=f"{spec.quantity} of the whole turns ({spec.unit})"))
+        self.used_names |= {name, f"{name}_next"}
+        return name
 
     def _turn_counter(self, spec: StateSpec, phase: str, half: float) -> None:
         """The whole-turns register of ``spec``, stepped when ``phase`` leaves [-half, half)."""
@@ -246,7 +244,7 @@ class _Lowerer:
         v = sp.Symbol("v", real=True)
         spec = self.periodic.get(var)
         if spec is not None and _periodic(expr, var, spec.period):
-            source = self.turns(var) if self.turns_phase else self.value_key(("turns", spec.name), lambda: self.emit(
+            source = self.value_key(("turns", spec.name), lambda: self.emit(
                 Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
                 value=1.0 / spec.period))
             text = sp.sstr(expr.subs(var, sp.nsimplify(spec.period, [sp.pi]) * v))
@@ -381,8 +379,9 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     * ``fold_dt``: the increment ``dt * s'`` is lowered as one sum of terms, so ``dt`` lands in
       the tables and gains of the derivative (``dx_inc = F_cart*(dt T1)(theta) + ...``) and no
       separate ``derivative x dt`` product sits between the sums and the integrator;
-    * ``turns_phase``: a periodic state's tables are addressed by ``state/period - turns``
-      (:meth:`_Lowerer.turns`) instead of ``(state - period*turns)/period``;
+    * ``turns_phase``: ``period x turns``, subtracted from a periodic state for its tables'
+      address, is a register loaded a step ahead (:meth:`_Lowerer._whole_turns_register`), so
+      the product leaves the path from the state to the tables;
     * ``deep_last``: every sum adds its terms in the order their values are ready
       (:meth:`_Lowerer.term_depth`), so the friction loop's ``F_cart`` term passes one adder
       to the increment, not three;
