@@ -111,7 +111,7 @@ def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float 
 
 def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name: str = "") -> ScenarioResult:
     """Fig. IV.21: balanced upright, the cart's set point steps 4 cm left at t = 7 s. Pass: within
-    2 s after the step, |x - x_ref| < 4 mm and |theta - pi| < 0.05 rad and they stay so until
+    2 s after the step, |x - set point| < 4 mm and |theta - pi| < 0.05 rad and they stay so until
     the end (t = 11 s); upright before the step; |x| < 0.3 m throughout."""
     def set_point(t: float) -> float:
         return STEP_SIZE if t >= STEP_AT else 0.0
