@@ -116,6 +116,36 @@ def _window_job(args):
     return _interp_window(graph, state, u)
 
 
+# Steps at the start of every deep window that the reference interpreter recomputes: the window
+# itself comes from the compiled kernel (resumed from the deposited state); the interpreter, an
+# independent engine but far slower (most of the vectors' time when it computed every window),
+# checks that start (registers and FSMs resumed, the first steps after), and the compiled run
+# from the stimulus' start checks the window's last row.
+CHECK_STEPS = 200
+
+
+def _compiled_window(stepper, state: dict, u: np.ndarray) -> tuple[np.ndarray, dict]:
+    """As :func:`_interp_window`, by the compiled kernel: ``stepper`` (a
+    :class:`pendc.golden.GoldenStepper` of the graph) resumed from ``state`` (node -> integer,
+    FSMs as their Moore output word), one kernel call per run of equal inputs."""
+    from pendc.ir.nodes import Kind
+    graph = stepper.graph
+    stepper.reset()
+    for p, i in enumerate(stepper.state_idx):
+        n = graph.nodes[i]
+        v = int(state[n.name])
+        stepper.state[p] = list(n.param("outputs")).index(v) if n.kind is Kind.FSM else v
+    cols = [stepper.ports.index(p) for p in _ports(graph).outputs]
+    u = np.asarray(u, np.int64)
+    edges = np.flatnonzero(np.diff(u)) + 1
+    parts = []
+    for a, b in zip(np.concatenate([[0], edges]), np.concatenate([edges, [len(u)]])):
+        out = stepper.advance(int(u[a]), int(b - a), every_step=True)
+        parts.append(out[:-1, cols])
+    parts.append(out[-1:, cols])
+    return np.concatenate(parts), dict(stepper.overflows)
+
+
 def _map(fn, items: list) -> list:
     """``map`` over two worker processes (fork) when there is enough work, else in-process."""
     if len(items) < 4 or (os.cpu_count() or 1) < 2:
@@ -203,15 +233,28 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         if 0 in starts:   # from reset: the compiled kernel gives every row directly
             first = _rows(golden.run_steps(np.append(ints[:window], ints[window - 1]), every=1), ports)
             done[(name, 0)] = (first, {})
-    # windows from a state deep inside a stimulus: the reference interpreter, two processes
+    # windows from a state deep inside a stimulus: the compiled kernel resumed from the state, its
+    # first CHECK_STEPS steps recomputed by the reference interpreter (two processes)
+    from pendc.golden import GoldenStepper
     todo = [j for j in jobs if (j[0], j[2]) not in done]
-    for j, result in zip(todo, _map(_window_job, [(graph, j[3], j[4]) for j in todo])):
-        done[(j[0], j[2])] = result
+    stepper = GoldenStepper(graph) if todo else None
+    checks = _map(_window_job, [(graph, j[3], j[4][:CHECK_STEPS]) for j in todo])
+    for j, (ref_rows, ref_ovf) in zip(todo, checks):
+        rows, ovf = _compiled_window(stepper, j[3], j[4])
+        n = len(ref_rows) - 1
+        early = ({k: s for k, s in ovf.items() if s < n}, {k: s for k, s in ref_ovf.items() if s < n})
+        if not np.array_equal(rows[:n + 1], ref_rows) or early[0] != early[1]:
+            bad = int(np.flatnonzero((rows[:n + 1] != ref_rows).any(axis=1))[0]) if early[0] == early[1] else None
+            raise RuntimeError(f"golden engines disagree on {j[0]} from step {j[2]}: "
+                               + (f"at window step {bad}: compiled {rows[bad].tolist()} vs interpreter "
+                                  f"{ref_rows[bad].tolist()}" if bad is not None else
+                                  f"overflows compiled {early[0]} vs interpreter {early[1]}"))
+        done[(j[0], j[2])] = (rows, ovf)
     for name, trained, k0, state, u_win, compiled_end, ovf_before in jobs:
         rows, ovf_rel = done[(name, k0)]
         if not np.array_equal(rows[-1], compiled_end):
-            raise RuntimeError(f"golden engines disagree on {name} at step {k0 + window}: interpreter "
-                               f"{rows[-1].tolist()} vs compiled {compiled_end.tolist()}")
+            raise RuntimeError(f"golden engines disagree on {name} at step {k0 + window}: resumed from step {k0} "
+                               f"{rows[-1].tolist()} vs from the start {compiled_end.tolist()}")
         vec["windows"].append({
             "stim": name, "trained": trained, "k0": k0, "input": u_win, "rows": rows,
             "state": _rtl_state(graph, state), "ovf_before": ovf_before,

@@ -8,9 +8,10 @@ simulators then only compare: the cocotb modules (``test_core.py``, ``test_bus.p
 load that file (path in ``$PENDC_TB_VECTORS``) inside the simulator process.
 
 Golden data come from :class:`pendc.golden.GoldenModel` (the numba kernel) and, for
-runs that start from a state reached deep inside a stimulus, from the reference
-:class:`pendc.ir.interpret.FixedInterpreter` on a copy of the graph whose registers
-and FSMs reset to that state; the two engines are cross-checked where they overlap.
+runs that start from a state reached deep inside a stimulus, from the same kernel resumed
+from that state (:class:`pendc.golden.GoldenStepper`), cross-checked by the reference
+:class:`pendc.ir.interpret.FixedInterpreter` on a copy of the graph whose registers and
+FSMs reset to that state (the first steps of every such window, and the overflow scenario).
 """
 
 from __future__ import annotations
