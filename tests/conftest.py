@@ -10,7 +10,9 @@ the most tests first (xdist's own order), so the last files handed out are the s
 ``SLOWEST_FIRST`` is measured (``pytest --durations=0``, per file, clean clone; see
 docs/testing.md). It only decides the order: a file missing from it still runs, after the
 listed ones. The first two files compile different models (the default and the rig), so the
-two workers do not compile the same model at the same moment on a cold cache.
+two workers do not compile the same model at the same moment on a cold cache (if they do, the
+build cache's lock makes the second wait for the first's entry instead of compiling it again).
+The Furuta's full build is first needed by test_emit.py, well before test_sim_second_plant.py.
 """
 
 from __future__ import annotations
@@ -22,13 +24,16 @@ SLOWEST_FIRST = (
     "test_rtl_full_scale.py",       # the rig model: golden minute and spin, Verilator and Icarus windows
     "test_backend_models.py",       # six effect variants built and simulated on Icarus
     "test_diagnose_cases.py",       # hidden-effect cases, first half
-    "test_diagnose_more_cases.py",  # hidden-effect cases, second half
     "test_diagnose.py",             # two effects in turn, unexplained physics
+    "test_diagnose_more_cases.py",  # hidden-effect cases, second half
+    "test_sim_shared_multipliers.py",   # tb/run.py on a quick model, small preset, Icarus
+    "test_emit.py",                 # the Furuta's full build (cached for test_sim_second_plant and the HIL)
+    "test_sim_debug_status.py",
     "test_hostile_commands.py",
     "test_help.py",
     "test_hil_rtl_cpp.py",
     "test_ident_experiments.py",
-    "test_sim_debug_status.py",
+    "test_sim_second_plant.py",
     "test_error_budget.py",
     "test_compiled.py",
     "test_ident_offsets.py",
@@ -36,6 +41,7 @@ SLOWEST_FIRST = (
     "test_ident_shipped.py",
     "test_hil_scenarios.py",
     "test_build_schedule.py",
+    "test_build_cache_lock.py",
 )
 
 
