@@ -74,6 +74,10 @@ def table(parts: dict) -> str:
         r = ver.get(key) or {}
         rows.append((label, f"{rate(r.get('steps_per_s'))} ({r.get('real_time_factor', 0):.2f}x real time)"
                      if r else "-", ""))
+    for key, r in ((ver.get("step_loop") or {}).get("runs") or {}).items():
+        rows.append((f"Verilator, C++ step loop, {key.split('_hil')[0].replace('_', ' build, ')}",
+                     f"{rate(r.get('steps_per_cpu_s'))} per CPU s ({r.get('real_time_factor_cpu', 0):.2f}x real time"
+                     f"{', bit-exact' if r.get('bit_exact_vs_golden') else ', NOT bit-exact'})", "1 M steps/s target"))
     timer = (ver.get("cocotb") or {}).get("timer") or {}
     if timer:
         rows.append(("Verilator under cocotb", rate(timer.get("steps_per_s")), ""))
