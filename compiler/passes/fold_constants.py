@@ -60,7 +60,7 @@ def fold_constants(graph: Graph) -> Graph:
         changed = False
         # dead readers must not count as uses (they would block the GAIN-of-GAIN rule)
         outputs = tuple((port, resolve(n)) for port, n in graph.outputs)
-        nodes = {n.name: n for n in _live([_resolved(n, resolve) for n in nodes.values()], outputs)}
+        nodes = {n.name: n for n in live_nodes([_resolved(n, resolve) for n in nodes.values()], outputs)}
         for name in list(nodes):
             node = _resolved(nodes[name], resolve)
             result = _rewrite(node, nodes, lambda n: _single_use(n, nodes, outputs, resolve))
@@ -77,7 +77,7 @@ def fold_constants(graph: Graph) -> Graph:
 
     outputs = tuple((port, resolve(n)) for port, n in graph.outputs)
     final = [_resolved(n, resolve) for n in nodes.values()]
-    return Graph.build(graph.name, _live(final, outputs), outputs, graph.info)
+    return Graph.build(graph.name, live_nodes(final, outputs), outputs, graph.info)
 
 
 def _rewrite(node: Node, nodes: dict, single_use):
@@ -220,10 +220,11 @@ def _resolved(node: Node, resolve) -> Node:
     return node if inputs == node.inputs else replace(node, inputs=inputs)
 
 
-def _live(nodes: list, outputs: tuple) -> list:
-    """The nodes that reach an output through consumers (registers and FSMs included), in order."""
+def live_nodes(nodes: list, outputs, keep=()) -> list:
+    """The nodes that reach an output (or a node named in ``keep``) through consumers
+    (registers and FSMs included), in order."""
     by_name = {n.name: n for n in nodes}
-    live, todo = set(), [name for _, name in outputs]
+    live, todo = set(), [name for _, name in outputs] + list(keep)
     while todo:
         name = todo.pop()
         if name not in live:
