@@ -74,9 +74,9 @@ PRINTERS = [   # (file, line after which the method goes, the method): one per I
     ("ir/interpret.py", "        return self._requant(node, -vals[ins[0]], self.fmt[ins[0]].frac)\n",
      "\n    def visit_abs(self, node, vals, ins):\n"
      "        return self._requant(node, abs(vals[ins[0]]), self.fmt[ins[0]].frac)\n"),
-    ("ir/compiled_source.py", '        return requant_lines(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)\n',
+    ("ir/compiled_source.py", '        return self.rq(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)\n',
      "\n    def visit_abs(self, node, i):\n        a = node.inputs[0]\n        lo, hi = self.bounds(a)\n"
-     '        return requant_lines(i, node, f"abs(v{self.idx[a]})", (0, max(-lo, hi)), self.g[a].qformat.frac)\n'),
+     '        return self.rq(i, node, f"abs(v{self.idx[a]})", (0, max(-lo, hi)), self.g[a].qformat.frac)\n'),
     ("ir/compiled_source.py", '        return [f"v{i} = -{self._a(node)[0]}"]\n',
      '\n    def visit_abs(self, node, i):\n        return [f"v{i} = abs({self._a(node)[0]})"]\n'),
     ("ir/requant_source.py", "visit_mux = visit_cast = _own\n", "    visit_abs = _own\n"),
@@ -84,6 +84,12 @@ PRINTERS = [   # (file, line after which the method goes, the method): one per I
     ("passes/fold_constants.py", "    visit_cast = visit_compare = visit_lut = _evaluate_only\n",
      "    visit_abs = _evaluate_only\n"),
     ("passes/qformats.py", "    visit_register = visit_lut = visit_mux = visit_cast = _ranged\n", "    visit_abs = _ranged\n"),
+    # the estimates: |a| costs what a negation and its mux cost
+    ("passes/resources.py", "    visit_add = visit_sub = visit_neg = _adder\n", "    visit_abs = _adder\n"),
+    ("passes/resources.py", "visit_gain = visit_add = visit_sub = visit_neg = visit_mul = visit_lut = visit_mux = "
+     "visit_compare = _logic\n", "    visit_abs = _logic\n"),
+    ("passes/resources.py", "    visit_add = visit_sub = _sum\n", "    visit_abs = _sum\n"),
+    ("passes/node_delay.py", "    visit_add = visit_sub = visit_neg = _adder\n", "    visit_abs = _adder\n"),
 ]
 ABS_RUN = """
 import numpy as np

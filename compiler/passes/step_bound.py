@@ -2,7 +2,7 @@
 
 Steps do not overlap (``ready`` is low for ``ii`` cycles), so a step lasts at least as long
 as the longest register-to-register path through one step's arithmetic: the launching
-flip-flop's clock-to-out, every node's routed delay (:func:`pendc.passes.schedule.node_delay`),
+flip-flop's clock-to-out, every node's routed delay (:func:`pendc.passes.node_delay.node_delay`),
 a table read's address, the capturing block RAM's setup and its clock-to-out, the
 interpolation, and the setup of the state register at the end. A schedule only adds to that
 (a flip-flop per cycle boundary, cycles that end early because the next operation does
@@ -26,7 +26,8 @@ from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from .delays import ECP5_SPEED6, DelayModel
 from .resources import product_widths
-from .schedule import SOURCES, interp_delay, node_delay
+from .node_delay import interp_delay, node_delay
+from .schedule import SOURCES
 
 
 @dataclass(frozen=True)
