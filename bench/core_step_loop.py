@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pendc.hil.rtl_cpp import CPP_PORT_HELPERS, cpp_int_type
+
 REPO = Path(__file__).resolve().parents[1]
 EXECUTABLE = "pendc_bench_step_loop"
 # C++ flags per build: the HIL plant's (-O2 for the model rather than verilated.mk's -Os). Measured
@@ -35,10 +37,6 @@ FLAG_SETS = {
     "hil_flags": "OPT_FAST=-O2 OPT_GLOBAL=-O2",
 }
 VERILATOR_FLAGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast", "--noassert", "-Wno-fatal", "-Wno-lint")
-
-
-def _int_type(width: int) -> str:
-    return "CData" if width <= 8 else "SData" if width <= 16 else "IData" if width <= 32 else "QData"
 
 
 def main_source(module: str, input_port: str, states: tuple, ports: dict, ii: int) -> str:
@@ -63,17 +61,7 @@ def main_source(module: str, input_port: str, states: tuple, ports: dict, ii: in
 #include <utility>
 #include <vector>
 
-static inline long long sext(uint64_t v, int width) {{
-    if (width >= 64) return (long long)v;
-    const uint64_t sign = 1ULL << (width - 1);
-    v &= (sign << 1) - 1;
-    return (long long)((v ^ sign) - sign);
-}}
-
-template <typename R, typename = void> struct HasClkPrev : std::false_type {{}};
-template <typename R>
-struct HasClkPrev<R, std::void_t<decltype(std::declval<R&>().__Vtrigprevexpr___TOP__clk__0)>> : std::true_type {{}};
-
+{CPP_PORT_HELPERS}
 // the falling edge triggers nothing: reset the edge detector where the model exposes it, else eval()
 template <typename M>
 static inline void cycle(M& core) {{
@@ -105,7 +93,7 @@ int main(int argc, char** argv) {{
     const auto t0 = std::chrono::steady_clock::now();
     core.step = 1;
     for (long long k = 0; k < chunks; ++k) {{
-        core.{input_port} = ({_int_type(uw)})((uint64_t)u[k] & {hex((1 << uw) - 1)}ULL);
+        core.{input_port} = ({cpp_int_type(uw)})((uint64_t)u[k] & {hex((1 << uw) - 1)}ULL);
         core.eval();
         for (long long c = chunk * {ii}LL; c > 0; --c) cycle(core);
         {" ".join(f"*row++ = {v};" for v in value)}

@@ -37,7 +37,22 @@ MAX_PORT_WIDTH = 64      # every port must fit one C++ integer (Verilator's QDat
 MAKE_VARS = f"{VERILATOR_MAKE_VARS} OPT_FAST=-O2 OPT_GLOBAL=-O2"
 
 
-def _cpp_int_type(width: int) -> str:
+# C++ shared by every harness around a Verilated core (also bench/core_step_loop.py): a signed port's
+# value, and whether the model exposes its clock edge detector (Verilator 5's name for it)
+CPP_PORT_HELPERS = """static inline long long sext(uint64_t v, int width) {
+    if (width >= 64) return (long long)v;
+    const uint64_t sign = 1ULL << (width - 1);
+    v &= (sign << 1) - 1;
+    return (long long)((v ^ sign) - sign);
+}
+
+template <typename R, typename = void> struct HasClkPrev : std::false_type {};
+template <typename R>
+struct HasClkPrev<R, std::void_t<decltype(std::declval<R&>().__Vtrigprevexpr___TOP__clk__0)>> : std::true_type {};
+"""
+
+
+def cpp_int_type(width: int) -> str:
     """Verilator's C++ container for a port of ``width`` bits."""
     return "CData" if width <= 8 else "SData" if width <= 16 else "IData" if width <= 32 else "QData"
 
@@ -61,7 +76,7 @@ def main_source(core: CorePorts, ports: dict, ii: int, deposit: tuple = ()) -> s
     if wide:
         raise PendcError(f"the C++ Verilator plant deposits registers of up to {MAX_PORT_WIDTH} bits; "
                          f"{', '.join(wide)} is wider")
-    loads = "".join(f"        case {i}: core->rootp->{CORE}__DOT__{reg} = ({_cpp_int_type(w)})((uint64_t)v & "
+    loads = "".join(f"        case {i}: core->rootp->{CORE}__DOT__{reg} = ({cpp_int_type(w)})((uint64_t)v & "
                     f"{hex((1 << w) - 1)}ULL); break;\n" for i, (reg, w) in enumerate(deposit))
     value = {p: (f"sext(core->{p}, {ports[p]['width']})" if ports[p]["signed"]
                  else f"(long long)(uint64_t)core->{p}") for p in core.states}
@@ -88,17 +103,7 @@ def main_source(core: CorePorts, ports: dict, ii: int, deposit: tuple = ()) -> s
 #include <utility>
 
 // a signed port's bits, sign-extended from its width (Verilator zeroes the unused bits)
-static inline long long sext(uint64_t v, int width) {{
-    if (width >= 64) return (long long)v;
-    const uint64_t sign = 1ULL << (width - 1);
-    v &= (sign << 1) - 1;
-    return (long long)((v ^ sign) - sign);
-}}
-
-template <typename R, typename = void> struct HasClkPrev : std::false_type {{}};
-template <typename R>
-struct HasClkPrev<R, std::void_t<decltype(std::declval<R&>().__Vtrigprevexpr___TOP__clk__0)>> : std::true_type {{}};
-
+{CPP_PORT_HELPERS}
 template <typename M, typename R>
 static inline void fall(M* core, R* root) {{
     if constexpr (HasClkPrev<R>::value) root->__Vtrigprevexpr___TOP__clk__0 = 0;
@@ -145,7 +150,7 @@ struct Harness {{
 {restart("        ")}    }}
 
     void run(long long u, long long n) {{
-        core->{core.input} = ({_cpp_int_type(uw)})((uint64_t)u & {hex((1 << uw) - 1)}ULL);
+        core->{core.input} = ({cpp_int_type(uw)})((uint64_t)u & {hex((1 << uw) - 1)}ULL);
         core->step = 1;
         core->eval();
         for (long long c = n * {ii}LL; c > 0; --c) {{
