@@ -17,7 +17,7 @@ from pendc import api
 from pendc.errors import PendcError
 from pendc.ident import report_html
 from pendc.model.modelfile import load_model
-from pendc.sim.encoders import quantize_theta
+from pendc.sim.encoders import encoder_reading
 from pendc.sim.measurements import Measurement, format_csv
 
 TRUE_I, TRUE_B = 6.21034e-3 * 1.05, 0.0025
@@ -41,7 +41,7 @@ def swing():
     t = np.arange(0, 6, 1e-3)
     u = np.full_like(t, 5.0)
     r = pendc.Simulator(truth, 1e-4, "rk4")(t, u, x0=(0.0, 0.0, 1.2, 0.0))
-    return Measurement(t=t, u=u, columns={"t": t, "u": u, "x": np.zeros_like(t), "theta": quantize_theta(r["theta"])},
+    return Measurement(t=t, u=u, columns={"t": t, "u": u, "x": np.zeros_like(t), "theta": encoder_reading(None, "theta", r["theta"])},
                        meta={}, experiment="cart_held", source="swing")
 
 

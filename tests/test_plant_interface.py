@@ -243,9 +243,7 @@ def test_no_pass_names_a_state_of_the_plant():
 # cart-pendulum's own controllers (hil/controllers.py) and the thesis' published formats
 # (reports.py) are physics of that plant and belong in model/ eventually; the rest are help texts
 # and examples that should come from the interface.
-OUTSIDE_MODEL_NOT_YET_CONVERTED = frozenset({
-    "sim/encoders.py",   # quantize_theta, kept while tests/test_api.py calls it
-})
+OUTSIDE_MODEL_NOT_YET_CONVERTED = frozenset()
 
 
 def test_no_module_outside_the_model_names_a_state_of_either_plant():

@@ -47,9 +47,3 @@ def encoder_reading(plant, position: str, values) -> np.ndarray:
     """``values`` of ``position`` as the plant's encoder of it reports them (×4 counts of its
     resolution, counted from the first sample). ``plant`` as for :func:`encoder_resolution`."""
     return quantize(values, encoder_resolution(plant, position))
-
-
-def quantize_theta(angle: np.ndarray) -> np.ndarray:
-    """The default model's pendulum angle as its encoder reports it. Pre-interface name, kept
-    while tests/test_api.py calls it; new code calls :func:`encoder_reading`."""
-    return quantize(angle, THETA_COUNT)
