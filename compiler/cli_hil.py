@@ -112,8 +112,9 @@ def add_parsers(sub) -> None:
     """Register ``hil`` and ``animate`` on the top-level subparsers."""
     p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
     p.add_argument("--controller",
-                   help="builtin (default: swing-up + LQR balance), swing-up, balance (the cart-pendulum's), "
-                        "hold (any plant: PD on its first measured position), or package.module:Class")
+                   help="builtin (default: swing-up + LQR balance), swing-up, balance (any plant that is one "
+                        "pendulum on one driven coordinate), hold (any plant: PD on its first measured "
+                        "position), or package.module:Class")
     p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")

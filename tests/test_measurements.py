@@ -135,7 +135,7 @@ def test_initial_state_uses_at_least_three_samples():
 
 
 def test_voltage_outside_range_is_a_warning():
-    # beyond the input's full scale in the plant interface (±10 V for the SCT drive)
+    # outside the range the actuator takes in the plant interface (0-10 V for the SCT drive)
     text = HEADER + "\n0,-10.5,0,0\n0.001,5,0,0\n0.002,10.25,0,0\n0.003,10,0,0\n"
     m = parse_measurements(text, source="run.csv")
     assert len(m.warnings) == 1
