@@ -110,13 +110,15 @@ def cmd_stimulus(args) -> int:
 def build_model(model, args):
     """The model compiled with the command's options (from the build cache when it has it)."""
     from .build_cache import compile_cached
-    from .passes.pipeline import options_from_model
+    from .passes.pipeline import options_from_model, preset_options
 
     def tell():
         print("pendc: compiling the model (range analysis and error budget, about half a minute; "
               "cached afterwards)...", file=sys.stderr)
 
-    options = options_from_model(model, target=getattr(args, "target", None))
+    # a step-time preset also picks its arithmetic (the short chain); other commands have no preset
+    options = options_from_model(model, target=getattr(args, "target", None),
+                                 **preset_options(getattr(args, "preset", None)))
     return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False), on_miss=tell)
 
 

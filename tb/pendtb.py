@@ -30,11 +30,14 @@ from golden_vectors import make_vectors
 from simulators import *  # noqa: F401,F403
 
 
-def model_and_build(model_path=None):
+def model_and_build(model_path=None, request: dict | None = None):
+    """The model and its compiled build, with the arithmetic ``pendc build`` takes for the
+    schedule ``request``'s preset (the step-time presets build the short chain)."""
     from pendc import load_model
     from pendc.build_cache import compile_cached
+    from pendc.passes.pipeline import options_from_model, preset_options
     model = load_model(model_path)
-    return model, compile_cached(model)
+    return model, compile_cached(model, options_from_model(model, **preset_options((request or {}).get("preset"))))
 
 
 def source_name(model) -> str:
@@ -186,7 +189,7 @@ def prepare_hdl(work: Path, use_repo_hdl: bool = True, log=print, model_path=Non
     work.mkdir(parents=True, exist_ok=True)
     timings = {}
     t0 = time.time()
-    model, build = model_and_build(model_path)
+    model, build = model_and_build(model_path, request)
     timings["compile"] = time.time() - t0
     t0 = time.time()
     hdl, reports = {}, {}
