@@ -46,7 +46,8 @@ def run(binary: Path, core_ports, u_chunks: np.ndarray, chunk: int = CHUNK) -> t
     return rows, wall
 
 
-def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log=print, model_path=None) -> dict:
+def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log=print, model_path=None,
+              build_=None) -> dict:
     """The chirp (``pendc.sim.stimuli.chirp()``) for ``seconds`` through the harness, against the
     golden model (bit-exact at every 1000th step) and the float simulator (per state an encoder
     reads: ``max_abs_<state>_error_<unit>`` and the time ``at_t_<state>_s`` of the worst error).
@@ -55,7 +56,8 @@ def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log
     from pendc.golden import GoldenModel
     from pendc.sim import stimuli
 
-    model, build_ = model_and_build(model_path)
+    # the build the HDL came from (a preset's arithmetic differs from the default build's)
+    model, build_ = (build_.model, build_) if build_ is not None else model_and_build(model_path)
     ports = core_ports_of(build_)
     dt = build_.options.dt
     t, u = stimuli.chirp()

@@ -21,55 +21,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tb"))
 import pendtb  # noqa: E402
 
 
-# Which build each simulator regresses: Icarus the default schedule (ii > 2; the small preset's
-# shared multipliers are tests/test_sim_shared_multipliers.py), Verilator, whose
-# full profile runs seconds of model time, the comb schedule (ii <= 2: the same golden integers,
-# several times fewer clock cycles to simulate).
-SCHEDULES = {"icarus": None, "verilator": {"preset": "comb"}}
+# Which build each simulator regresses: Icarus the default build (hdl_out/: ii > 2; the small
+# preset's shared multipliers are tests/test_sim_shared_multipliers.py), Verilator, whose full
+# profile runs seconds of model time, the fast preset (the short-chain arithmetic the step-time
+# presets build: another graph, another golden model, ii 4).
+SCHEDULES = {"icarus": None, "verilator": {"preset": "fast"}}
 
 
 # The CI profile of the cocotb suites on both simulators: every every-step window, the bus
 # tests, the overflow scenario and 10 ms long runs (the chirp's from its golden state half-way).
 # The full profile's seconds from reset (2 s of the chirp, 1 s of full-scale random levels for
 # the encoders) run the same RTL on more of the same kind of input: the 2 s chirp from reset is
-# test_chirp_accuracy_verilator_binary below (the same comb build, bit-exact at every 1000th
+# test_chirp_accuracy_verilator_binary below (the same fast build, bit-exact at every 1000th
 # step), and long runs at full scale with the encoder counts compared after every ms are
 # tests/test_rtl_full_scale.py (the minute and the spin). `make sim` runs the full profile.
 CI_PROFILE = "quick"
-
-
-def _graph_digest(graph, seen: dict) -> str:
-    import hashlib
-    import pickle
-    if id(graph) not in seen:
-        seen[id(graph)] = (graph, hashlib.sha256(pickle.dumps(graph, protocol=4)).hexdigest())
-    return seen[id(graph)][1]
-
-
-@pytest.fixture(scope="module")
-def shared_windows():
-    """The default and the comb build are one graph under two schedules, so their every-step
-    windows from deep states are the same golden integers: the reference interpreter (most of
-    the time of the golden vectors) computes each window once for both fixtures, keyed by the
-    graph's content, the start state and the inputs (a different graph is computed anew)."""
-    import golden_vectors
-    original = getattr(golden_vectors, "_map", None)
-    if original is None:        # the vectors module changed its layout: compute twice, as before
-        yield
-        return
-    memo, seen = {}, {}
-
-    def remembered(fn, items):
-        keys = [(fn.__name__, _graph_digest(graph, seen), tuple(sorted(state.items())), u.dtype.str, u.tobytes())
-                for graph, state, u in items]
-        todo = [(key, item) for key, item in zip(keys, items) if key not in memo]
-        for (key, _), result in zip(todo, original(fn, [item for _, item in todo])):
-            memo[key] = result
-        return [memo[key] for key in keys]
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(golden_vectors, "_map", remembered)
-        yield
 
 
 @pytest.fixture(scope="module")
@@ -78,18 +44,18 @@ def hdl(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def comb_hdl(tmp_path_factory):
-    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_comb"), request=SCHEDULES["verilator"])
+def fast_hdl(tmp_path_factory):
+    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_fast"), request=SCHEDULES["verilator"])
 
 
 @pytest.fixture(scope="module")
-def prepared(hdl, shared_windows):
+def prepared(hdl):
     return pendtb.add_vectors(hdl)
 
 
 @pytest.fixture(scope="module")
-def comb_prepared(comb_hdl, shared_windows):
-    return pendtb.add_vectors(comb_hdl)
+def fast_prepared(fast_hdl):
+    return pendtb.add_vectors(fast_hdl)
 
 
 @pytest.mark.parametrize("sim", pendtb.SIMS)
@@ -97,8 +63,11 @@ def test_cocotb_regression(sim, request, tmp_path):
     why = pendtb.simulator_missing(sim)
     if why:
         pytest.skip(why)
-    prepared = request.getfixturevalue("comb_prepared" if SCHEDULES[sim] else "prepared")
-    assert prepared.report["raptor"]["ii"] > 2 if SCHEDULES[sim] is None else prepared.report["raptor"]["ii"] <= 2
+    prepared = request.getfixturevalue("fast_prepared" if SCHEDULES[sim] else "prepared")
+    assert prepared.report["raptor"]["ii"] > 2
+    assert prepared.report["raptor"]["schedule"].get("preset") == (SCHEDULES[sim] or {}).get("preset", "default")
+    # the fast preset's own arithmetic reaches the RTL (no acceleration node: dt folded into the tables)
+    assert ("ddx" in prepared.report["raptor"]["qformats"]) == (SCHEDULES[sim] is None)
     lines = []
     results = pendtb.run_suites(prepared, [sim], list(pendtb.SUITES), tmp_path, profile=CI_PROFILE, log=lines.append)
     print("\n".join(lines))
@@ -111,15 +80,16 @@ def test_cocotb_regression(sim, request, tmp_path):
     assert not problems, "cocotb failures:\n" + "\n".join(problems)
 
 
-def test_chirp_accuracy_verilator_binary(comb_hdl, tmp_path):
-    """The issue's chirp, 2 s, through `verilator --binary` (the comb build, as Verilator's cocotb
-    regression): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with the golden
-    model at every 1000th step."""
+def test_chirp_accuracy_verilator_binary(fast_hdl, tmp_path):
+    """The issue's chirp, 2 s, through `verilator --binary` (the fast preset's build, as Verilator's
+    cocotb regression): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with the
+    golden model of that build at every 1000th step."""
     why = pendtb.simulator_missing("verilator")
     if why:
         pytest.skip(why)
     import vbinary
-    r = vbinary.chirp_run(comb_hdl.hdl["raptor"], comb_hdl.report["raptor"], tmp_path, seconds=2.0)
+    r = vbinary.chirp_run(fast_hdl.hdl["raptor"], fast_hdl.report["raptor"], tmp_path, seconds=2.0,
+                          build_=fast_hdl.build)
     print(f"chirp 2 s: max |x - float| {r['max_abs_x_error_m']:.3g} m, max |theta - float| "
           f"{r['max_abs_theta_error_rad']:.3g} rad, {r['steps_per_s']:.3g} steps/s")
     assert r["bit_exact_vs_golden_every_1000"], f"harness differs from the golden model: {r['first_golden_difference']}"
