@@ -17,9 +17,25 @@ def run(capsys, *argv):
     return rc, out, err
 
 
-def test_fit_writes_a_model_and_json(tmp_path, capsys):
-    out = tmp_path / "new.toml"
-    rc, text, err = run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out, "--json")
+SPRING_FIT = ("fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "--json", "-o")
+
+
+@pytest.fixture(scope="module")
+def spring_fit(tmp_path_factory):
+    """``pendc fit`` of the hidden spring, run once for the two tests that read what it wrote
+    (its JSON, and the model file's comments and origin): (exit status, stdout, stderr, model file)."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("spring_fit") / "new.toml"
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        rc = main([str(a) for a in (*SPRING_FIT, out)])
+    return rc, stdout.getvalue(), stderr.getvalue(), out
+
+
+def test_fit_writes_a_model_and_json(spring_fit):
+    rc, text, err, out = spring_fit
     assert rc == 0, err
     result = json.loads(text)
     assert set(result) == {"fit_before", "fit_after", "free_run_before", "free_run_after", "params", "model"}
@@ -84,12 +100,11 @@ def test_half_a_second_of_data_is_refused_unless_forced(tmp_path, capsys):
     assert "\n[fit.intervals]" not in out.read_text()                 # no interval is claimed for them
 
 
-def test_fitted_model_keeps_comments_and_records_its_origin(tmp_path, capsys):
+def test_fitted_model_keeps_comments_and_records_its_origin(spring_fit, capsys):
     import hashlib
     import tomllib
 
-    out = tmp_path / "new.toml"
-    rc, _, err = run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out)
+    rc, _, err, out = spring_fit
     assert rc == 0 and err == ""
     text = out.read_text()
     source = (Path(__file__).resolve().parents[1] / "models" / "sct_thesis_final.toml").read_text()
@@ -102,8 +117,9 @@ def test_fitted_model_keeps_comments_and_records_its_origin(tmp_path, capsys):
     model = load_model(out)
     assert lo < model.effects["cart_spring"]["k_c"] < hi
     # reproducible: the same command writes the same bytes
-    out2 = tmp_path / "again.toml"
-    run(capsys, "fit", DATA / "hidden_spring.csv", "--add", "cart_spring", "-o", out2)
+    out2 = out.with_name("again.toml")        # beside it: the command recorded names the output's path
+    rc, _, err = run(capsys, *SPRING_FIT, out2)
+    assert rc == 0 and err == ""
     assert out2.read_text().replace("again.toml", "new.toml") == text
 
 
