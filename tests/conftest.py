@@ -8,7 +8,8 @@ other had finished. Here the slowest files go first, longest first, and the rest
 the most tests first (xdist's own order), so the last files handed out are the short ones.
 
 ``SLOWEST_FIRST`` is measured (``pytest --durations=0``, per file, clean clone; see
-docs/testing.md). It only decides the order: a file missing from it still runs, after the
+docs/testing.md; the seconds beside each file are those of commit be84764, less what a later
+change of that file saved). It only decides the order: a file missing from it still runs, after the
 listed ones. The first two files compile different models (the default and the rig), so the
 two workers do not compile the same model at the same moment on a cold cache (if they do, the
 build cache's lock makes the second wait for the first's entry instead of compiling it again).
@@ -20,28 +21,39 @@ from __future__ import annotations
 from collections import Counter
 
 SLOWEST_FIRST = (
-    "test_sim.py",                  # cocotb regression: Icarus (ii 6) and Verilator (comb); the default model
-    "test_rtl_full_scale.py",       # the rig model: golden minute and spin, Verilator and Icarus windows
-    "test_backend_models.py",       # six effect variants built and simulated on Icarus
-    "test_diagnose_cases.py",       # hidden-effect cases, first half
-    "test_diagnose.py",             # two effects in turn, unexplained physics
-    "test_diagnose_more_cases.py",  # hidden-effect cases, second half
-    "test_sim_shared_multipliers.py",   # tb/run.py on a quick model, small preset, Icarus
-    "test_emit.py",                 # the Furuta's full build (cached for test_sim_second_plant and the HIL)
-    "test_sim_debug_status.py",
-    "test_hostile_commands.py",
-    "test_help.py",
-    "test_hil_rtl_cpp.py",
-    "test_ident_experiments.py",
-    "test_sim_second_plant.py",
-    "test_error_budget.py",
-    "test_compiled.py",
-    "test_ident_offsets.py",
-    "test_cli_ident.py",
-    "test_ident_shipped.py",
-    "test_hil_scenarios.py",
-    "test_build_schedule.py",
-    "test_build_cache_lock.py",
+    "test_sim.py",                  # 357 s: cocotb regression, Icarus (ii 6) and Verilator (comb); the default model
+    "test_rtl_full_scale.py",       # 151 s: the rig model: golden minute and spin, Verilator and Icarus windows
+    "test_diagnose.py",             # 124 s: two effects in turn, unexplained physics
+    "test_diagnose_cases.py",       # 103 s: hidden-effect cases, first half
+    "test_ident_experiments.py",    # 91 s: the independent generator's experiments
+    "test_diagnose_more_cases.py",  # 79 s: hidden-effect cases, second half
+    "test_emit.py",                 # 67 s: the Furuta's full build (cached for test_sim_second_plant and the HIL)
+    "test_synth.py",                # 75 s: YoWASP's first run compiles yosys and nextpnr
+    "test_sim_second_plant.py",     # 75 s: the Furuta's core on both simulators
+    "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
+    "test_cli_ident.py",            # 55 s
+    "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus
+    "test_error_budget.py",         # 45 s
+    "test_ident_shipped.py",        # 41 s
+    "test_compiled.py",             # 39 s
+    "test_hil_animate.py",          # 37 s: headless Chromium
+    "test_hil_scenarios.py",        # 35 s
+    "test_hil_rtl_cpp.py",          # 32 s
+    "test_build_schedule.py",       # 29 s
+    "test_ident_offsets.py",        # 29 s
+    "test_simulator.py",            # 28 s
+    "test_pipeline.py",             # 25 s
+    "test_fit.py",                  # 24 s
+    "test_sim_debug_status.py",     # 24 s
+    "test_fuzz_backend.py",         # 20 s
+    "test_furuta_build.py",         # 18 s
+    "test_interpret.py",            # 16 s
+    "test_api.py",                  # 14 s
+    "test_full_scale.py",           # 14 s
+    "test_golden.py",               # 14 s
+    "test_ident_second_plant.py",   # 13 s
+    "test_datagen.py",              # 13 s
+    "test_build_cache_lock.py",     # two processes compile one entry
 )
 
 
