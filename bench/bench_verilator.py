@@ -76,7 +76,8 @@ def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps:
     try:
         runner.test(test_module="bench_cocotb", hdl_toplevel="pendulum_core", hdl_toplevel_lang="verilog",
                     build_dir=bdir, test_dir=bdir, results_xml=str(bdir / "results.xml"),
-                    extra_env={"PENDC_BENCH_IN": str(cfg_file), "PENDC_BENCH_OUT": str(out_file)},
+                    extra_env={"PENDC_BENCH_IN": str(cfg_file), "PENDC_BENCH_OUT": str(out_file),
+                               **pendtb.REWRITE_ONLY_SUITES},
                     log_file=work / "cocotb_test.log")
     finally:
         sys.path[:] = old

