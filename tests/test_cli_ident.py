@@ -168,6 +168,10 @@ def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, 
     assert rc == 0 and err == "" and out["at_noise_level"] and not out["unexplained"]
     assert out["fit_now"]["label"] == "0.5 s horizon fit" and out["fit_now"]["files"][0]["file"] == str(path)
     assert all(c["fit_after"]["label"] == "0.5 s horizon fit" for c in out["candidates"])
+    # and the verdict is about the pivot friction: without it the same data are far from noise
+    from pendc.ident.noise import noise_ratio
+    from pendc.sim.measurements import read_measurements
+    assert noise_ratio(load_model(), [read_measurements(path)])["theta"] > 2.0
 
 
 def test_diagnose_of_another_pendulum_points_at_its_constants(capsys):

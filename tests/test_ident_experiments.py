@@ -6,7 +6,8 @@ its own encoders and input noise) that shares no code with pendc.
   offset first and fit recovers it within 10 %;
 * the cart alone at constant voltages (pendulum removed): the same for cart friction;
 * a pendulum whose m, L and I are off by 5 %: freeing I fixes the period;
-* a complete model leaves nothing systematic: diagnose says so.
+* a complete model leaves nothing systematic: diagnose says so (on the same kind of held-cart
+  swing, through the command line: tests/test_cli_ident.py).
 """
 
 import warnings
@@ -19,7 +20,6 @@ from pendc import load_model
 from pendc.ident.diagnose import EXPLAINED, diagnose, free_parameters
 from pendc.ident.figures import free_run_figures
 from pendc.ident.fit import fit_parameters
-from pendc.ident.noise import noise_ratio
 from pendc.ident.shooting import ShootingProblem
 from pendc.sim.measurements import format_csv, parse_measurements
 
@@ -110,14 +110,6 @@ def test_files_of_different_experiments_fit_together():
     fitted = fit_parameters(tool, [swing, cart], ["b_theta", "d_mu"])
     assert fitted.values["b_theta"] == pytest.approx(0.003, rel=0.1)
     assert fitted.values["d_mu"] == pytest.approx(0.2, rel=0.1)
-
-
-def test_complete_model_leaves_nothing_systematic():
-    data = measured(free_swing(5.0, tau_c=0.004), "cart_held", "complete")
-    complete = BASE.with_effect("coulomb_pendulum", {"tau_c": 0.004})
-    d = diagnose(complete, [data], workers=2)
-    assert d.at_noise_level and not d.unexplained, d.noise_ratio
-    assert noise_ratio(BASE, [data])["theta"] > 2.0     # without the pivot friction it is not noise
 
 
 def test_plant_constants_have_physical_bounds_and_can_be_freed():
