@@ -11,7 +11,7 @@ from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
-from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float,
+from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float, float_twin,
                                        interpolation_error, meet_error_budget)
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.qformats import assign_qformats
@@ -188,3 +188,32 @@ def test_budget_loop_widens_products_after_accumulators():
     assert set(rep.levels) == set(products) and max(rep.levels.values()) >= 1
     assert all(0 <= v <= 2 for v in rep.levels.values())
     assert sum(rep.levels.values()) == sum(seen[-1].values())
+
+
+def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
+    """The float twin of rounds that differ in their operand CASTs is one kernel source, and it
+    computes every node's value exactly as the graph with its CASTs does."""
+    from pendc.ir.compiled import CompiledGraph
+    from pendc.ir.compiled_source import kernel_source
+    from pendc.passes.ranges import per_step
+    seconds = 0.01
+    g = toy_graph()
+    ranges = analyze_ranges(g, check_stimuli(seconds), DT)
+    tab = tabulate_luts(g, ranges)
+    products = ("dx_inc", "x_inc", "dtheta_inc", "theta_inc", "y")
+    graphs = [fill_lut_tables(assign_qformats(tab, ranges, widen=widen, shape=(18, 18),
+                                              levels={p: level for p in products}))
+              for widen, level in (({}, 0), ({s: MAX_WIDEN for s in STATES}, 0), ({s: MAX_WIDEN for s in STATES}, 2))]
+    casts = [{n.name for n in x.of_kind(Kind.CAST)} for x in graphs]
+    assert casts[0] != casts[1] or casts[1] != casts[2]          # the rounds really differ in their CASTs
+    twins = [float_twin(x) for x in graphs]
+    assert len({kernel_source(t, "float")[0] for t, _ in twins}) == 1
+    t, u = check_stimuli(seconds)["swing_up"]
+    steps = {"u": per_step(np.asarray(u, float), np.asarray(t, float), DT)}
+    for graph, (twin, alias) in zip(graphs, twins):
+        assert set(alias) == {n.name for n in graph.of_kind(Kind.CAST)}
+        names = tuple(n.name for n in graph.nodes)
+        full = CompiledGraph(graph, "float").run(steps, every=7, record=names)
+        short = CompiledGraph(twin, "float").run(steps, every=7, record=tuple(dict.fromkeys(alias.get(n, n) for n in names)))
+        for n in names:
+            np.testing.assert_array_equal(short.outputs[alias.get(n, n)], full.outputs[n], err_msg=n)
