@@ -174,14 +174,14 @@ def test_float_mode_matches_interpreter_on_pendulum():
     assert trace.outputs["theta"][-1] != 0.0
 
 
-def test_requantize_exhaustively_per_value():
-    """Every integer of (and around) a small format through casts, gains and sums in every mode;
-    one run per value, so every overflow flag is compared, not just the first."""
+def requant_nodes(modes=MODES) -> list:
+    """Casts to formats around a small one, gains, sums, tables and an FSM fed by one input ``a``
+    (FIX8_2), in every mode of ``modes``."""
     targets = ["FIX8_4", "FIX6_3", "UFIX5_4", "FIX5_0", "UFIX4_1", "FIX3_-1", "FIX8_2", "FIX4_2", "FIX7_1",
                "UFIX8_2", "FIX10_2", "FIX16_70", "FIX12_-60", "FIX8_-70", "FIX64_10", "FIX64_-10"]
     nodes = [make("a", Kind.INPUT, qformat=Q("FIX8_2"), port="a"), make("c", Kind.CONST, qformat=Q("FIX8_2"),
                                                                         value=3.25)]
-    for sfx, (rnd, ovf) in MODES.items():
+    for sfx, (rnd, ovf) in modes.items():
         def n(name, kind, inputs, fmt, **params):
             nodes.append(make(f"{name}_{sfx}", kind, inputs, qformat=Q(fmt), rounding=rnd, overflow=ovf, **params))
         n("b", Kind.CAST, ["a"], "FIX8_2")                      # in its format: static bounds apply
@@ -201,6 +201,13 @@ def test_requantize_exhaustively_per_value():
         n("fsm", Kind.FSM, [f"b_{sfx}"], "UFIX2_0", states=("A", "B", "C", "D"), outputs=(0, 1, 2, 3), reset="A",
           transitions=(("A", "le", -1.25, "B"), ("A", "gt", 2.5, "C"), ("*", "ge", 2.0, "D"),
                        ("B", "lt", 0.0, "A")), lo=-5.0, hi=6.25)
+    return nodes
+
+
+def test_requantize_exhaustively_per_value():
+    """Every integer of (and around) a small format through casts, gains and sums in every mode;
+    one run per value, so every overflow flag is compared, not just the first."""
+    nodes = requant_nodes()
     g = Graph.build("requant", nodes, [(x.name, x.name) for x in nodes])
     cg, interp = CompiledGraph(g, "fixed"), FixedInterpreter(g)
     for v in range(-300, 300):

@@ -21,6 +21,7 @@ from ..codegen import cache_dir, load_source  # noqa: F401  (cache_dir re-export
 
 from .compiled_source import kernel_source
 from .graph import Graph
+from .shared_source import shared_kernel_source
 from .interpret import Trace
 from .nodes import Kind
 from .qformat import QFormat
@@ -44,7 +45,7 @@ def quantize(values, fmt: QFormat) -> np.ndarray:
 class CompiledGraph:
     """A graph compiled for ``mode`` "fixed" (every node must be typed) or "float"."""
 
-    def __init__(self, graph: Graph, mode: str = "fixed"):
+    def __init__(self, graph: Graph, mode: str = "fixed", like: Graph | None = None):
         if mode not in ("fixed", "float"):
             raise ValueError(f"mode must be 'fixed' or 'float', got {mode!r}")
         if mode == "fixed":
@@ -56,7 +57,14 @@ class CompiledGraph:
                 raise ValueError(f"UFIX64 does not fit the int64 golden model: {', '.join(wide[:5])}")
         self.graph, self.mode = graph, mode
         self.index = {n.name: i for i, n in enumerate(graph.nodes)}
-        self.source, offsets = kernel_source(graph, mode, runtime_data=True)
+        # ``like``: an earlier typing of the same graph; the nodes whose code differs from its
+        # read their numbers from ``params``, so later typings that differ in the same nodes (the
+        # error budget's widening rounds) share this kernel's machine code
+        source, offsets, params = shared_kernel_source(graph, like) if like is not None and mode == "fixed" \
+            else (None, None, [])
+        if not params:
+            source, offsets = kernel_source(graph, mode, runtime_data=True)
+        self.source, self.params = source, np.asarray(params, dtype=np.int64) if params else None
         tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
         self.tables.setflags(write=False)
@@ -117,7 +125,8 @@ class CompiledGraph:
         out = np.empty((len(columns), (steps + every - 1) // every), dtype)   # a row per column: no copies
         mx, mn = np.zeros(n, dtype), np.zeros(n, dtype)
         ov = np.full(n, -1, np.int64)
-        self._kernel(ins, steps, every, self.tables, self.resets, sel, out, bool(track_max), mx, mn, ov)
+        data = (self.tables, self.resets) if self.params is None else (self.tables, self.resets, self.params)
+        self._kernel(ins, steps, every, *data, sel, out, bool(track_max), mx, mn, ov)
         outputs = {c: out[j] for j, c in enumerate(columns)}
         nodes = self.graph.nodes
         if not track_max:

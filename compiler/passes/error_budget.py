@@ -26,6 +26,7 @@ import numpy as np
 from ..ir import lut as lut_sem
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
+from ..ir.shared_source import same_structure
 from ..model.interface import graph_interface
 from ..sim.stimuli import chirp, swing_up
 from .ranges import input_port, per_step
@@ -95,12 +96,13 @@ def float_twin(graph: Graph) -> tuple[Graph, dict]:
 
 
 def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "compiled",
-                        every: int = 1000) -> tuple[dict, dict]:
-    """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|."""
+                        every: int = 1000, like: Graph | None = None) -> tuple[dict, dict]:
+    """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|
+    (``like``: an earlier typing whose kernel this one may share, see CompiledGraph)."""
     from ..ir.compiled import CompiledGraph, quantize
     nodes = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
     twin, alias = float_twin(graph)
-    fixed, flt = CompiledGraph(graph, "fixed"), CompiledGraph(twin, "float")
+    fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
     errors, node_errors = {}, {n: 0.0 for n in nodes}
     states, port = budget_states(graph), input_port(graph)
     in_fmt = next(n.qformat for n in graph.of_kind(Kind.INPUT))
@@ -146,10 +148,15 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     addr: dict = {}
     levels: dict = {p: 0 for p in products}
     actions = []
+    anchor, since = None, 0          # the first round of the current structure, rounds since
     for _ in range(max_rounds):
         used = dict(levels)
         graph = typed(dict(widen), dict(addr), dict(levels)) if products else typed(dict(widen), dict(addr))
-        errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine)
+        anchor, since = (anchor, since + 1) if anchor is not None and same_structure(graph, anchor) else (graph, 0)
+        # from the third round of one structure on, the rounds differ from its first in the same
+        # nodes (the widened accumulators and their readers): they share one kernel. The first two
+        # stay baked, so a budget met by then leaves the kernel later golden runs of it load.
+        errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine, like=anchor if since >= 2 else None)
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
         if not over:

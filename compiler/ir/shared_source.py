@@ -1,0 +1,258 @@
+"""Fixed-point kernel source that shares machine code with a graph's earlier retyping.
+
+The constant-baked kernel (:mod:`pendc.ir.compiled_source`) prints every shift, rounding
+constant and saturation bound, and leaves out the range checks the formats prove idle, so
+each change of format compiles new machine code (~7 s for a plant). The error budget retypes
+one graph round after round, and its widening rounds change the same few nodes each time
+(the state accumulators and what reads them). :func:`shared_kernel_source` prints the nodes
+whose baked code equals a reference graph's as baked, and the others in a general form whose
+numbers are read from the int64 argument ``qp``: rounds that differ from the reference in
+the same nodes print the same source and share one compile, whatever their formats.
+(Every node in the general form would share even more, but numba's compile cost per array
+read and per variable makes that kernel 3-4x slower to compile than the baked one.)
+
+The general requantisation is branch-free like the baked one and bit-identical to
+:func:`pendc.ir.qformat.requantize`: for ``v`` at ``frac`` fraction bits into ``fmt``, with
+``s = frac - fmt.frac``, ``rs = min(max(s, 0), 63)`` and ``ls = max(-s, 0)``,
+
+* ``y = (v >> rs) + ((v >> rs1) & rb)``: floor(v / 2**rs), plus bit rs-1 when rounding to
+  nearest (floor((v + half) / 2**rs) without forming v + half); ``rs1 = rb = 0`` when
+  s <= 0, and ``rs = rs1 = 63, rb = 1`` when s >= 64 (the result is 0 for every int64);
+* overflow iff ``y > up`` or ``y < down`` (``up = max_int >> ls``, ``down = -(-min_int >> ls)``);
+* saturate: ``(clamp(y, down, up) << ls) + dh * (y > up) + dl * (y < down)`` where ``dh``
+  (``dl``) lifts ``up << ls`` to ``max_int`` (``down << ls`` to ``min_int``);
+* wrap: ``((y & keep) << (ls + sx)) >> sx & mask`` with ``sx = 64 - width`` for signed
+  formats (sign extension), 0 and ``mask = 2**width - 1`` for unsigned; ``keep = 0`` once the
+  shift leaves no bit (the wrapped value is then 0).
+"""
+
+from __future__ import annotations
+
+from . import fsm as fsm_sem
+from . import lut as lut_sem
+from .compiled_source import _FixedGen, _Gen, assemble
+from .graph import Graph
+from .qformat import Overflow, Rounding
+from .requant_source import I64_MAX, I64_MIN
+
+
+class _DataGen(_Gen):
+    """Bit-accurate int64 printer of the general form: ``qp[k]`` where the baked one prints a number."""
+
+    fixed = True
+
+    def __init__(self, graph: Graph):
+        super().__init__(graph, runtime_resets=True)
+        self.params: list[int] = []
+
+    def comment(self, node) -> str:
+        return " ".join(f"# {node.name} = {node.kind.value}({', '.join(node.inputs)})".split())
+
+    def p(self, value: int) -> str:
+        """A new kernel datum ``value``: the expression that reads it."""
+        value = int(value)
+        if not I64_MIN <= value <= I64_MAX:
+            raise ValueError(f"constant {value} does not fit the 64-bit golden model")
+        k = len(self.params)
+        self.params.append(value)
+        return f"qp[{k}]"
+
+    def threshold_test(self, v, op, x, fin) -> str:
+        return f"{v} {op.symbol} {self.p(fsm_sem.threshold_int(x, fin))}"
+
+    def v(self, name: str) -> str:
+        return f"v{self.idx[name]}"
+
+    def frac(self, name: str) -> int:
+        return self.g[name].qformat.frac
+
+    def rq(self, i, node, expr, frac, tgt="", flag="") -> list:
+        """Lines assigning ``requantize(expr, frac, node's format, ...)`` to ``tgt`` (default
+        ``v<i>``) and its overflow to ``flag`` (default ``b<i>``, then noted as the node's check)."""
+        fmt = node.qformat
+        if not flag:
+            self.flags.append(i)
+        tgt, flag = tgt or f"v{i}", flag or f"b{i}"
+        t, y = "t" + tgt[1:], "r" + tgt[1:]
+        shift = frac - fmt.frac
+        ls = max(-shift, 0)
+        lines = [f"{t} = {expr}"]
+        if node.rounding is Rounding.NEAREST:
+            rs, rs1, rb = (63, 63, 1) if shift >= 64 else (shift, shift - 1, 1) if shift > 0 else (0, 0, 0)
+            lines.append(f"{y} = ({t} >> {self.p(rs)}) + (({t} >> {self.p(rs1)}) & {self.p(rb)})")
+        else:
+            lines.append(f"{y} = {t} >> {self.p(min(max(shift, 0), 63))}")
+        up, down = fmt.max_int >> ls, -((-fmt.min_int) >> ls)
+        pu, pd = self.p(up), self.p(down)
+        lines.append(f"{flag} = ({y} > {pu}) | ({y} < {pd})")
+        if node.overflow is Overflow.SATURATE:
+            lines.append(f"{tgt} = (min(max({y}, {pd}), {pu}) << {self.p(min(ls, 63))})"
+                         f" + {self.p(fmt.max_int - (up << ls))} * ({y} > {pu})"
+                         f" + {self.p(fmt.min_int - (down << ls))} * ({y} < {pd})")
+        else:
+            sx = 64 - fmt.width if fmt.signed else 0
+            mask = -1 if fmt.signed else (1 << fmt.width) - 1
+            keep = -1 if ls + sx < 64 else 0
+            lines.append(f"{tgt} = ((({y} & {self.p(keep)}) << {self.p(min(ls + sx, 63))}) >> {self.p(sx)})"
+                         f" & {self.p(mask)}")
+        return lines
+
+    # -- sources ------------------------------------------------------------------------------
+    def visit_const(self, node, i):
+        self.head.append(self.comment(node))
+        self.head += [f"v{i} = {self.p(node.qformat.from_float(float(node.params.value)))}", f"buf[{i}] = v{i}"]
+        return []
+
+    # -- arithmetic ---------------------------------------------------------------------------
+    def aligned(self, name: str, frac: int) -> str:
+        return f"({self.v(name)} << {self.p(frac - self.frac(name))})"
+
+    def _pair(self, node) -> tuple:
+        frac = max(self.frac(x) for x in node.inputs)
+        return self.aligned(node.inputs[0], frac), self.aligned(node.inputs[1], frac), frac
+
+    def visit_gain(self, node, i):
+        a = node.inputs[0]
+        return self.rq(i, node, f"{self.v(a)} * {self.p(node.params.constant)}",
+                       self.frac(a) + node.params.cfmt.frac)
+
+    def visit_add(self, node, i):
+        x, y, frac = self._pair(node)
+        return self.rq(i, node, f"{x} + {y}", frac)
+
+    def visit_sub(self, node, i):
+        x, y, frac = self._pair(node)
+        return self.rq(i, node, f"{x} - {y}", frac)
+
+    def visit_compare(self, node, i):
+        x, y, _ = self._pair(node)
+        return [f"v{i} = int({x} {node.params.op.symbol} {y})"]
+
+    def visit_neg(self, node, i):
+        a = node.inputs[0]
+        return self.rq(i, node, f"-{self.v(a)}", self.frac(a))
+
+    def visit_mul(self, node, i):
+        a, b = node.inputs
+        return self.rq(i, node, f"{self.v(a)} * {self.v(b)}", self.frac(a) + self.frac(b))
+
+    def visit_cast(self, node, i):
+        a = node.inputs[0]
+        return self.rq(i, node, self.v(a), self.frac(a))
+
+    def visit_mux(self, node, i):
+        # a select beyond the data inputs picks the last one (pendc.ir.nodes); every candidate is
+        # computed and one selected arithmetically, as in the baked kernel
+        ins, sel = node.inputs, self.v(node.inputs[0])
+        lines, terms, flags = [], [], []
+        for j in range(1, len(ins)):
+            guard = (f"({' & '.join(f'({sel} != {m})' for m in range(len(ins) - 2))})" if j == len(ins) - 1
+                     else f"({sel} == {j - 1})")
+            guard = "" if guard == "()" else guard
+            lines += self.rq(i, node, self.v(ins[j]), self.frac(ins[j]), tgt=f"v{i}_{j}", flag=f"b{i}_{j}")
+            flags.append(f"(b{i}_{j} & {guard})" if guard else f"b{i}_{j}")
+            terms.append(f"v{i}_{j} * {guard}" if guard else f"v{i}_{j}")
+        self.flags.append(i)
+        return lines + [f"b{i} = {' | '.join(flags)}", f"v{i} = {' + '.join(terms)}"]
+
+    def visit_slice(self, node, i):
+        hi, lo = node.params.bits(self.g[node.inputs[0]].qformat.width)
+        if hi - lo + 1 > 63 or lo < 0:
+            raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
+        return [f"v{i} = ({self.v(node.inputs[0])} >> {self.p(min(lo, 63))}) & {self.p((1 << (hi - lo + 1)) - 1)}"]
+
+    def visit_lut(self, node, i):
+        p = node.params
+        fin = self.g[node.inputs[0]].qformat
+        table, shift, bits, interp = p.table, p.shift, p.addr_bits, bool(p.interpolate)
+        seg = 1 << bits
+        if table is None or shift is None:
+            raise ValueError(f"LUT '{node.name}' has no table yet (run fill_lut_tables)")
+        if len(table) != seg + interp:
+            raise ValueError(f"LUT '{node.name}': table has {len(table)} entries, expected {seg + interp}")
+        self.offsets[node.name] = self.tab_len
+        off = self.p(self.tab_len)
+        self.tab_len += len(table)
+        d, j, f, jj, ff, y0 = (f"{x}{i}" for x in ("d", "j", "f", "jj", "ff", "y"))
+        sh = self.p(min(shift, 63))
+        lines = [f"{d} = {self.v(node.inputs[0])} - {self.p(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {sh}",
+                 f"{f} = {d} & {self.p((1 << shift) - 1)}"]
+        if p.periodic:
+            lines += [f"{jj} = {j} & {self.p(seg - 1)}", f"{ff} = {f}"]
+            nxt = f"{jj} + 1"
+        else:   # beyond the domain: the end entry, no interpolation (flagged unless exactly the end)
+            last = self.p(seg if interp else seg - 1)
+            out = (f"({j} < 0) | ({j} > {last}) | (({j} == {last}) & ({f} != 0))" if interp
+                   else f"({j} < 0) | ({j} > {last})")
+            lines += [f"b{i} = {out}", f"{jj} = min(max({j}, 0), {last})", f"{ff} = {f} * (1 - b{i})"]
+            self.flags.append(i)
+            nxt = f"min({jj} + 1, {last})"
+        if not interp:
+            return lines + [f"v{i} = tab[{off} + {jj}]"]
+        # with shift 0, ff is 0 and so is the rounding half: the interpolation adds nothing
+        step = f"(tab[{off} + {nxt}] - {y0}) * {ff}"
+        if node.rounding is Rounding.NEAREST:
+            step = f"({step} + {self.p(1 << (shift - 1) if shift else 0)})"
+        return lines + [f"{y0} = tab[{off} + {jj}]", f"v{i} = {y0} + ({step} >> {sh})"]
+
+
+def _baked_lines(graph: Graph) -> dict:
+    """Per node, everything the baked printer emits for it (code, head, update, checks)."""
+    gen, out = _FixedGen(graph, runtime_resets=True), {}
+    for i, n in enumerate(graph.nodes):
+        marks = len(gen.head), len(gen.update), len(gen.late), len(gen.flags)
+        lines = gen.visit(n, i)
+        parts = (gen.head, gen.update, gen.late, gen.flags)
+        out[n.name] = (i, gen.comment(n), tuple(lines)) + tuple(tuple(p[m:]) for p, m in zip(parts, marks))
+    return out
+
+
+def same_structure(a: Graph, b: Graph) -> bool:
+    """Same nodes (names, kinds, inputs, modes) in the same order: formats and numbers may differ."""
+    def key(g):
+        return [(n.name, n.kind, n.inputs, n.rounding, n.overflow) for n in g.nodes]
+    return a.name == b.name and key(a) == key(b) and a.outputs == b.outputs
+
+
+class _SharedGen:
+    """The printer :func:`pendc.ir.compiled_source.assemble` drives: baked nodes by the baked
+    printer, the ``general`` ones by :class:`_DataGen`, into the same kernel."""
+
+    fixed = True
+
+    def __init__(self, graph: Graph, general: set):
+        self.g, self.general = graph, general
+        self.baked, self.data = _FixedGen(graph, runtime_resets=True), _DataGen(graph)
+        for part in ("head", "update", "late", "flags", "offsets"):
+            setattr(self.data, part, getattr(self.baked, part))
+        self.head, self.update, self.late, self.flags = self.baked.head, self.baked.update, self.baked.late, \
+            self.baked.flags
+        self.offsets = self.baked.offsets
+
+    def _gen(self, node):
+        return self.data if node.name in self.general else self.baked
+
+    def comment(self, node) -> str:
+        return self._gen(node).comment(node)
+
+    def visit(self, node, i):
+        gen = self._gen(node)
+        gen.tab_len = max(self.baked.tab_len, self.data.tab_len)
+        return gen.visit(node, i)
+
+
+def shared_kernel_source(graph: Graph, like: Graph | None = None) -> tuple[str, dict, list]:
+    """(kernel module source, {LUT node name: table offset}, the ``qp`` data) of a typed graph:
+    nodes whose baked code equals ``like``'s (same structure) are baked, the others read their
+    numbers from ``qp``. Without ``like``, or of another structure, every node is baked.
+
+    The kernel takes ``rst`` and ``qp`` after ``tab`` and indexes ``out`` [column, row] (the
+    ``runtime_data`` form of :func:`pendc.ir.compiled_source.kernel_source`)."""
+    general = set()
+    if like is not None and same_structure(graph, like):
+        mine, theirs = _baked_lines(graph), _baked_lines(like)
+        general = {name for name in mine if mine[name] != theirs[name]}
+    gen = _SharedGen(graph, general)
+    note = f", {len(general)} nodes' formats as data (qp)" if general else ""
+    src = assemble(gen, True, data_args="qp, ", note=note)
+    return src, dict(gen.offsets), list(gen.data.params)
