@@ -23,9 +23,9 @@ from collections import Counter
 SLOWEST_FIRST = (
     "test_sim.py",                  # 357 s: cocotb regression, Icarus (ii 6) and Verilator (comb); the default model
     "test_rtl_full_scale.py",       # 151 s: the rig model: golden minute and spin, Verilator and Icarus windows
-    "test_diagnose.py",             # 124 s: two effects in turn, unexplained physics
     "test_diagnose_cases.py",       # 103 s: hidden-effect cases, first half
-    "test_ident_experiments.py",    # 91 s: the independent generator's experiments
+    "test_diagnose.py",             # 100 s: two effects in turn (14 s experiment), unexplained physics (12 s)
+    "test_ident_experiments.py",    # 79 s: the independent generator's experiments
     "test_diagnose_more_cases.py",  # 79 s: hidden-effect cases, second half
     "test_emit.py",                 # 67 s: the Furuta's full build (cached for test_sim_second_plant and the HIL)
     "test_synth.py",                # 75 s: YoWASP's first run compiles yosys and nextpnr
