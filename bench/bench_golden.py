@@ -1,7 +1,7 @@
 """Benchmark of the bit-accurate golden model: compiled kernel vs reference interpreter.
 
 Usage: .venv/bin/python bench/bench_golden.py [-o bench/out/golden.json]
-Writes steps per second of the numba kernel (fixed and float twin) on the default
+Writes steps per second of the numba kernel (fixed, its shared form and the float twin) on the default
 model's 20 s chirp and 5 s swing-up, and of the Python interpreter on 10 000 steps.
 Target (issue 3): >= 1 M steps/s for the fast path on one core.
 """
@@ -11,6 +11,7 @@ import json
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
@@ -25,6 +26,8 @@ def main() -> int:
     from pendc import load_model
     from pendc.build_cache import compile_cached
     from pendc.golden import GoldenModel
+    from pendc.ir.nodes import Kind
+    from pendc.ir.qformat import QFormat
     from pendc.ir.compiled import CompiledGraph
     from pendc.ir.interpret import FixedInterpreter
     from pendc.passes.ranges import per_step
@@ -37,6 +40,14 @@ def main() -> int:
     golden.run_steps(golden.quantize_input([5.0] * 10))          # compile / load the kernel
     floaty = CompiledGraph(build.graph, "float")
     floaty.run({"u": [5.0] * 10})
+    # the form the error budget's later rounds share (pendc.ir.shared_source): here the registers
+    # and their readers read their numbers from data, as after widening the state accumulators
+    finer = build.graph.map_nodes(lambda n: replace(n, qformat=QFormat(n.qformat.signed, n.qformat.width,
+                                                                          n.qformat.frac + 1))
+                                  if n.kind is Kind.REGISTER else n)
+    shared, baked = CompiledGraph(build.graph, "fixed", like=finer), CompiledGraph(build.graph, "fixed")
+    shared.run({"u": [5.0] * 10})
+    baked.run({"u": [5.0] * 10})
     runs = {}
     for name, (t, u) in {"chirp_20s": chirp(), "swing_up_5s": swing_up()}.items():
         steps = per_step(u, t, build.options.dt)
@@ -47,8 +58,16 @@ def main() -> int:
         t0 = time.perf_counter()
         floaty.run({"u": steps}, every=1000)
         float_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        shared.run({"u": ints}, every=1000)
+        shared_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        baked.run({"u": ints}, every=1000)      # the same harness as the shared form's
+        baked_s = time.perf_counter() - t0
         runs[name] = {"steps": len(steps), "fixed_seconds": fixed_s, "fixed_steps_per_second": len(steps) / fixed_s,
-                      "float_seconds": float_s, "float_steps_per_second": len(steps) / float_s}
+                      "float_seconds": float_s, "float_steps_per_second": len(steps) / float_s,
+                      "shared_fixed_steps_per_second": len(steps) / shared_s,
+                      "compiled_fixed_steps_per_second": len(steps) / baked_s}
     t_sw, u_sw = swing_up()
     ints = golden.quantize_input(per_step(u_sw, t_sw, build.options.dt)[:10_000])
     interp = FixedInterpreter(build.graph)
