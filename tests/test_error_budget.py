@@ -214,6 +214,7 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
         assert set(alias) == {n.name for n in graph.of_kind(Kind.CAST)}
         names = tuple(n.name for n in graph.nodes)
         full = CompiledGraph(graph, "float").run(steps, every=7, record=names)
-        short = CompiledGraph(twin, "float").run(steps, every=7, record=tuple(dict.fromkeys(alias.get(n, n) for n in names)))
+        kept = tuple(dict.fromkeys(alias.get(n, n) for n in names))
+        short = CompiledGraph(twin, "float").run(steps, every=7, record=kept)
         for n in names:
             np.testing.assert_array_equal(short.outputs[alias.get(n, n)], full.outputs[n], err_msg=n)

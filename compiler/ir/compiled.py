@@ -9,8 +9,10 @@ the verifier guarantees every exact intermediate fits), ``mode="float"`` mirrors
 
 The source (see :mod:`pendc.ir.compiled_source`) depends on the graph's structure and
 constants only: LUT contents are an argument, so refilling tables reuses the machine
-code. It is written to a cache file named by its hash (``$PENDC_CACHE_DIR`` or
-``~/.cache/pendc/kernels``) and compiled with numba's on-disk cache.
+code; given ``like``, an earlier typing of the same graph, the nodes whose code differs
+from it read their numbers from data too (:mod:`pendc.ir.shared_source`), so retypings
+that differ alike share one compile. It is written to a cache file named by its hash
+(``$PENDC_CACHE_DIR`` or ``~/.cache/pendc/kernels``) and compiled with numba's on-disk cache.
 """
 
 from __future__ import annotations
@@ -21,10 +23,10 @@ from ..codegen import cache_dir, load_source  # noqa: F401  (cache_dir re-export
 
 from .compiled_source import kernel_source
 from .graph import Graph
-from .shared_source import shared_kernel_source
 from .interpret import Trace
 from .nodes import Kind
 from .qformat import QFormat
+from .shared_source import shared_kernel_source
 
 
 def quantize(values, fmt: QFormat) -> np.ndarray:
