@@ -39,10 +39,12 @@ from ..model.plant import PlantModel
 from .fold_constants import live_nodes
 from .lower_encoders import lower_encoder
 from .lower_expr import ExpressionLowerer
+from .lower_sums import push_sums_into_muxes
 
 
 def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold_dt: bool = False,
-                turns_phase: bool = False, deep_last: bool = False, narrow_abs: bool = False) -> Graph:
+                turns_phase: bool = False, deep_last: bool = False, narrow_abs: bool = False,
+                lookahead: bool = False, clamp_on_increment: bool = False, sum_into_mux: bool = False) -> Graph:
     """The untyped IR graph of one model step of ``dt`` seconds (forward Euler, IV.4-IV.7).
 
     Outputs: the states the plant interface reports and, with ``encoders``, the two channel
@@ -62,7 +64,19 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
       to the increment, not three;
     * ``narrow_abs``: ``|a|`` is taken of a cast of ``a`` (its own format, from its range): a
       wide state (``dx``, 56 bits) is rounded once, before the negation, instead of by the
-      negation, the select and the table address each.
+      negation, the select and the table address each;
+    * ``lookahead`` (needs ``turns_phase``): every periodic table is a register loaded with its
+      read for the next step (addressed by the next phase in turns: this step's phase, its
+      increment and the turns gained, :meth:`ExpressionLowerer.read_ahead`), so the step starts
+      with the tables of the angle, and only the cart's own loop (velocity ->
+      friction table -> force -> increment) is left on the chain; a run started elsewhere than
+      the reset state must start these registers at their tables' values too;
+    * ``clamp_on_increment``: the velocity clamp compares the increment with the room left to
+      the bound (``bound - state``, from the register at the start of the step) instead of the
+      sum with the bound, so its compares run beside the state's wide sum, not after it;
+    * ``sum_into_mux``: a sum whose last term is selected by muxes adds it in each branch
+      (:func:`pendc.passes.lower_sums.push_sums_into_muxes`): the friction joins the force one
+      adder after its table, with no negation and no zero test under ``dx != 0``.
     """
     eq = model.equations
     iface = model.interface
@@ -71,7 +85,10 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
     port = iface.input
     variables = {eq.input: port.name, **{s: s.name for s in eq.states}}
-    low = ExpressionLowerer(variables, iface, turns_phase=turns_phase, deep_last=deep_last, narrow_abs=narrow_abs)
+    if lookahead and not turns_phase:
+        raise PendcError("lookahead tables need turns_phase (the next whole turns come from its register's input)")
+    low = ExpressionLowerer(variables, iface, turns_phase=turns_phase, deep_last=deep_last, narrow_abs=narrow_abs,
+                            lookahead=lookahead)
     low.nodes.append(make(port.name, Kind.INPUT, port=port.name, max_abs=port.full_scale, meaning=port.meaning))
 
     inlined: dict = {}
@@ -92,9 +109,9 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
 
     nxt = {}
     increments = {}
-    for state, deriv in zip(eq.states, eq.derivatives):
+    derivatives = [d.subs(values).subs(inlined) for d in eq.derivatives]
+    for state, deriv in zip(eq.states, derivatives):
         spec = iface.state(state.name)
-        deriv = deriv.subs(values).subs(inlined)
         if fold_dt:
             # the derivative's own node (if any) goes dead and fold_constants drops it
             inc = low.value(sp.expand(sp.Float(dt) * assigned.get(deriv, deriv)), f"{state.name}_inc",
@@ -105,8 +122,9 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
         increments[state.name] = inc
         total = low.emit(Kind.ADD, [state.name, inc], f"{state.name}_sum")
         if spec.velocity_bound is not None:
-            total = _clamp(low, total, spec)
+            total = _clamp(low, total, spec, (state.name, inc) if clamp_on_increment else None)
         nxt[state.name] = total
+    low.read_ahead({s.name: assigned.get(d, d) for s, d in zip(eq.states, derivatives)}, dt)
     initial = {s.name: 0.0 for s in eq.states}
     declared = {s.name: s.capacity for s in iface.periodic if s.capacity is not None}
     regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=iface.meaning(s.name, s.name),
@@ -119,16 +137,30 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
             enc_nodes, levels = lower_encoder(sensor.name, increments[sensor.state], sensor.band, sensor.body)
             nodes += enc_nodes
             outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
-    if fold_dt:      # the derivatives' own nodes (``ddx``) feed nothing now
-        nodes = live_nodes(nodes, outputs, keep=[n.name for n in nodes if n.kind is Kind.REGISTER])
+    if sum_into_mux:
+        nodes = push_sums_into_muxes(nodes)
+    if fold_dt or lookahead or sum_into_mux:   # the derivatives' own nodes (``ddx``), the tables' old
+        # address, the muxes a sum was pushed through feed nothing now
+        ahead = {name for name, *_ in low.ahead}       # a table register is live only if read
+        nodes = live_nodes(nodes, outputs, keep=[n.name for n in nodes if n.kind is Kind.REGISTER
+                                                 and n.name not in ahead])
     return Graph.build(iface.core, nodes, outputs,
                        info=(("dt", float(dt)), ("model", model.source), (INFO_KEY, iface)))
 
 
-def _clamp(low: ExpressionLowerer, value: str, spec: StateSpec) -> str:
-    """Velocity saturation after integration (thesis Fig. III.2): two compares, two muxes."""
+def _clamp(low: ExpressionLowerer, value: str, spec: StateSpec, step: tuple | None = None) -> str:
+    """Velocity saturation after integration (thesis Fig. III.2): two compares, two muxes.
+    With ``step`` = (state, increment) the compares are ``increment > bound - state`` and
+    ``increment < -bound - state``: in real numbers the same tests as on the sum."""
     hi, lo = low.const(spec.velocity_bound), low.const(-spec.velocity_bound)
-    over = low.emit(Kind.COMPARE, [value, hi], f"{spec.name}_over", op=CompareOp.GT)
-    under = low.emit(Kind.COMPARE, [value, lo], f"{spec.name}_under", op=CompareOp.LT)
+    if step is None:
+        over = low.emit(Kind.COMPARE, [value, hi], f"{spec.name}_over", op=CompareOp.GT)
+        under = low.emit(Kind.COMPARE, [value, lo], f"{spec.name}_under", op=CompareOp.LT)
+    else:
+        state, inc = step
+        room_up = low.emit(Kind.SUB, [hi, state], f"{spec.name}_room_up", f"room to the upper bound ({spec.unit})")
+        room_down = low.emit(Kind.SUB, [lo, state], f"{spec.name}_room_down", f"room to the lower bound ({spec.unit})")
+        over = low.emit(Kind.COMPARE, [inc, room_up], f"{spec.name}_over", op=CompareOp.GT)
+        under = low.emit(Kind.COMPARE, [inc, room_down], f"{spec.name}_under", op=CompareOp.LT)
     upper = low.emit(Kind.MUX, [over, value, hi], f"{spec.name}_upper")
     return low.emit(Kind.MUX, [under, upper, lo], f"{spec.name}_next", f"{spec.label} after the clamp ({spec.unit})")

@@ -10,6 +10,7 @@ import math
 import sympy as sp
 
 from ..errors import PendcError
+from ..ir import lut as lut_sem
 from ..ir.compare_ops import CompareOp
 from ..ir.nodes import Kind, SliceParams, make
 from ..model.interface import PlantInterface, StateSpec
@@ -28,11 +29,14 @@ class ExpressionLowerer:
     """Turns sympy expressions into nodes, sharing structurally equal subexpressions."""
 
     def __init__(self, variables: dict, interface: PlantInterface, turns_phase: bool = False,
-                 deep_last: bool = False, narrow_abs: bool = False):
+                 deep_last: bool = False, narrow_abs: bool = False, lookahead: bool = False):
         self.variables = dict(variables)      # sympy Symbol -> node name
         self.turns_phase = turns_phase        # periodic tables read state/period less whole turns
         self.deep_last = deep_last            # sums add their deepest term last (see term_depth)
         self.narrow_abs = narrow_abs          # |a| of a cast of a, not of a itself (see lower_model)
+        self.lookahead = lookahead            # periodic tables are registers read a step ahead
+        self.ahead: list = []                 # (register, StateSpec, expression text, meaning) to read ahead
+        self.turn_steps: dict = {}            # periodic state -> its turn counter's step (-1, 0, 1)
         self.depth: dict = {}                 # assigned Symbol -> how deep its value lies in the step
         self.nodes: list = []
         self.memo: dict = {}                  # expression -> node name
@@ -208,6 +212,7 @@ class ExpressionLowerer:
         under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{spec.name}_phase_under", op=CompareOp.LT)
         down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
         step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
+        self.turn_steps[spec.name] = step
         self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step], max_abs=float(spec.turns + 1)))
         self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=0.0,
                                max_abs=float(spec.turns + 1), meaning=f"whole turns of the {spec.body} (counter)"))
@@ -218,6 +223,10 @@ class ExpressionLowerer:
         v = sp.Symbol("v", real=True)
         spec = self.periodic.get(var)
         if spec is not None and _periodic(expr, var, spec.period):
+            if self.lookahead:
+                text = sp.sstr(expr.subs(var, sp.nsimplify(spec.period, [sp.pi]) * v))
+                return self.value_key(("lut ahead", spec.name, text), lambda: self._table_ahead(
+                    var, spec, text, hint, f"{sp.sstr(expr)} by {spec.name}"))
             source = self.value_key(("turns", spec.name), lambda: self.emit(
                 Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
                 value=1.0 / spec.period))
@@ -231,6 +240,40 @@ class ExpressionLowerer:
         return self.value_key(("lut", source, text), lambda: self.emit(
             Kind.LUT, [source], f"{hint}_lut", f"{sp.sstr(expr.subs(var, sp.Symbol(source)))}", expr=text,
             lo=None, hi=None, periodic=False, addr_bits=10, interpolate=True))
+
+    def _table_ahead(self, var, spec: StateSpec, text: str, hint: str, meaning: str) -> str:
+        """The register that holds a periodic table's value for this step, read during the
+        previous step from the next state (:meth:`read_ahead` emits the read); the phase and its
+        turn counter are still built from this step's state."""
+        self.phase(var)
+        name = self.fresh(f"{hint}_lut")
+        self.ahead.append((name, spec, text, meaning))
+        return name
+
+    def read_ahead(self, rates: dict, dt: float) -> None:
+        """The reads of the tables of :meth:`_table_ahead` for the next step, each into its table's
+        register. They are addressed by the next phase in turns, ``phase/period + dt rate/period -
+        turns gained`` (``rates``: state -> its derivative, sympy): in real numbers the next state
+        less its next whole turns, over the period, but with no product after the state's sum or
+        the turn counter, only the phase's own product and one adder. The states reset to zero,
+        so a register resets to its table's value at turn 0
+        (:func:`pendc.passes.tabulate.fill_lut_tables` makes it the table's entry)."""
+        turns_next: dict = {}
+        for name, spec, text, meaning in self.ahead:
+            if spec.name not in turns_next:
+                var = next(v for v, s in self.periodic.items() if s is spec)
+                now = self.emit(Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
+                                value=1.0 / spec.period)
+                moved = self.value(sp.expand(sp.Float(dt / spec.period) * rates[spec.name]),
+                                   f"{spec.name}_turns_inc", f"{spec.label} increment per step in turns")
+                ahead = self.emit(Kind.SUB, [moved, self.turn_steps[spec.name]], f"{spec.name}_turns_ahead",
+                                  f"{spec.label} increment less the whole turns gained, in turns")
+                turns_next[spec.name] = self.emit(Kind.ADD, [ahead, now], f"{spec.name}_turns_next",
+                                                  f"{spec.label} less its whole turns, next step, in turns")
+            read = self.emit(Kind.LUT, [turns_next[spec.name]], f"{name}_next", f"{meaning}, next step", expr=text,
+                             lo=0.0, hi=1.0, periodic=True, addr_bits=10, interpolate=True)
+            self.nodes.append(make(name, Kind.REGISTER, [read], reset=float(lut_sem.evaluate(text, [0.0])[0]),
+                                   meaning=f"{meaning} (read a step ahead)"))
 
     def sum_of_terms(self, e, hint, meaning) -> str:
         groups: dict = {}

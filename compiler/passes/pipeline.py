@@ -27,7 +27,9 @@ from .fold_constants import fold_constants
 from .lower import lower_model
 from .qformats import MAX_LEVEL, MULT_SHAPES, assign_qformats, product_kinds
 from .ranges import Ranges, analyze_ranges
+from .reassociate import add_last_term_to_state
 from .resources import Resources, estimate_resources
+from .round_early import round_operands_early
 from .tabulate import fill_lut_tables, tabulate_luts
 
 # The model file spells a state's tolerance ``budget_<state> = ...`` in [hardware] (the older
@@ -55,9 +57,10 @@ class BuildOptions:
     qformats: dict = field(default_factory=dict)
     engine: str = "compiled"
     # a shorter critical chain of a step (pendc.passes.lower.lower_model: fold_dt, turns_phase,
-    # deep_last, narrow_abs): dt folded into the derivatives' tables and gains, periodic tables
-    # addressed by state/period less whole turns, every sum's latest term added last, |dx| rounded
-    # once; a different arithmetic
+    # deep_last, narrow_abs, lookahead, clamp_on_increment, sum_into_mux): dt folded into the
+    # derivatives' tables and gains, the whole turns from a register, every sum's latest term added
+    # last, |dx| rounded once, the angle's tables read a step ahead into registers, the velocity
+    # clamp compared on the increment, a selected term added in each branch; a different arithmetic
     # (and golden model) from the default build's, held to the same error budget
     short_chain: bool = False
 
@@ -201,8 +204,10 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
     opt = validate_options(options) if options is not None else options_from_model(model)
     budgets = opt.budgets_for(model.interface)
-    graph = _checked(lower_model(model, dt=opt.dt, fold_dt=opt.short_chain, turns_phase=opt.short_chain,
-                                        deep_last=opt.short_chain, narrow_abs=opt.short_chain), "lower_model")
+    short = opt.short_chain
+    graph = _checked(lower_model(model, dt=opt.dt, fold_dt=short, turns_phase=short, deep_last=short,
+                                 narrow_abs=short, lookahead=short, clamp_on_increment=short,
+                                 sum_into_mux=short), "lower_model")
     graph = _checked(fold_constants(graph), "fold_constants")
     graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
     untyped = graph
@@ -223,6 +228,8 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
         g = assign_qformats(g, ranges, width=opt.width, margin_bits=opt.margin_bits,
                             overrides=opt.qformats, widen=widen, shape=shape,
                             levels=levels if levels is not None else {p: MAX_LEVEL for p in products})
+        if opt.short_chain:     # the same numbers: roundings off the sums, the last term onto the state
+            g = add_last_term_to_state(round_operands_early(g))
         return _checked(fill_lut_tables(g), "assign_qformats/fill_lut_tables", typed=True)
 
     if opt.error_budget:

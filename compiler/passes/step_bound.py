@@ -103,8 +103,10 @@ def _times(graph: Graph, model: DelayModel, shape: tuple, registered: frozenset)
 
 def periodic_tables(graph: Graph) -> tuple:
     """Tables of periodic states (their address never depends on this step's accelerations):
-    the candidates of a lookahead read."""
-    return tuple(n.name for n in graph.of_kind(Kind.LUT) if n.param("periodic"))
+    the candidates of a lookahead read; a table already read a step ahead (into a register,
+    the short chain's ``lookahead``) is not one."""
+    ahead = {r.inputs[0] for r in graph.of_kind(Kind.REGISTER)}
+    return tuple(n.name for n in graph.of_kind(Kind.LUT) if n.param("periodic") and n.name not in ahead)
 
 
 def products_on(graph: Graph, path: tuple) -> list:

@@ -66,4 +66,17 @@ def fill_lut_tables(graph: Graph) -> Graph:
             changes["hi"] = float(np.ldexp(lut_sem.lo_int(p.lo, fin) + (last << shift), -fin.frac))
         return node.with_params(**changes)
 
-    return graph.map_nodes(one)
+    filled = graph.map_nodes(one)
+    return filled.map_nodes(lambda n: _read_ahead_reset(filled, n))
+
+
+def _read_ahead_reset(graph: Graph, node):
+    """A register loaded from a periodic table (a table read a step ahead, lower_model's
+    ``lookahead``) resets to the table's entry at turn 0, which is what a read at the reset
+    state (every state zero) gives, to the bit; other nodes unchanged."""
+    if node.kind is not Kind.REGISTER:
+        return node
+    src = graph[node.inputs[0]]
+    if src.kind is not Kind.LUT or not src.param("periodic"):
+        return node
+    return node.with_params(reset=float(np.ldexp(src.param("table")[0], -src.qformat.frac)))
