@@ -5,7 +5,8 @@
 from __future__ import annotations
 
 from ..ir.graph import Graph
-from ..ir.qformat import QFormat
+from ..ir.nodes import Kind
+from ..ir.qformat import QFormat, Rounding
 from ..ir.visitor import NodeVisitor
 from .delays import ECP5_SPEED6, DelayModel
 from .resources import dsp_for, product_widths
@@ -76,3 +77,29 @@ def interp_delay(graph: Graph, n, model: DelayModel = ECP5_SPEED6, shape: tuple 
         return 0.0
     wa, wb = widths
     return model.product(wa, wb, dsp_for(wa, wb, shape)) + model.add(wa + wb) + model.add(n.qformat.width + 1)
+
+
+def requant_can_overflow(q: QFormat, out: QFormat, rounding: Rounding) -> bool:
+    """Whether a value of format ``q`` fitted into ``out`` can leave it, as
+    :func:`pendc.backend.arith.requantize` decides when it emits an overflow term."""
+    width = q.width + (0 if q.signed else 1)
+    sh = q.frac - out.frac
+    if sh > 0:
+        rw = max(width, sh) + 1 if rounding is Rounding.NEAREST else width
+        width = rw - sh if sh < rw else 1
+    elif sh < 0:
+        width -= sh
+    return width > out.width if out.signed else (width > out.width or q.signed)
+
+
+def overflow_term(graph: Graph, n) -> bool:
+    """Whether ``n`` carries an overflow term (a LUT level after it into the sticky flag, see
+    pendc.backend.timing): not sources, compares and bit slices; a select or a cast only if one
+    of its inputs can leave the output's format (a clamp's muxes of one format cannot);
+    every other kind is assumed to."""
+    if n.kind in (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM, Kind.COMPARE, Kind.SLICE):
+        return False
+    if n.kind in (Kind.MUX, Kind.CAST) and n.qformat is not None:
+        data = n.inputs[1:] if n.kind is Kind.MUX else n.inputs
+        return any(requant_can_overflow(graph[i].qformat, n.qformat, n.rounding) for i in data)
+    return True

@@ -38,19 +38,22 @@ from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from .delays import DelayModel, model_for
-from .node_delay import interp_delay, node_delay
+from .node_delay import interp_delay, node_delay, overflow_term
 from .resources import dsp_for, product_widths
 
 SOURCES = (Kind.CONST, Kind.INPUT, Kind.REGISTER, Kind.FSM)
-# nodes that may carry an overflow term (pendc.backend.timing): a LUT level detects it after the
-# node, into a pipeline register; in the step's last cycle the OR of the terms into the sticky
-# flag (two more levels) must fit too
-NO_OVERFLOW_TERM = SOURCES + (Kind.COMPARE, Kind.SLICE)
+# nodes that carry an overflow term (pendc.backend.timing; node_delay.overflow_term): a LUT level
+# detects it after the node, into a pipeline register; in the step's last cycle the OR of the
+# terms into the sticky flag (two more levels) must fit too
 PRESETS = {
     # name: (longest clock goal searched ns, DSP budget, description); every preset but comb keeps the
     # goal of FAST_GOALS (up to its longest) with the shortest estimated step
-    "fast": (30.0, None, "shortest estimated step (ii x estimated period) over clock goals of 5-30 ns, "
-                         "a multiplier per product"),
+    # the issue's point: >= 100 MHz and <= 100 ns per step, so the step-time preset keeps a 100 MHz
+    # goal (a longer one gives a shorter estimated step at a lower clock: 3 x 29.5 ns, short chain),
+    # less the ~1 ns of routing into chained carry chains the model misses in the full core (the
+    # 10 ns goal's last cycle, dx_inc -> dx_sum -> clamp, routed 10.99 ns; docs/hardware.md)
+    "fast": (9.5, None, "shortest estimated step (ii x estimated period) over clock goals of 5-9.5 ns "
+                        "(100 MHz with a margin), a multiplier per product"),
     "default": (30.0, 24, "shortest estimated step within the thesis' 24 multipliers (shared only if needed)"),
     "small": (30.0, 4, "fewest DSP blocks: 4, shared across cycles, shortest estimated step (>= 1 MHz step rate)"),
     "comb": (math.inf, None, "no pipelining: one combinational step between table reads (the thesis' structure)"),
@@ -62,6 +65,16 @@ DEFAULT_PRESET = "default"
 # presets whose clock goal is the one given, not the best of the goals up to it (a tighter goal
 # may tie on the estimated step with a different, unmeasured schedule)
 FIXED_GOAL = ("fmax",)
+# presets that charge a node's overflow term (a LUT level after it, and in the last cycle the OR
+# into the sticky flag) only where the backend emits one (node_delay.overflow_term: a clamp's muxes
+# carry none): the step-time presets of the short chain; the others charge every node but
+# MAY_OVERFLOW_NOT, as before (docs/hardware.md: counted exactly, the default preset's schedule,
+# and so hdl_out/, would change)
+EXACT_OVERFLOW_TERMS = ("fast", "fmax")
+MAY_OVERFLOW_NOT = SOURCES + (Kind.COMPARE, Kind.SLICE)
+# presets that search their goals loosest first: a tighter goal must be strictly shorter on the
+# estimate to be kept (ties: the loosest goal, fast's 10 ns, as routed; docs/hardware.md)
+LOOSEST_FIRST = ("fast",)
 
 
 @dataclass(frozen=True)
@@ -161,6 +174,11 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
         c = max((stage[i] for i in inputs), default=0)
         return c, max((finish[i] for i in inputs if stage[i] == c), default=0.0)
 
+    def has_term(n) -> bool:
+        # a step-time preset counts the terms there are; the others every node of a kind that may
+        # carry one, as before (their schedules, and so the default build's HDL, stay as they were)
+        return overflow_term(graph, n) if preset in EXACT_OVERFLOW_TERMS else n.kind not in MAY_OVERFLOW_NOT
+
     rom_offset = model.rom_clk_to_out - model.clk_to_q   # the ROM word arrives this much later than a register's
     for n in graph.nodes:
         if n.kind in SOURCES:
@@ -193,7 +211,7 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
             done(n.name, c, o + di)
             continue
         d += share_mux if product else 0.0
-        tail = 0.0 if n.kind in NO_OVERFLOW_TERM else model.lut_level
+        tail = model.lut_level if has_term(n) else 0.0
         if product and slots is None:
             split = _split_product(graph, n, model, shape, stage, c, o, d, tail, budget_ns)
             if split is not None:
@@ -215,14 +233,14 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
         last = max(last, c)
     last = max([last] + list(stage.values()))
     flag_tail = 3 * model.lut_level
-    late_flag = [n.name for n in graph.nodes if n.kind not in NO_OVERFLOW_TERM and stage[n.name] == last
+    late_flag = [n.name for n in graph.nodes if has_term(n) and stage[n.name] == last
                  and finish[n.name] + flag_tail > budget_ns]
     # the last cycle's overflow terms reach the flag directly: if they cannot, a cycle that only
     # loads the state follows, and they are registered like every other cycle's
     ii = last + (2 if late_flag else 1)
     if not late_flag:
         for n in graph.nodes:
-            if n.kind not in NO_OVERFLOW_TERM and stage[n.name] == last:
+            if has_term(n) and stage[n.name] == last:
                 longest[last] = max(longest[last], finish[n.name] + flag_tail)
     units = _share(graph, stage, shape, cost) if dsp is not None and ii > 1 else ()
     period = round(model.overhead() + max(longest.values(), default=0.0), 3)
@@ -327,7 +345,7 @@ def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | N
         if math.isinf(clock):
             return schedule_graph(graph, clock, budget, shape, preset, target)
         goals = (clock,) if preset in FIXED_GOAL else tuple(g for g in FAST_GOALS if g <= clock)
-        return fastest(graph, shape, goals, budget, preset, target)
+        return fastest(graph, shape, goals[::-1] if preset in LOOSEST_FIRST else goals, budget, preset, target)
     if ii is None:
         return schedule_for(graph, shape, dsp=dsp, preset=DEFAULT_PRESET, target=target)
     if ii < 1:
