@@ -260,3 +260,26 @@ def test_fmax_preset_is_the_10ns_goal(wide_plant):
     s = schedule_for(wide_plant, SHAPE, preset="fmax")
     assert s.clock_ns == 10.0 and s.preset == "fmax" and s.partial_reg
     assert s == schedule_graph(wide_plant, 10.0, None, SHAPE, "fmax")
+
+
+@pytest.mark.parametrize("signed", [True, False])
+def test_overflow_term_as_the_backend_emits_it(signed):
+    """node_delay.requant_can_overflow says exactly when backend.arith.requantize registers an
+    overflow term (what the step-time presets charge a LUT level and the flag's OR for)."""
+    from pendc.backend.arith import Netlist, requantize
+    from pendc.ir.qformat import Overflow, QFormat, Rounding
+    from pendc.passes.node_delay import requant_can_overflow
+    seen = set()
+    for w in (4, 9):
+        for f in (0, 3, 5):
+            q = QFormat(signed, w, min(f, w - 1))
+            for ow in (3, 4, 9, 10, 12):
+                for of in (0, 2, 3, 6):
+                    out = QFormat(True, ow, min(of, ow - 1))
+                    for rounding in (Rounding.NEAREST, Rounding.TRUNCATE):
+                        net = Netlist()
+                        requantize(net, "v", "x", q.width, q.frac, out, rounding, Overflow.WRAP, "n", signed=signed)
+                        emitted = bool(net.overflow)
+                        assert requant_can_overflow(q, out, rounding) == emitted, (q, out, rounding)
+                        seen.add(emitted)
+    assert seen == {True, False}
