@@ -242,9 +242,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7", "xcu"),
                    help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
     p.add_argument("--preset", choices=("default", "fast", "fmax", "small", "comb"),
-                   help="schedule: default = shortest step within 24 DSP blocks, fast = shortest step (a multiplier "
-                        "per product), fmax = a 10 ns clock goal (partial-product registers), small = 4 shared DSP "
-                        "blocks, comb = no pipelining")
+                   help="schedule: default = shortest step within 24 DSP blocks, fast = shortest step at 100 MHz "
+                        "(clock goals up to 9.5 ns, a multiplier per product, the short-chain arithmetic), fmax = a "
+                        "10 ns clock goal (partial-product registers, the short-chain arithmetic), small = 4 shared "
+                        "DSP blocks, comb = no pipelining")
     p.add_argument("--ii", type=int, help="clock cycles per model step: the scheduler packs the step into "
                    "exactly N cycles with the shortest clock it can")
     p.add_argument("--dsp", type=int, help="DSP-block budget: if a multiplier per product exceeds it, products "
