@@ -80,6 +80,9 @@ PRINTERS = [   # (file, line after which the method goes, the method): one per I
     ("ir/compiled_source.py", '        return [f"v{i} = -{self._a(node)[0]}"]\n',
      '\n    def visit_abs(self, node, i):\n        return [f"v{i} = abs({self._a(node)[0]})"]\n'),
     ("ir/requant_source.py", "visit_mux = visit_cast = _own\n", "    visit_abs = _own\n"),
+    ("ir/shared_source.py", '        return self.rq(i, node, f"-{self.v(a)}", self.frac(a))\n',
+     '\n    def visit_abs(self, node, i):\n        a = node.inputs[0]\n'
+     '        return self.rq(i, node, f"abs({self.v(a)})", self.frac(a))\n'),
     ("ir/verify.py", '"the negation")      # -min_int needs one bit more\n', "\n    visit_abs = visit_neg\n"),
     ("passes/fold_constants.py", "    visit_cast = visit_compare = visit_lut = _evaluate_only\n",
      "    visit_abs = _evaluate_only\n"),
