@@ -209,6 +209,27 @@ def register_integers(graph: Graph, registers: dict) -> dict:
         if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
             raise PendcError(f"initial {name} = {value} does not fit its format {node.qformat}")
         out[name] = node.qformat.from_float(float(value))
+    out.update(_read_ahead_integers(graph, registers, out))
+    return out
+
+
+def _read_ahead_integers(graph: Graph, registers: dict, given: dict) -> dict:
+    """The registers of tables read a step ahead (``lower_model(lookahead=True)``) for a run
+    started at the periodic states in ``registers``: each holds its table's value at the state's
+    phase, as a run that had arrived there would (their reset holds the value at phase 0)."""
+    from .ir import lut as lut_sem
+    from .passes.lower import READ_AHEAD_KEY
+
+    out = {}
+    for name, state, period in dict(graph.info).get(READ_AHEAD_KEY, ()):
+        if state not in registers or name in given or name not in graph.by_name:
+            continue
+        table = graph[graph[name].inputs[0]]
+        p, fin = table.params, graph[table.inputs[0]].qformat
+        turns = (float(registers[state]) / period) % 1.0
+        y, _ = lut_sem.lookup(fin.from_float(turns), fin, table.qformat, p.lo, p.addr_bits, p.shift, p.table,
+                              p.interpolate, p.periodic, table.rounding)
+        out[name] = graph[name].qformat.from_float(y * table.qformat.lsb)
     return out
 
 

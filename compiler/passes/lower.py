@@ -41,6 +41,8 @@ from .lower_encoders import lower_encoder
 from .lower_expr import ExpressionLowerer
 from .lower_sums import push_sums_into_muxes
 
+READ_AHEAD_KEY = "read_ahead"   # graph info: (register, state, period) of each table read a step ahead
+
 
 def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold_dt: bool = False,
                 turns_phase: bool = False, deep_last: bool = False, narrow_abs: bool = False,
@@ -144,8 +146,11 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
         ahead = {name for name, *_ in low.ahead}       # a table register is live only if read
         nodes = live_nodes(nodes, outputs, keep=[n.name for n in nodes if n.kind is Kind.REGISTER
                                                  and n.name not in ahead])
+    # which state each read-ahead register's table is read along (a run started from a state
+    # fills them: pendc.golden.register_integers)
+    ahead = tuple((name, spec.name, float(spec.period)) for name, spec, *_ in low.ahead)
     return Graph.build(iface.core, nodes, outputs,
-                       info=(("dt", float(dt)), ("model", model.source), (INFO_KEY, iface)))
+                       info=(("dt", float(dt)), ("model", model.source), (INFO_KEY, iface), (READ_AHEAD_KEY, ahead)))
 
 
 def _clamp(low: ExpressionLowerer, value: str, spec: StateSpec, step: tuple | None = None) -> str:
