@@ -121,6 +121,21 @@ class Graph:
         return self.text()
 
 
+def name_allocator(taken):
+    """A function giving ``base``, else ``base_2``, ``base_3``... : the first name not in ``taken``
+    (the names of the graph a pass adds nodes to), recording each it gives."""
+    used = set(taken)
+
+    def fresh(base: str) -> str:
+        name, i = base, 1
+        while name in used:
+            i += 1
+            name = f"{base}_{i}"
+        used.add(name)
+        return name
+    return fresh
+
+
 def _fmt(v) -> str:
     if isinstance(v, float):
         return repr(v)

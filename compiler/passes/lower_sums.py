@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections import Counter
 
 from ..ir.compare_ops import CompareOp
+from ..ir.graph import name_allocator
 from ..ir.nodes import Kind, make
 
 
@@ -28,19 +29,12 @@ def push_sums_into_muxes(nodes: list) -> list:
     list (the caller's dead-node sweep drops them)."""
     by_name = {n.name: n for n in nodes}
     uses = Counter(i for n in nodes for i in n.inputs)
-    used = set(by_name)
     out = []
 
     def own(name: str) -> bool:
         return uses[name] == 1 and by_name[name].kind in (Kind.MUX, Kind.NEG)
 
-    def fresh(base: str) -> str:
-        name, i = base, 1
-        while name in used:
-            i += 1
-            name = f"{base}_{i}"
-        used.add(name)
-        return name
+    fresh = name_allocator(by_name)
 
     def nonzero_when(sel: str):
         """(value known non-zero when the select is 1, ... when it is 0) of a compare with 0."""

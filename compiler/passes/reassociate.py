@@ -17,7 +17,7 @@ a value its range analysis never saw).
 
 from __future__ import annotations
 
-from ..ir.graph import Graph
+from ..ir.graph import Graph, name_allocator
 from ..ir.nodes import Kind, make
 from ..ir.qformat import QFormat
 
@@ -27,15 +27,8 @@ def add_last_term_to_state(graph: Graph) -> Graph:
     rewritten as ``(s + a) + b``, and every compare of that increment as ``b`` against the other
     side less ``a`` (see the module doc); unchanged if there is none."""
     changed, extra = {}, []
-    used = set(graph.by_name)
 
-    def fresh(base: str) -> str:
-        name, i = base, 1
-        while name in used:
-            i += 1
-            name = f"{base}_{i}"
-        used.add(name)
-        return name
+    fresh = name_allocator(graph.by_name)
 
     for reg in graph.of_kind(Kind.REGISTER):
         total = _state_sum(graph, reg.name)
