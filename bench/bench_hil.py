@@ -50,13 +50,18 @@ def bench_plant(kind: str, model, seconds: float) -> dict:
 
 
 class IdlePlant:
-    """A plant that never moves: what is left of a period is the protocol's round trip."""
+    """A plant that never moves: what is left of a period is the protocol's round trip. It has
+    the core's names (``ports``) of ``model``, as every plant has."""
 
     dt = 1e-6
 
+    def __init__(self, model):
+        from pendc.hil.core_ports import CorePorts
+        self.ports = CorePorts.of_interface(model.interface)
+
     def reset(self):
         from pendc.hil.plant import PlantState
-        self.state = PlantState(0.0, 0.0, 0.0, 0.0, 0.0, 0, 0)
+        self.state = PlantState.at_rest(self.ports)
         return self.state
 
     def step(self, u, n):
@@ -108,7 +113,7 @@ def main() -> int:
         plants[kind] = bench_plant(kind, model, SIM_SECONDS.get(kind, 1.0))
         print(f"{kind}: {plants[kind]}", file=sys.stderr)
     float_plant = make_plant("float", model)
-    sockets = {"idle_plant": bench_socket(IdlePlant(), 5.0), "float_plant": bench_socket(float_plant, 5.0)}
+    sockets = {"idle_plant": bench_socket(IdlePlant(model), 5.0), "float_plant": bench_socket(float_plant, 5.0)}
     result = {"benchmark": "hil", "period_s": 1e-3, "model_step_s": 1e-6, "plants": plants, "socket": sockets}
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
