@@ -24,7 +24,7 @@ import pendtb  # noqa: E402
 # Which build each simulator regresses: Icarus the default build (hdl_out/: ii > 2; the small
 # preset's shared multipliers are tests/test_sim_shared_multipliers.py), Verilator, whose full
 # profile runs seconds of model time, the fast preset (the short-chain arithmetic the step-time
-# presets build: another graph, another golden model, ii 4).
+# presets build: another graph, another golden model, ii 9).
 SCHEDULES = {"icarus": None, "verilator": {"preset": "fast"}}
 
 
