@@ -31,6 +31,7 @@ from pendc.ir.fsm import output_width
 from pendc.ir.graph import Graph, GraphError
 from pendc.ir.nodes import COMPARE_OPS, Kind, Node, make
 from pendc.ir.qformat import Overflow, QFormat, Rounding, bits_for
+from pendc.passes.fold_constants import live_nodes
 
 STATE_PORTS = ("x", "dx", "theta", "dtheta")
 FLAG_PORTS = ("enc_x_a", "enc_x_b", "enc_theta_a", "enc_theta_b")
@@ -323,14 +324,7 @@ def _draw_node(b: _Builder, name: str, kind: Kind) -> Node | None:
 
 
 def _live(nodes: list, outputs: list) -> set:
-    by = {n.name: n for n in nodes}
-    live, todo = set(), [n for _, n in outputs]
-    while todo:
-        x = todo.pop()
-        if x not in live:
-            live.add(x)
-            todo.extend(by[x].inputs)
-    return live
+    return {n.name for n in live_nodes(nodes, outputs)}
 
 
 def _inputs(draw, fmt: QFormat, steps: int) -> tuple:

@@ -22,6 +22,7 @@ from pendc.ir.nodes import Kind
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
+from pendc.passes.fold_constants import live_nodes
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.ranges import per_step
 from pendc.sim.stimuli import swing_up
@@ -79,13 +80,7 @@ def lowered(model):
 
 def feeds_an_output(graph) -> set:
     """Names of the nodes some output depends on, through registers too (a state's next value)."""
-    seen, todo = set(), [name for _, name in graph.outputs]
-    while todo:
-        name = todo.pop()
-        if name not in seen:
-            seen.add(name)
-            todo.extend(graph[name].inputs)
-    return seen
+    return {n.name for n in live_nodes(list(graph.nodes), graph.outputs)}
 
 
 @pytest.fixture(scope="module")
