@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections import Counter
 
 SLOWEST_FIRST = (
-    "test_sim.py",                  # 357 s: cocotb regression, Icarus (ii 6) and Verilator (comb); the default model
+    "test_sim.py",                  # 518 s at 457a1a7: Icarus on the default build, Verilator on the fast one (its compile)
     "test_rtl_full_scale.py",       # 151 s: the rig model: golden minute and spin, Verilator and Icarus windows
     "test_diagnose_cases.py",       # 103 s: hidden-effect cases, first half
     "test_diagnose.py",             # 100 s: two effects in turn (14 s experiment), unexplained physics (12 s)
