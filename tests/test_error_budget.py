@@ -64,6 +64,21 @@ def test_report_errors_are_reproducible(build):
     assert not [n for n in node_errors if build.graph[n].kind is Kind.CONST]
 
 
+def test_rounds_share_float_runs_without_changing_a_number(build):
+    """A widening round's float twin is the first round's (the same kernel, tables and resets):
+    with ``float_runs`` kept across the two calls its every-step run is made once per stimulus
+    (the sampled runs record each graph's own nodes), and every error equals the one computed
+    without it."""
+    stimuli = check_stimuli(build.error.seconds)
+    base = typed_default(build, {})
+    wide = typed_default(build, {s: WIDEN_STEP for s in STATES})
+    memo = {}
+    shared = [compare_fixed_float(g, stimuli, DT, float_runs=memo) for g in (base, wide)]
+    every_step = [key for key in memo if key[4] == 1]     # key: source, tables, resets, stimulus, every, record
+    assert sorted(key[3] for key in every_step) == sorted(stimuli)
+    assert shared == [compare_fixed_float(g, stimuli, DT) for g in (base, wide)]
+
+
 def test_widening_reduces_the_state_error(build):
     stimuli = check_stimuli(build.error.seconds)
     base = typed_default(build, {})
