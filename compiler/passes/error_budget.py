@@ -111,7 +111,7 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
     errors, node_errors = {}, {n: 0.0 for n in nodes}
     states, port = budget_states(graph), input_port(graph)
     in_fmt = next(n.qformat for n in graph.of_kind(Kind.INPUT))
-    recorded = tuple(dict.fromkeys(alias.get(n, n) for n in nodes))
+    recorded = tuple(sorted({alias.get(n, n) for n in nodes}))     # in no round's order: rounds share the run
     for name, (t, u) in stimuli.items():
         steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
         ints = {port: quantize(steps[port], in_fmt)}      # what each fixed run would quantise anew
