@@ -28,7 +28,7 @@ REPO = Path(__file__).resolve().parents[1]
 PARTS = ("simulate", "golden", "diagnose", "verilator", "synth", "step_bound", "hil")
 # the builds the parts compile: the default arithmetic (every part) and the short chain (the
 # fast preset in bench_synth and bench_step_bound)
-WARM_REQUESTS = (None, {"preset": "fast"})
+SHORT_CHAIN_PARTS = ("synth", "step_bound")
 _WARM = ("import sys, json; sys.path.insert(0, sys.argv[1]); import pendtb; "
          "pendtb.model_and_build(request=json.loads(sys.argv[2]))")
 
@@ -53,7 +53,12 @@ def machine() -> dict:
             "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None, "versions": versions}
 
 
-def warm_builds(requests=WARM_REQUESTS, jobs: int = 2) -> dict:
+def warm_requests(parts) -> tuple:
+    """The builds ``parts`` read: the default one, and the short chain if a part needs it."""
+    return (None,) + (({"preset": "fast"},) if set(parts) & set(SHORT_CHAIN_PARTS) else ())
+
+
+def warm_builds(requests, jobs: int = 2) -> dict:
     """Compile each request's build into pendc's build cache, ``jobs`` processes at a time;
     {"wall_s", "builds": [{"request", "wall_s", "exit_status"}]}."""
     from concurrent.futures import ThreadPoolExecutor
@@ -157,9 +162,10 @@ def main(argv=None) -> int:
     unknown = skip - set(PARTS)
     if unknown:
         ap.error(f"--skip: unknown part(s) {', '.join(sorted(unknown))} (known: {', '.join(PARTS)})")
-    warm = warm_builds(jobs=args.jobs)
+    names = [name for name in PARTS if name not in skip]
+    warm = warm_builds(warm_requests(names), jobs=args.jobs)
     print(f"bench: builds compiled in {warm['wall_s']:.0f} s, {args.jobs} at a time")
-    parts = {name: run_part(name, out.parent) for name in PARTS if name not in skip}
+    parts = {name: run_part(name, out.parent) for name in names}
     result = {"machine": info, "total_wall_s": round(time.time() - t0, 1), "warm_builds": warm, "parts": parts}
     result["readme_table"] = table(parts)
     from pendc.atomic import write_atomic
