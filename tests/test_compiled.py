@@ -172,6 +172,23 @@ def test_float_mode_matches_interpreter_on_pendulum():
     ref = FloatInterpreter(extra).run(inputs, track_max=True)
     assert_same(trace, ref, exact=False)
     assert trace.outputs["theta"][-1] != 0.0
+    # the tracked signed extremes are those of every step's value (what range analysis reads
+    # instead of recording tens of millions of steps)
+    every = CompiledGraph(g, "float").run(inputs, record=tuple(n.name for n in g.nodes))
+    for name, (low, high) in trace.extremes.items():
+        assert (low, high) == (float(np.min(every.outputs[name])), float(np.max(every.outputs[name]))), name
+        assert trace.max_abs[name] == max(abs(low), abs(high)), name
+    assert any(low < 0 < high for low, high in trace.extremes.values())
+
+
+def test_float_extremes_keep_a_nan_and_start_from_no_value():
+    """A NaN anywhere in a node's run is its maximum and its minimum (as numpy's min and max say),
+    and a run of no steps reports 0 as before, not the starting infinities."""
+    g = Graph.build("nan", [make("u", Kind.INPUT, port="u"), make("y", Kind.GAIN, ["u"], value=2.0)], [("y", "y")])
+    trace = CompiledGraph(g, "float").run({"u": np.array([1.0, np.nan, -3.0])}, track_max=True)
+    assert all(math.isnan(v) for v in trace.extremes["y"]) and math.isnan(trace.max_abs["y"])
+    empty = CompiledGraph(g, "float").run({"u": np.zeros(0)}, track_max=True)
+    assert empty.max_abs == {"u": 0.0, "y": 0.0} and empty.extremes == {}
 
 
 def requant_nodes(modes=MODES) -> list:

@@ -125,17 +125,25 @@ class CompiledGraph:
         n = len(self.graph.nodes)
         dtype = np.int64 if self.mode == "fixed" else np.float64
         out = np.empty((len(columns), (steps + every - 1) // every), dtype)   # a row per column: no copies
-        mx, mn = np.zeros(n, dtype), np.zeros(n, dtype)
+        if self.mode == "fixed":
+            mx, mn = np.zeros(n, dtype), np.zeros(n, dtype)
+        else:
+            mx, mn = np.full(n, -np.inf), np.full(n, np.inf)
         ov = np.full(n, -1, np.int64)
         data = (self.tables, self.resets) if self.params is None else (self.tables, self.resets, self.params)
         self._kernel(ins, steps, every, *data, sel, out, bool(track_max), mx, mn, ov)
         outputs = {c: out[j] for j, c in enumerate(columns)}
         nodes = self.graph.nodes
+        extremes = {}
         if not track_max:
             maxima = {}
         elif self.mode == "fixed":
             maxima = {nd.name: float(max(abs(int(mx[i])), abs(int(mn[i])))) for i, nd in enumerate(nodes)}
+        elif steps == 0:
+            maxima = {nd.name: 0.0 for nd in nodes}
         else:
-            maxima = {nd.name: float(mx[i]) for i, nd in enumerate(nodes)}
+            peak = np.maximum(np.abs(mx), np.abs(mn))       # NaN-propagating, as the old max |v| was
+            maxima = {nd.name: float(peak[i]) for i, nd in enumerate(nodes)}
+            extremes = {nd.name: (float(mn[i]), float(mx[i])) for i, nd in enumerate(nodes)}
         overflows = {nd.name: int(ov[i]) for i, nd in enumerate(nodes) if ov[i] >= 0}
-        return Trace(outputs=outputs, max_abs=maxima, overflows=overflows, steps=steps)
+        return Trace(outputs=outputs, max_abs=maxima, overflows=overflows, steps=steps, extremes=extremes)

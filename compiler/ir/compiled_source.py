@@ -10,8 +10,8 @@ evaluate their expression printed as ``math`` calls.
 
 Kernel arguments: ``ins[j, k]`` (value of the j-th INPUT node at step k), ``steps``,
 ``every``, ``tab`` (all LUT tables concatenated, fixed mode), ``sel`` (node indices
-to record), ``out[row, j]``, ``track`` and ``mx``/``mn`` (running max/min per node;
-float mode keeps max |v| in ``mx``), ``ov`` (first overflow step per node, -1 if none).
+to record), ``out[row, j]``, ``track`` and ``mx``/``mn`` (running max/min per node,
+both modes; float mode's caller starts them at -inf/+inf), ``ov`` (first overflow step per node, -1 if none).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from .qformat import Rounding
 from .requant_source import Bounds, int_literal as _i, requant_lines
 from .visitor import NodeVisitor
 
-SOURCE_FORMAT = 2  # bump when the generated source changes shape
+SOURCE_FORMAT = 3  # bump when the generated source changes shape
 
 
 class _ExprPrinter(NumbaPrinter):
@@ -374,8 +374,10 @@ def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "")
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        if x > mx[i]:",
                  "            mx[i] = x", "        if x < mn[i]:", "            mn[i] = x"]
     else:
-        track = ["    for i in range(buf.shape[0]):", "        x = abs(buf[i])",
-                 "        if x > mx[i] or x != x:", "            mx[i] = x"]
+        # signed extremes (a NaN sticks in both), so a LUT input's interval needs no recorded column
+        track = ["    for i in range(buf.shape[0]):", "        x = buf[i]",
+                 "        if x > mx[i] or x != x:", "            mx[i] = x",
+                 "        if x < mn[i] or x != x:", "            mn[i] = x"]
     loop = (["for k in range(steps):"] + ["    " + s for s in body]
             + ["    if track or c == 0:"] + [f"        buf[{i}] = v{i}" for i in varying]
             + ["        if c == 0:", "            for j in range(sel.shape[0]):",

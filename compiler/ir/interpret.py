@@ -11,7 +11,7 @@ at time k*dt, like the float simulator's rows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,12 +28,15 @@ class Trace:
     """Outputs per step (``outputs[port]``), per-node max |value| if tracked, and overflow events.
 
     ``overflows`` maps node name -> first step at which it left its range (fixed mode).
+    ``extremes`` maps node name -> (smallest, largest) value when the engine tracks them (the
+    compiled float engine with ``track_max``), so a range needs no recording of every step.
     """
 
     outputs: dict
     max_abs: dict
     overflows: dict
     steps: int
+    extremes: dict = field(default_factory=dict)
 
 
 def _aligned(v: int, f_from: int, f_to: int) -> int:

@@ -106,13 +106,15 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     port = input_port(graph)
     for name, g, (t, u) in runs:
         steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
-        trace = _runner(g, engine).run({port: steps}, track_max=True, record=tuple(lut_inputs), every=1)
+        # the kernel keeps each node's extremes; recording the outputs or the LUT inputs at every
+        # step of the training runs (tens of millions) took gigabytes: one row is recorded
+        trace = _runner(g, engine).run({port: steps}, track_max=True, every=max(1, len(steps)))
         for node, value in trace.max_abs.items():
             max_abs[node] = max(max_abs[node], float(value))
         for node in lut_inputs:
-            values = trace.outputs[node]
-            lo[node] = min(lo[node], float(np.min(values)))
-            hi[node] = max(hi[node], float(np.max(values)))
+            low, high = trace.extremes[node]
+            lo[node] = min(lo[node], low)
+            hi[node] = max(hi[node], high)
     for node in graph.nodes:
         # a declared capacity (a turn counter, an input port's full scale) holds even when the
         # training stimuli never reach it
@@ -139,17 +141,21 @@ def _runner(graph: Graph, engine: str):
 
 
 class _RecordingInterpreter:
-    """Adapts the reference interpreter to the ``record=`` argument of the compiled engine."""
+    """Adapts the reference interpreter to the compiled float engine's ``extremes``: every node is
+    recorded (the interpreter is for tiny graphs) and its smallest and largest value taken."""
 
     def __init__(self, interp):
         self.interp = interp
 
-    def run(self, inputs, track_max=False, record=(), every=1):
+    def run(self, inputs, track_max=False, every=1):
         from dataclasses import replace
         from ..ir.graph import Graph as G
         g = self.interp.graph
-        outputs = tuple(g.outputs) + tuple((f"rec:{n}", n) for n in record)
+        names = [n.name for n in g.nodes]
+        outputs = tuple(g.outputs) + tuple((f"rec:{n}", n) for n in names)
         graph = G(name=g.name, nodes=g.nodes, outputs=outputs, info=g.info)
-        trace = type(self.interp)(graph).run(inputs, track_max=track_max, every=every)
-        rec = {n: trace.outputs[f"rec:{n}"] for n in record}
-        return replace(trace, outputs={**{p: v for p, v in trace.outputs.items() if not p.startswith("rec:")}, **rec})
+        trace = type(self.interp)(graph).run(inputs, track_max=track_max)
+        extremes = {n: (float(np.min(trace.outputs[f"rec:{n}"])), float(np.max(trace.outputs[f"rec:{n}"])))
+                    for n in names if trace.steps}
+        return replace(trace, outputs={p: v[::every] for p, v in trace.outputs.items() if not p.startswith("rec:")},
+                       extremes=extremes)
