@@ -34,6 +34,7 @@ from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
 from pendc.ir.nodes import Kind
+from pendc.objcache import objcache_env
 
 from graphgen import FuzzCase
 
@@ -255,7 +256,7 @@ def _build_verilator(work: Path, sources: list) -> tuple[list, list]:
            "-o", TB_TOP, "-O1", "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal", "-Wall",
            "-Wno-DECLFILENAME", "-Wno-STMTDLY", "-Wno-MULTITOP", "-CFLAGS", "-fcoroutines",
            "-MAKEFLAGS", VERILATOR_MAKE_VARS] + [str(s) for s in sources]
-    r = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=work, env=objcache_env())
     (work / "build.log").write_text(r.stdout + r.stderr)
     exe = obj / TB_TOP
     if r.returncode != 0 or not exe.exists():

