@@ -599,3 +599,17 @@ def test_every_catalogue_effect_is_checked():
              "viscous_pendulum", "coulomb_pendulum", "velocity_limit", "force_limit", "drive_deadzone",
              "input_delay", "motor_lag", "cart_spring"}
     assert spec8 <= set(EFFECT_CHECKS) and spec8 <= set(CATALOGUE)
+
+
+def test_writable_and_read_only_inputs_share_one_compile():
+    """numba types an array's read-only flag: a recording's frozen columns and fresh arrays
+    used to compile the kernel's integrator two or three times."""
+    sim = Simulator(load_model(), dt=1e-3)
+    t, u = np.linspace(0.0, 0.01, 11), np.zeros(11)
+    frozen_t, frozen_u = t.copy(), u.copy()
+    frozen_t.flags.writeable = frozen_u.flags.writeable = False
+    a, _ = sim.raw(t, u, np.zeros(4), sim.param_vector)
+    b, _ = sim.raw(frozen_t, frozen_u[::1], np.zeros(4), sim.param_vector, k0=np.int64(0))
+    sim(t, u)
+    assert np.array_equal(a, b)
+    assert len(sim._kernel.simulate.signatures) == 1, sim._kernel.simulate.signatures

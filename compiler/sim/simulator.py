@@ -130,7 +130,8 @@ class Simulator:
         """Unchecked kernel call for inner loops (identification): states array and the
         number of valid rows (fewer than len(t) if the run diverged). The run starts at
         row ``k0`` from ``s0``; rows before it only give an input delay its history."""
-        return self._kernel.simulate(t, u, s0, p, self.dt, self.method == "rk4", k0)
+        return self._kernel.simulate(_frozen(t), _frozen(u), _frozen(s0), _frozen(p), self.dt,
+                                     self.method == "rk4", int(k0))
 
     def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
         t = np.ascontiguousarray(t, dtype=np.float64)
@@ -162,6 +163,17 @@ class Simulator:
         return SimResult(t=t, u=u, states=states, outputs=outputs, signals=self.signals)
 
     run = __call__
+
+
+def _frozen(a) -> np.ndarray:
+    """``a`` as a contiguous float64 array the kernel cannot write: numba compiles one machine
+    code per argument type, and read-only is part of the type, so writable and read-only inputs
+    (a recording's frozen columns, a fresh array) compiled the kernel twice or three times."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
 
 
 def simulate(model: PlantModel, t, u, x0=None, dt: float = 1e-6, method: str = "euler",
