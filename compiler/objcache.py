@@ -79,11 +79,16 @@ def _dep_file(args: list, obj: str) -> str | None:
 
 
 def _copy_atomic(src: str, dst: str) -> None:
+    """Copy ``src`` to ``dst`` through a temporary file (no half-written object), with the mode
+    the compiler would have given it (the umask's, not mkstemp's 0600)."""
     folder = os.path.dirname(os.path.abspath(dst))
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".objcache.")
     os.close(fd)
     try:
         shutil.copyfile(src, tmp)
+        mask = os.umask(0)            # this launcher is a one-thread process of its own
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, dst)
     except BaseException:
         if os.path.exists(tmp):

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from pendc.atomic import current_umask
 from pendc.objcache import cacheable, objcache_env, run
 
 pytestmark = pytest.mark.skipif(shutil.which("c++") is None, reason="no C++ compiler")
@@ -49,6 +50,7 @@ def test_the_second_identical_compile_is_a_copy(setup):
     assert run(args, str(cache), cwd=str(other)) == 0
     assert compiles(log) == 1, "the stored object was compiled again"
     assert (other / "lib.o").read_bytes() == first and (other / "lib.d").is_file()
+    assert (other / "lib.o").stat().st_mode & 0o777 == 0o666 & ~current_umask(), "a copy keeps mkstemp's 0600"
 
 
 def test_a_changed_header_or_flag_compiles_again(setup):
