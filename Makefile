@@ -54,7 +54,7 @@ demo: setup
 SIM ?= both
 # make sim MODEL=path/to/model.toml: the regression on that model's HDL (built under sim_build/, not hdl_out/)
 sim: setup
-	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work sim_build/$(basename $(notdir $(MODEL))))
+	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work $(abspath sim_build/$(basename $(notdir $(MODEL)))))
 
 # every benchmark (bench/bench_*.py) into bench/out/, merged with machine info into bench/out/bench.json;
 # prints the README's table. Synthesis needs pip install -e '.[synth]' (cached by design hash).

@@ -61,7 +61,7 @@ def main(argv=None) -> int:
         if why:
             print(f"tb/run.py: error: {why}", file=sys.stderr)
             return 2
-    work = Path(args.work)
+    work = Path(args.work).resolve()      # the simulators run in their own folders: a relative path would not reach them
     t_all = time.time()
     try:
         prep = pendtb.prepare(work, use_repo_hdl=not args.no_repo_hdl, model_path=args.model, request=request)
