@@ -3,8 +3,8 @@
 The main objects, importable from here::
 
     load_model, parse_model, save_model   model files (TOML)
-    PlantModel, Equations                 rigid body + effects, and its sympy equations
-    CATALOGUE                             the effect classes by name
+    PlantModel, Equations                 plant definition + values, and its sympy equations
+    KINDS                                 the generic effect kinds a plant file's catalogue uses
     Simulator, simulate                   compiled float simulation
     stimuli                               standard input signals
     PendcError                            the exception for bad input
@@ -13,14 +13,14 @@ The main objects, importable from here::
 
 from .api import compare, diagnose, fit
 from .errors import PendcError
-from .model.effects import CATALOGUE
+from .model.effect_kinds import KINDS
 from .model.modelfile import load_model, parse_model, save_model
 from .model.plant import Equations, PlantModel
 from .sim import stimuli
 from .sim.simulator import SimResult, Simulator, simulate
 
 __all__ = [
-    "PendcError", "CATALOGUE", "load_model", "parse_model", "save_model", "Equations", "PlantModel",
+    "PendcError", "KINDS", "load_model", "parse_model", "save_model", "Equations", "PlantModel",
     "stimuli", "SimResult", "Simulator", "simulate", "compare", "diagnose", "fit",
 ]
 __version__ = "0.1.0"

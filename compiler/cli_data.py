@@ -226,9 +226,9 @@ class _MergeSettings(argparse.Action):
 
 def add_data_options(p, many: bool = True) -> None:
     """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
-    from .model.bodies import BODIES
+    from .model.modelfile import shipped_plants
 
-    experiments = "; ".join(f"{', '.join(body.experiments)} ({name})" for name, body in BODIES.items())
+    experiments = "; ".join(f"{', '.join(model.experiments)} ({name})" for name, model in shipped_plants().items())
 
     p.add_argument("data", nargs="+" if many else 1,
                    help="measurement file(s): CSV-like text ('-' for standard input) or MATLAB .mat")

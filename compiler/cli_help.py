@@ -4,8 +4,8 @@ A help text writes ``{plant:WORD}`` where an example needs a name of the plant (
 input, a column list); :class:`PlantWordsFormatter` fills the words in from the interface of
 the shipped default model when, and only when, a help page is printed (building an interface
 derives the equations: seconds, which no other command line should pay). The effect list of
-``pendc fit --help`` / ``pendc diagnose --help`` comes from every body of
-:data:`pendc.model.bodies.BODIES`.
+``pendc fit --help`` / ``pendc diagnose --help`` comes from the catalogue of every shipped
+plant file (:func:`pendc.model.modelfile.shipped_plants`).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ def plant_words(signals=None) -> dict:
     default: the default model's): ``time``, ``input`` (name and ``input_unit``), ``angle``
     (the first periodic position), ``position`` (the first other position, else the second
     position), ``positions``/``states``/``columns`` (comma-separated), each position's unit and
-    encoder step, ``body`` (the interface's name) and ``constants`` (every body's plant constants)."""
-    from .model.bodies import BODIES
+    encoder step, ``body`` (the interface's name) and ``constants`` (every shipped plant's constants)."""
+    from .model.modelfile import shipped_plants
     from .sim.signals import TIME, signals_of
 
     sig = signals_of(signals)
@@ -44,7 +44,7 @@ def plant_words(signals=None) -> dict:
         "position": position, "position_unit": sig.unit(position), "position_step": step(position),
         "positions": ",".join(positions), "states": ",".join(sig.mechanical),
         "columns": ",".join((TIME, sig.input, *positions)), "body": iface.name,
-        "constants": "; ".join(f"{name}: {' '.join(body.constants)}" for name, body in BODIES.items()),
+        "constants": "; ".join(f"{name}: {' '.join(model.plant)}" for name, model in shipped_plants().items()),
     }
 
 
@@ -81,16 +81,18 @@ def formatter_with_plant_words(formatter_class):
 
 
 def effects_by_body() -> str:
-    """The effect catalogue of every body, grouped by body (the names ``--add`` and
-    ``--effects`` take; parameters in brackets, free them with ``--free``)."""
-    from .model.bodies import BODIES, DEFAULT_BODY
+    """The effect catalogue of every shipped plant, grouped by plant (the names ``--add`` and
+    ``--effects`` take; parameters in brackets, free them with ``--free``). A plant file of
+    one's own lists its own in ``[catalogue]``."""
+    from .model.modelfile import default_model_path, load_model, shipped_plants
 
-    lines = ["effects (names for --add; parameters in brackets, free them with --free), by the model's body",
-             "([plant] body in the model file):"]
-    for name, body in BODIES.items():
-        default = ", the default" if name == DEFAULT_BODY else ""
-        lines.append(f"  {name} ({body.summary}{default}):")
-        width = max(len(effect) for effect in body.catalogue)
-        lines += [f"    {effect:<{width}}  {cls.summary} [{', '.join(p.name for p in cls.params)}]"
-                  for effect, cls in body.catalogue.items()]
+    default = load_model(default_model_path()).definition.name
+    lines = ["effects (names for --add; parameters in brackets, free them with --free), by the model's plant",
+             "(the [catalogue] of its plant file; the shipped plants'):"]
+    for name, model in shipped_plants().items():
+        mark = ", the default" if name == default else ""
+        lines.append(f"  {name} ({model.definition.summary}{mark}):")
+        width = max(len(effect) for effect in model.catalogue)
+        lines += [f"    {effect:<{width}}  {e.summary} [{', '.join(p.name for p in e.params)}]"
+                  for effect, e in model.catalogue.items()]
     return "\n".join(lines) + "\n"

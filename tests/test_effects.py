@@ -4,7 +4,7 @@ import pytest
 import sympy as sp
 
 from pendc.errors import PendcError
-from pendc.model.effects import CATALOGUE
+from plants import CATALOGUE, sct_model
 from pendc.model.plant import PlantModel
 
 PLANT = {"g": 9.80665, "M": 103.205, "m": 0.581, "L": 0.138867, "I": 6.21034e-3}
@@ -16,7 +16,7 @@ S = {n: sp.Symbol(n, real=True) for n in
 
 
 def model(**effects):
-    return PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE), **effects})
+    return sct_model(plant=dict(PLANT), effects={"drive": dict(DRIVE), **effects})
 
 
 def cart_terms(m):

@@ -1,4 +1,4 @@
-"""What identification says about each body's effects (pendc.model.identification_notes): every
+"""What identification says about each plant's effects (the plant files' evidence, separated_by and [identification]): every
 text belongs to an effect or constant of that body, and diagnose and its tie rule read them."""
 
 from pathlib import Path
@@ -7,7 +7,9 @@ import pytest
 
 import pendc
 from pendc.ident.ties import find_tie
-from pendc.model.bodies import BODIES
+from pendc.model.modelfile import shipped_plants
+
+BODIES = {name: model.definition for name, model in shipped_plants().items()}
 
 QUBE = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"
 

@@ -8,7 +8,7 @@ import pytest
 import sympy as sp
 
 from pendc.errors import PendcError
-from pendc.model.effects import CATALOGUE
+from plants import CATALOGUE, sct_model
 from pendc.model.plant import PlantModel
 from pendc.sim.simulator import Simulator
 
@@ -18,7 +18,7 @@ S = {n: sp.Symbol(n, real=True) for n in "x dx theta dtheta c_theta x_end k_end 
 
 
 def model(**effects):
-    return PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE), **effects})
+    return sct_model(plant=dict(PLANT), effects={"drive": dict(DRIVE), **effects})
 
 
 def test_spec_names_and_parameters():

@@ -8,7 +8,8 @@ import pytest
 
 import pendc
 from pendc.errors import PendcError
-from pendc.sim.encoders import X_COUNT, THETA_COUNT, counts, encoder_reading, encoder_resolution, quantize
+from plants import THETA_COUNT, X_COUNT
+from pendc.sim.encoders import counts, encoder_reading, encoder_resolution, quantize
 
 QUBE = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"
 

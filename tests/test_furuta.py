@@ -17,7 +17,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 import pendc
-from pendc.model.furuta import derive_furuta
+from plants import derive_furuta
 from pendc.model.plant import PlantModel
 
 QUBE = "models/furuta_qube.toml"
@@ -119,7 +119,7 @@ def _undamped_rhs(model):
 def test_energy_of_the_undamped_body_is_conserved(qube):
     """No effects at all: T + V is constant along a wild swing (scipy's DOP853, not pendc's
     integrator), to the integrator's tolerance."""
-    bare = PlantModel(plant=qube.plant, effects={}, body="furuta")
+    bare = PlantModel(plant=qube.plant, effects={}, definition=qube.definition)
     rb = derive_furuta()
     constants = {rb.constants[k]: v for k, v in bare.plant.items()}
     energy = sp.lambdify([rb.state], (rb.kinetic + rb.potential).subs(constants), "math")
@@ -193,11 +193,12 @@ def test_encoders_are_the_qube_servo_2s(qube):
 
 def test_no_name_is_shared_with_the_cart_pendulum(qube):
     """A grep tells the plants apart: no state, encoder or named quantity of the Furuta is one of
-    the cart-pendulum's (read from its interface's tables, without deriving it)."""
-    from pendc.model import cart, lagrangian
+    the cart-pendulum's (both read from their plant files' declarations)."""
+    from plants import DEFAULT
 
-    cart_names = {q for q, *_ in lagrangian.COORDINATES} | {f"d{q}" for q, *_ in lagrangian.COORDINATES}
-    cart_names |= {f"enc_{state}" for state, *_ in cart.ENCODERS} | set(cart.QUANTITIES)
+    cart = DEFAULT.definition
+    cart_names = {c.name for c in cart.coordinates} | {f"d{c.name}" for c in cart.coordinates}
+    cart_names |= {s.name for s in cart.sensors} | {name for name, *_ in cart.quantities}
     furuta = qube.interface
     ours = {s.name for s in furuta.states} | {e.name for e in furuta.sensors} | {q.name for q in furuta.quantities}
     assert not ours & cart_names and "theta" in cart_names and len(ours) == 4 + 2 + 6

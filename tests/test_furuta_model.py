@@ -10,9 +10,7 @@ import sympy as sp
 
 import pendc
 from pendc.errors import PendcError
-from pendc.model.bodies import BODIES, DEFAULT_BODY
-from pendc.model.effects import CATALOGUE
-from pendc.model.furuta_effects import FURUTA_CATALOGUE
+from plants import CATALOGUE, plant_named
 from pendc.model.modelfile import dumps_fitted, dumps_model, model_fingerprint, parse_model
 from test_furuta import flow  # the model's equations as a plain function, one definition
 
@@ -34,14 +32,16 @@ def test_the_shipped_model_has_the_published_figures(qube):
     assert v["J_r"] == pytest.approx(0.095 * 0.085 ** 2 / 12, rel=1e-7)     # Quanser's m_r L_r^2 / 12
     assert (v["D_r"], v["D_p"]) == (0.0015, 0.0005)
     assert list(qube.effects) == ["motor_drive", "viscous_arm", "viscous_pivot"]
-    assert qube.catalogue is FURUTA_CATALOGUE and set(qube.experiments) == {"free", "arm_held", "pendulum_removed"}
+    assert list(qube.catalogue) == ["motor_drive", "voltage_limit", "viscous_arm", "coulomb_arm", "viscous_pivot",
+                                    "coulomb_pivot", "alpha_offset"]
+    assert set(qube.experiments) == {"free", "arm_held", "pendulum_removed"}
 
 
-def test_without_body_a_file_is_the_cart_pendulum():
+def test_a_file_of_values_alone_is_read_against_the_default_plant():
     default = pendc.load_model()
-    assert default.body == DEFAULT_BODY == "cart_pendulum" and default.catalogue is CATALOGUE
-    assert "body" not in dumps_model(default)
-    assert set(BODIES) == {"cart_pendulum", "furuta"}
+    assert default.body == "cart_pendulum" and default.catalogue == CATALOGUE
+    assert "body" not in dumps_model(default) and 'name = "cart_pendulum"' in dumps_model(default)
+    assert plant_named("furuta").body == "furuta"
 
 
 def test_round_trip_keeps_the_body(qube, tmp_path):
@@ -63,12 +63,12 @@ def test_naming_the_default_body_changes_nothing():
 
 
 @pytest.mark.parametrize("text, message", [
-    (PLANT.replace('"furuta"', '"double_pendulum"'), r"plant.body = 'double_pendulum' is not a rigid body .*known: cart_pendulum, furuta"),
+    (PLANT.replace('"furuta"', '"double_pendulum"'), r"plant.body = 'double_pendulum' is not a shipped plant .*known: cart_pendulum, furuta"),
     (PLANT.replace('"furuta"', "3"), "plant.body must be a string"),
-    (PLANT.replace("L_p = 0.129\n", ""), r"\[plant\] lacks L_p \(body 'furuta': L_p, pendulum length"),
-    (PLANT + "M = 100.0\n", r"unknown constant\(s\) M \(known for body 'furuta': g J_r L_r m_p L_p\)"),
+    (PLANT.replace("L_p = 0.129\n", ""), r"\[plant\] lacks L_p \(plant 'furuta': L_p, pendulum length"),
+    (PLANT + "M = 100.0\n", r"unknown constant\(s\) M \(known for plant 'furuta': g J_r L_r m_p L_p\)"),
     ('[plant]\nbody = "furuta"\ng=9.8\nM=100.0\nm=0.5\nL=0.1\nI=0.006\n', "unknown constant"),
-    (PLANT + "[effects.drive]\nalpha = 1.0\nV_off = 5.0\n", r"unknown effect 'drive' for body 'furuta' \(known: motor_drive"),
+    (PLANT + "[effects.drive]\nalpha = 1.0\nV_off = 5.0\n", r"unknown effect 'drive' for plant 'furuta' \(known: motor_drive"),
     (PLANT + "[effects.motor_drive]\nR_m = 8.4\nk_t = 0.042\n", r"\[effects.motor_drive\] lacks parameter 'k_m'"),
     (PLANT + MOTOR.replace("R_m = 8.4", "R_m = -1.0"), r"motor_drive.R_m = -1.0 is outside its physical range"),
     (PLANT + "[effects.voltage_limit]\nV_max = 5.0\n", "effect 'voltage_limit' needs one of: motor_drive"),
@@ -133,11 +133,12 @@ def test_each_effect_adds_what_it_says(qube):
 
 
 def test_catalogue_entries_describe_themselves():
-    for name, cls in FURUTA_CATALOGUE.items():
+    furuta = plant_named("furuta").catalogue
+    for name, cls in furuta.items():
         assert cls.name == name and cls.summary and cls.params
         assert cls.acts_on in ("arm", "pendulum", "alpha_p")
         for p in cls.params:
             assert p.lo <= p.default <= p.hi and p.unit and p.description
-    assert not set(FURUTA_CATALOGUE) & set(CATALOGUE)
-    params = {p.name for cls in FURUTA_CATALOGUE.values() for p in cls.params}
+    assert not set(furuta) & set(CATALOGUE)
+    params = {p.name for cls in furuta.values() for p in cls.params}
     assert not params & {p.name for cls in CATALOGUE.values() for p in cls.params}

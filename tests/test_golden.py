@@ -9,7 +9,7 @@ from pendc.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.ir.interpret import FixedInterpreter
 from pendc.passes.ranges import per_step
-from pendc.sim.encoders import THETA_COUNT, X_COUNT
+from plants import THETA_COUNT, X_COUNT
 from pendc.sim.stimuli import chirp, swing_up
 
 DT = 1e-6

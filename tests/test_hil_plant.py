@@ -6,7 +6,8 @@ import pytest
 from pendc.errors import PendcError
 from pendc.hil.plant import FloatPlant, Plant, PlantState, make_plant
 from pendc.model.modelfile import load_model
-from pendc.sim.encoders import THETA_COUNT, X_COUNT, counts
+from plants import THETA_COUNT, X_COUNT
+from pendc.sim.encoders import counts
 from pendc.sim.simulator import Simulator
 
 

@@ -2,7 +2,7 @@
 
 import sympy as sp
 
-from pendc.model.lagrangian import derive_rigid_body
+from plants import derive_rigid_body
 
 
 def _thesis_symbols(rb):

@@ -16,7 +16,7 @@ from pendc.ir.graph import Graph
 from pendc.ir.interpret import FloatInterpreter
 from pendc.ir.nodes import Kind, make
 from pendc.ir.verify import verify
-from pendc.model.effects import CATALOGUE
+from plants import CATALOGUE, sct_model
 from pendc.model.plant import PlantModel
 from pendc.passes.lower import lower_model
 from pendc.passes.ranges import per_step
@@ -51,7 +51,7 @@ def graph(model):
 
 
 def effect_model(name):
-    m = PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE)})
+    m = sct_model(plant=dict(PLANT), effects={"drive": dict(DRIVE)})
     if name in PARTNER:
         m = m.with_effect(PARTNER[name])
     return m.with_effect(name, EFFECT_PARAMS.get(name))
@@ -198,7 +198,7 @@ def test_each_effect_lowers_and_verifies(name):
     g = lower_model(m, dt=DT)
     verify(g)
     base = lower_model(effect_model(PARTNER[name]) if name in PARTNER else
-                       PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE)}), dt=DT)
+                       sct_model(plant=dict(PLANT), effects={"drive": dict(DRIVE)}), dt=DT)
     if CATALOGUE[name].acts_on in ("x", "theta"):
         # a sensor offset changes what a recording reads, not the motion; the encoders count
         # from power-on, so the hardware has no form of it
@@ -214,7 +214,7 @@ def test_each_effect_lowers_and_verifies(name):
 
 
 def test_input_delay_is_refused_by_name():
-    m = PlantModel(plant=dict(PLANT), effects={"drive": dict(DRIVE)}).with_effect("input_delay")
+    m = sct_model(plant=dict(PLANT), effects={"drive": dict(DRIVE)}).with_effect("input_delay")
     with pytest.raises(PendcError, match="input_delay"):
         lower_model(m)
 

@@ -16,7 +16,7 @@ import pendc
 from pendc.errors import PendcError
 from pendc.model.interface import (PlantInterface, QuantitySpec, SensorSpec, StateSpec, graph_interface,
                                    require_interface)
-from pendc.model.lagrangian import period_of
+from pendc.model.mechanics import period_of
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model

@@ -67,7 +67,7 @@ def _run(x, theta, name="run", u=None, **attrs):
 
 def test_outputs_are_scaled_by_spread_or_resolution_and_held_ones_dropped():
     from pendc.ident.outputs import plan_outputs, resolution_of
-    from pendc.sim.encoders import THETA_COUNT, X_COUNT
+    from plants import THETA_COUNT, X_COUNT
 
     n = 3000
     swing = np.round(0.5 * np.cos(2 * np.pi * np.arange(n) / 900.0) / THETA_COUNT) * THETA_COUNT

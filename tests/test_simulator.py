@@ -328,7 +328,7 @@ def test_bad_simulation_inputs(default_model, case):
 
 def test_divergence_is_reported():
     """A stiff motor lag (tau_m = 10 us) integrated with 1 ms Euler steps blows up: an error, not NaNs."""
-    model = PlantModel(plant=dict(PLANT), effects={
+    model = sct_model(plant=dict(PLANT), effects={
         "drive": {"alpha": ALPHA, "V_off": V_OFF}, "viscous_cart": {"b_x": B_X}, "motor_lag": {"tau_m": 1e-5}})
     t = grid(1.0)
     with pytest.raises(PendcError, match="diverged"):
@@ -371,7 +371,7 @@ PEND_DAMP = {"b_theta": 0.05}  # damps the pendulum's start transient in cart te
 
 
 def build(**effects):
-    return PlantModel(plant=dict(PLANT), effects=effects)
+    return sct_model(plant=dict(PLANT), effects=effects)
 
 
 def base_cart(**extra):
@@ -593,7 +593,7 @@ def test_effect_changes_response_as_predicted(effect):
 
 
 def test_every_catalogue_effect_is_checked():
-    from pendc.model.effects import CATALOGUE
+    from plants import CATALOGUE, sct_model
 
     spec8 = {"drive", "viscous_cart", "coulomb_cart", "static_cart", "stribeck_cart", "asymmetric_cart",
              "viscous_pendulum", "coulomb_pendulum", "velocity_limit", "force_limit", "drive_deadzone",

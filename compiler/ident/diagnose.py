@@ -91,7 +91,7 @@ class Diagnosis:
 def visible_parts(datasets: list, outputs=None, model=None) -> set:
     """What the compared outputs of ``datasets`` can see: the positions compared and the
     bodies they belong to (for the cart-pendulum "cart", "pendulum", "x", "theta")."""
-    from ..model.experiments import DEFAULT_EXPERIMENT
+    from ..model.equations import DEFAULT_EXPERIMENT
 
     plan = plan_outputs(datasets, outputs, model)
     sig = signals_of(model)
@@ -199,10 +199,10 @@ def offset_blindness(model: PlantModel, datasets: list, output: str, reach: floa
 
 def free_parameters(effect: str, model=None) -> list:
     """The parameters a fit of ``effect`` moves (optional ones keep their defaults), from the
-    catalogue of ``model``'s body (the cart-pendulum's without a model)."""
-    from ..model.effects import CATALOGUE
+    catalogue of ``model``'s plant (the default model's without a model)."""
+    from ..model.modelfile import load_model
 
-    catalogue = _catalogue(model) if model is not None else CATALOGUE
+    catalogue = _catalogue(model if model is not None else load_model())
     if effect not in catalogue:
         raise PendcError(f"unknown effect '{effect}' (the catalogue has: {', '.join(catalogue)})")
     return [p.name for p in catalogue[effect].params if not p.optional]

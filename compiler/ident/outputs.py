@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
-from ..model.experiments import DEFAULT_EXPERIMENT
+from ..model.equations import DEFAULT_EXPERIMENT
 from ..sim.experiment_axes import experiments_of, irrelevant_axes
 from ..sim.signals import signals_of
 

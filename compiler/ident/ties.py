@@ -22,7 +22,7 @@ something happens (the cart meeting a stop), and a spread over unequal segments 
 call that noise.
 
 Which experiment would separate two effects is physics of the body: its
-:class:`~pendc.model.identification_notes.IdentificationNotes` say.
+:class:`~pendc.model.definition.IdentificationNotes` of the plant file say.
 """
 
 from __future__ import annotations
@@ -32,8 +32,7 @@ import math
 import numpy as np
 from scipy.stats import t as student_t
 
-from ..model.bodies import default_body
-from ..model.identification_notes import IdentificationNotes
+from ..model.definition import IdentificationNotes
 
 TIE_FLOOR = 0.01     # score differences below 1 % of the held-out error are not evidence
 CONFIDENCE = 0.95
@@ -41,7 +40,11 @@ CONFIDENCE = 0.95
 def separating_experiment(names: list, notes: IdentificationNotes | None = None) -> str:
     """What would separate the tied ``names``, from the body's ``notes`` (default: the default
     model's body): the pair's own entry when there is one, else each effect's experiment."""
-    return (notes or default_body().notes).separating_experiment(names)
+    if notes is None:
+        from ..model.modelfile import load_model
+
+        notes = load_model().definition.notes
+    return notes.separating_experiment(names)
 
 
 def segment_differences(best, other) -> np.ndarray:

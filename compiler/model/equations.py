@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .experiments import DEFAULT_EXPERIMENT
+DEFAULT_EXPERIMENT = "free"     # the experiment in which everything moves (every plant has it)
 
 
 @dataclass(frozen=True)
@@ -23,7 +23,7 @@ class Equations:
     ``sensor_offsets`` is the measured-output map: ``(state name, offset)`` pairs, the
     sensor of that position reading state + offset (parameters only, so the inverse, the
     true state from a measured one, is a subtraction). ``experiment`` names what was held
-    or removed (:mod:`pendc.model.experiments`); the parameters are the same in every one.
+    or removed (a plant file's ``[experiments]``); the parameters are the same in every one.
     ``measured`` names the positions a run of that experiment measures.
     """
 

@@ -18,21 +18,30 @@ from pathlib import Path
 
 from ..atomic import write_atomic
 from ..errors import PendcError, open_input
-from .bodies import DEFAULT_BODY
 from .plant import PlantModel
+from .plantfile import PHYSICS, PLANT_META, read_definition
 
-TOP_LEVEL = ("plant", "effects", "input", "fit", "meta", "hardware")
+TOP_LEVEL = ("extends", "plant", "effects", "input", "fit", "meta", "hardware") + PHYSICS
+MAX_EXTENDS = 8      # a chain of files extending each other longer than this is a mistake (or a loop)
+
+
+DEFAULT_MODEL = "sct_thesis_final.toml"     # the shipped model `pendc` reads without --model
+
+
+def models_dir() -> Path:
+    """The shipped models: ``pendc/models/`` of an installed wheel, else the source tree's
+    ``models/``."""
+    from importlib import resources
+
+    shipped = Path(str(resources.files("pendc"))) / "models"
+    if (shipped / DEFAULT_MODEL).is_file():
+        return shipped
+    return Path(__file__).resolve().parents[2] / "models"
 
 
 def default_model_path() -> Path:
-    """``models/sct_thesis_final.toml`` (Table 14 of the thesis): the copy shipped in the
-    package (``pendc/models/`` of an installed wheel), else the source tree's ``models/``."""
-    from importlib import resources
-
-    shipped = Path(str(resources.files("pendc"))) / "models" / "sct_thesis_final.toml"
-    if shipped.is_file():
-        return shipped
-    return Path(__file__).resolve().parents[2] / "models" / "sct_thesis_final.toml"
+    """The shipped default model (:data:`DEFAULT_MODEL`, in :func:`models_dir`)."""
+    return models_dir() / DEFAULT_MODEL
 
 
 STDIN = "-"    # the path that means standard input, as for every file pendc reads
@@ -70,9 +79,8 @@ def model_fingerprint(model: PlantModel) -> str:
     its file is and whatever its comments, layout or ``[meta]`` and ``[fit]`` tables say."""
     import json
 
-    read = {"plant": model.plant, "effects": model.effects, "hardware": model.hardware}
-    if model.body != DEFAULT_BODY:     # the cart-pendulum's fingerprints stay what they were
-        read["body"] = model.body
+    read = {"plant": model.plant, "effects": model.effects, "hardware": model.hardware,
+            "physics": model.definition.key}
     if model.input_range is not None:  # the input port's full scale follows the range
         read["input"] = list(model.input_range)
     canonical = json.dumps(read, sort_keys=True, separators=(",", ":"), default=repr)
@@ -88,17 +96,15 @@ def build_source(model: PlantModel) -> str:
     return f"model {model_fingerprint(model)}, pendc {__version__}"
 
 
-def parse_model(text: str, source: str = "<model>") -> PlantModel:
-    """Read a model file's text (``source`` names it in errors) into a validated :class:`PlantModel`."""
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise PendcError(f"{source}: not valid TOML ({exc})") from None
-    unknown = set(doc) - set(TOP_LEVEL)
-    if unknown:
-        raise PendcError(f"{source}: unknown top-level key(s) {', '.join(sorted(unknown))} (allowed: {', '.join(TOP_LEVEL)})")
-    if "plant" not in doc:
-        raise PendcError(f"{source}: missing [plant] table")
+def parse_model(text: str, source: str = "<model>", _chain: tuple = ()) -> PlantModel:
+    """Read a model file's text (``source`` names it in errors) into a validated :class:`PlantModel`.
+
+    The physics come from the file's own tables, from the file it ``extends`` (a path
+    relative to it; its values are overridden by this file's ``[plant]`` numbers, and its
+    active effects by this file's ``[effects]`` when it has that table), or, for a file of
+    values alone, from the shipped plant its ``[plant] body = "NAME"`` names (the default
+    model's plant when it names none)."""
+    doc = _merged(text, source, _chain)
     fit = doc.get("fit", {})
     if not isinstance(fit, dict) or set(fit) - {"free", "intervals"}:
         raise PendcError(f"{source}: [fit] may only hold 'free = [...]' and an [fit.intervals] table")
@@ -110,13 +116,104 @@ def parse_model(text: str, source: str = "<model>") -> PlantModel:
     if not isinstance(hardware, dict):
         raise PendcError(f"{source}: [hardware] must be a table")
     plant = doc["plant"]
-    if not isinstance(plant, dict):
-        raise PendcError(f"{source}: [plant] must be a table")
-    # [plant] body = "..." selects the rigid body (pendc.model.bodies); the rest are its constants
-    body = plant.get("body", DEFAULT_BODY)
-    constants = {k: v for k, v in plant.items() if k != "body"}
+    definition = read_definition(doc, source)
+    constants = {k: v for k, v in plant.items() if k not in PLANT_META and k != "body"}
+    for name, decl in definition.constants.items():
+        if name not in constants and decl.default is not None and "value" in _declared(doc, name):
+            constants[name] = _declared(doc, name)["value"]
     return PlantModel(plant=constants, effects=doc.get("effects", {}), free=tuple(free), source=source,
-                      hardware=hardware, body=body, input_range=_input_range(doc.get("input"), source))
+                      hardware=hardware, definition=definition, input_range=_input_range(doc.get("input"), source))
+
+
+def _declared(doc, name) -> dict:
+    table = doc.get("constants", {}).get(name, {})
+    return table if isinstance(table, dict) else {}
+
+
+def _load_toml(text: str, source: str) -> dict:
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise PendcError(f"{source}: not valid TOML ({exc})") from None
+    unknown = [k for k in doc if k not in TOP_LEVEL]
+    if unknown:
+        raise PendcError(f"{source}: unknown top-level key(s) {', '.join(sorted(unknown))} (allowed: {', '.join(TOP_LEVEL)})")
+    if "plant" not in doc:
+        raise PendcError(f"{source}: missing [plant] table")
+    if not isinstance(doc["plant"], dict):
+        raise PendcError(f"{source}: [plant] must be a table")
+    return doc
+
+
+def has_physics(doc: dict) -> bool:
+    """Whether a parsed file declares physics of its own (a plant file, not values alone)."""
+    return any(k in doc for k in PHYSICS) or "name" in doc.get("plant", {})
+
+
+def _merged(text: str, source: str, chain: tuple) -> dict:
+    """The file's document with the physics (and values) of what it extends filled in."""
+    doc = _load_toml(text, source)
+    base_path = None
+    if "extends" in doc:
+        if has_physics(doc) or "body" in doc["plant"]:
+            raise PendcError(f"{source}: extends: a file that extends another declares no physics (and no body) "
+                             f"of its own")
+        if not isinstance(doc["extends"], str) or not doc["extends"]:
+            raise PendcError(f"{source}: extends must be the path of a plant file, got {doc['extends']!r}")
+        here = Path(source).parent if source not in (STDIN_SOURCE, "<model>") else Path.cwd()
+        base_path = (here / doc["extends"]).resolve()
+    elif not has_physics(doc):
+        base_path = _shipped_plant(doc["plant"].get("body"), source)
+    if base_path is None:
+        return doc
+    if str(base_path) in chain or len(chain) >= MAX_EXTENDS:
+        raise PendcError(f"{source}: extends: {base_path.name} extends itself through a loop of files")
+    base_text, base_source = read_model_text(base_path)
+    base = _merged(base_text, base_source, chain + (str(base_path),))
+    # the physics come from the base; values only through extends (a file of values alone
+    # names every constant itself, as model files always have), effects never: a model file
+    # lists the effects it has
+    out = {k: v for k, v in base.items() if k in PHYSICS}
+    inherited = base["plant"] if "extends" in doc else {k: v for k, v in base["plant"].items() if k in PLANT_META}
+    out["plant"] = {**inherited, **{k: v for k, v in doc["plant"].items() if k != "body"}}
+    for key in ("effects", "input", "hardware", "fit", "meta"):
+        if key in doc:
+            out[key] = doc[key]
+    return out
+
+
+def shipped_plants() -> dict:
+    """Plant name -> the shipped model file of it that declares its physics (the first in
+    name order), as a :class:`PlantModel`."""
+    out = {}
+    for name, path in _shipped_files().items():
+        out[name] = load_model(path)
+    return out
+
+
+def _shipped_files() -> dict:
+    known = {}
+    for path in sorted(models_dir().glob("*.toml")):
+        try:
+            plant = tomllib.loads(path.read_text(encoding="utf-8")).get("plant", {})
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            continue
+        if isinstance(plant, dict) and isinstance(plant.get("name"), str):
+            known.setdefault(plant["name"], path)
+    return known
+
+
+def _shipped_plant(name, source: str) -> Path:
+    """The shipped model file whose plant is called ``name`` (the default model for None)."""
+    if name is None:
+        return default_model_path()
+    if not isinstance(name, str):
+        raise PendcError(f"{source}: plant.body must be a string naming a shipped plant, got {name!r}")
+    known = _shipped_files()
+    if name not in known:
+        raise PendcError(f"{source}: plant.body = '{name}' is not a shipped plant (known: {', '.join(sorted(known))}); "
+                         f"declare the plant's physics in the file or extend a plant file")
+    return known[name]
 
 
 def _input_range(table, source: str):
@@ -161,9 +258,9 @@ def dumps_model(model: PlantModel, meta: dict | None = None) -> str:
         for key, value in meta.items():
             lines.append(f"{key} = {_number(value) if isinstance(value, (int, float)) else _string(str(value))}")
         lines.append("")
+    physics = model.definition.physics
     lines.append("[plant]")
-    if model.body != DEFAULT_BODY:
-        lines.append(f"body = {_string(model.body)}")
+    lines += [f"{k} = {_inline(v)}" for k, v in physics.get("plant", {}).items()]
     lines += [f"{k} = {_number(v)}" for k, v in model.plant.items()]
     for name, params in model.effects.items():
         lines += ["", f"[effects.{name}]"]
@@ -178,7 +275,42 @@ def dumps_model(model: PlantModel, meta: dict | None = None) -> str:
         lines += ["", "[hardware]"] + [f"{k} = {_value(v)}" for k, v in scalars.items()]
     for name, table in tables.items():
         lines += ["", f"[hardware.{name}]"] + [f"{k} = {_value(v)}" for k, v in table.items()]
+    for key in PHYSICS:
+        if key in physics:
+            lines += _table_lines(key, physics[key])
     return "\n".join(lines) + "\n"
+
+
+_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _key(k: str) -> str:
+    return k if _BARE.match(k) else _string(k)
+
+
+def _inline(v) -> str:
+    """A TOML value written on one line (lists and tables inline)."""
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_inline(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_inline(x) for x in v) + "]"
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    return _value(v)
+
+
+def _table_lines(path: str, table: dict) -> list:
+    """``[path]`` with its values, then its sub-tables as their own headers."""
+    out = ["", f"[{path}]"]
+    subs = {}
+    for k, v in table.items():
+        if isinstance(v, dict):
+            subs[k] = v
+        else:
+            out.append(f"{_key(k)} = {_inline(v)}")
+    for k, v in subs.items():
+        out += _table_lines(f"{path}.{_key(k)}", v)
+    return out
 
 
 def _value(v) -> str:
@@ -245,7 +377,8 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
     text = assemble("\n".join(out))
     try:
         back = parse_model(text, source="<fitted model>")
-        same = (back.plant == model.plant and back.effects == model.effects and back.body == model.body
+        same = "extends" not in tomllib.loads(source_text) and (
+            back.plant == model.plant and back.effects == model.effects and back.definition == model.definition
                 and back.input_range == model.input_range)
     except PendcError:
         same = False

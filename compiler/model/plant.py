@@ -1,11 +1,12 @@
-"""The plant model: a rigid body plus a list of effects, and the equations it implies.
+"""The plant model: a plant definition plus the values of its parameters and active effects.
 
 :class:`PlantModel` is the value that model files, the simulator, the identification
-workbench and the compiler pass around. It names its rigid body (:mod:`pendc.model.bodies`:
-the cart-pendulum by default, or the rotary Furuta pendulum) and :func:`build_equations`
-turns it into an :class:`Equations` object: a short list of named intermediate quantities
-(traceable to the physics: ``F_in``, ``F_fric``, ``k``, ``ddx`` ... for the cart) followed by
-the state derivatives. Adding or removing an effect changes these equations and nothing else.
+workbench and the compiler pass around. Its physics is its
+:class:`~pendc.model.definition.PlantDefinition` (what the plant file declares: constants,
+coordinates and bodies or state equations, inputs, sensors, the effect catalogue);
+:mod:`pendc.model.assemble` turns it into an :class:`Equations` object: a short list of
+named intermediate quantities (as the file names them) followed by the state derivatives.
+Adding or removing an effect changes these equations and nothing else.
 """
 
 from __future__ import annotations
@@ -16,27 +17,28 @@ from functools import cached_property
 import math
 
 from ..errors import PendcError
-from .bodies import DEFAULT_BODY, Body, body_named
+from .assemble import build_equations, build_interface
+from .definition import PlantDefinition
+from .effect_kinds import acts_on, implied_requirements
 from .equations import Equations
-from .experiments import DEFAULT_EXPERIMENT
 from .interface import PlantInterface, check_input_range
+from .plantfile import DEFAULT_EXPERIMENT
 
 
 @dataclass(frozen=True)
 class PlantModel:
-    """Rigid-body constants, active effects with their parameter values, and fit settings.
+    """A plant definition, the values of its constants and active effects, and fit settings.
 
-    ``effects`` maps effect name to ``{parameter: value}``; it is kept in catalogue
-    order so that equal models produce identical equations and kernels. ``hardware``
-    holds the model file's ``[hardware]`` table (build options and per-node range or
-    Q-format overrides) untouched. ``experiment`` selects the equations of one of the body's
-    experiments (:mod:`pendc.model.experiments`: a held cart, a removed pendulum); it is never
-    written to a model file. ``body`` names the rigid body (:data:`pendc.model.bodies.BODIES`;
-    a model file's ``[plant] body = "..."``, the cart-pendulum when absent): which constants
-    ``plant`` holds and which effects exist. ``input_range`` is the model file's ``[input]
-    range = [low, high]`` (in the input's unit): what the actuator takes, when the file says
-    (else the body's own, e.g. the thesis' 0-10 V for the SCT drive). Construction validates
-    everything and raises :class:`PendcError` with a one-line reason.
+    ``definition`` is the plant's physics (:class:`~pendc.model.definition.PlantDefinition`,
+    read from a plant file). ``plant`` holds the values of its constants; ``effects`` maps
+    each active effect of its catalogue to ``{parameter: value}``, kept in catalogue order so
+    that equal models produce identical equations and kernels. ``hardware`` holds the model
+    file's ``[hardware]`` table (build options and per-node overrides) untouched.
+    ``experiment`` selects the equations of one of the plant's experiments (a held axis, a
+    removed body); it is never written to a model file. ``input_range`` is the model file's
+    ``[input] range = [low, high]``: what the actuator takes, when the file overrides the
+    input's declared range. Construction validates everything and raises
+    :class:`PendcError` with a one-line reason.
     """
 
     plant: dict
@@ -45,22 +47,23 @@ class PlantModel:
     source: str = field(default="", compare=False)
     hardware: dict = field(default_factory=dict)   # compiler options; the compiler validates them
     experiment: str = DEFAULT_EXPERIMENT
-    body: str = DEFAULT_BODY
+    definition: PlantDefinition | None = None
     input_range: tuple | None = None
 
     def __post_init__(self):
-        rigid = body_named(self.body, self.source)
+        d = self.definition
+        if not isinstance(d, PlantDefinition):
+            raise PendcError(f"{self._where()}a plant model needs its plant definition (read it with load_model "
+                             f"or parse_model from a plant file)")
         if self.input_range is not None:
             pair = self.input_range
             if not isinstance(pair, (list, tuple)) or len(pair) != 2:
                 raise PendcError(f"{self._where()}input.range must be [low, high], got {pair!r}")
             object.__setattr__(self, "input_range", check_input_range(*pair, f"{self._where()}input.range"))
-        if self.experiment not in rigid.experiments:
-            raise PendcError(f"unknown experiment '{self.experiment}' (known: {', '.join(rigid.experiments)})")
-        plant = _validate_plant(self.plant, self.source, rigid)
-        effects = _validate_effects(self.effects, self.source, rigid)
-        object.__setattr__(self, "plant", plant)
-        object.__setattr__(self, "effects", effects)
+        if self.experiment not in d.experiments:
+            raise PendcError(f"unknown experiment '{self.experiment}' (known: {', '.join(d.experiments)})")
+        object.__setattr__(self, "plant", _validate_plant(self.plant, self.source, d))
+        object.__setattr__(self, "effects", _validate_effects(self.effects, self.source, d))
         names = self.parameter_names()
         for p in self.free:
             if p not in names:
@@ -70,19 +73,24 @@ class PlantModel:
         return f"{self.source}: " if self.source else ""
 
     @property
-    def rigid_body(self) -> Body:
-        """The rigid body this model is built on (constants, catalogue, experiments, builders)."""
-        return body_named(self.body)
+    def body(self) -> str:
+        """The plant's name (``[plant] name`` of its file)."""
+        return self.definition.name
+
+    @property
+    def rigid_body(self) -> PlantDefinition:
+        """The plant's definition (constants, catalogue, experiments, identification notes)."""
+        return self.definition
 
     @property
     def catalogue(self) -> dict:
-        """The effect catalogue of this model's body (name -> effect class)."""
-        return self.rigid_body.catalogue
+        """The plant's effect catalogue (name -> :class:`~pendc.model.definition.EffectDecl`)."""
+        return self.definition.catalogue
 
     @property
     def experiments(self) -> dict:
-        """The experiments this model's body knows (name -> what was held or removed)."""
-        return self.rigid_body.experiments
+        """The experiments the plant knows (name -> what was held or removed)."""
+        return {name: e.meaning for name, e in self.definition.experiments.items()}
 
     def parameter_names(self) -> tuple:
         """Plant constants, then effect parameters in catalogue order."""
@@ -93,6 +101,17 @@ class PlantModel:
         for params in self.effects.values():
             values.update(params)
         return values
+
+    def parameter(self, name: str):
+        """The declaration (:class:`~pendc.model.definition.Param`) of a constant or of an
+        effect parameter of the catalogue called ``name`` (KeyError if none)."""
+        if name in self.definition.constants:
+            return self.definition.constants[name]
+        for effect in self.definition.catalogue.values():
+            for p in effect.params:
+                if p.name == name:
+                    return p
+        raise KeyError(name)
 
     def for_experiment(self, name: str) -> "PlantModel":
         """The same model under experiment ``name`` (same parameters, other equations)."""
@@ -149,7 +168,7 @@ def _check_value(where: str, value) -> float:
     return float(value)
 
 
-def _validate_plant(plant: dict, source: str, rigid: Body) -> dict:
+def _validate_plant(plant: dict, source: str, rigid: PlantDefinition) -> dict:
     pre = f"{source}: " if source else ""
     if not isinstance(plant, dict):
         raise PendcError(f"{pre}[plant] must be a table")
@@ -157,26 +176,29 @@ def _validate_plant(plant: dict, source: str, rigid: Body) -> dict:
     unknown = set(plant) - set(constants)
     if unknown:
         raise PendcError(f"{pre}[plant] has unknown constant(s) {', '.join(sorted(unknown))} "
-                         f"(known for body '{rigid.name}': {' '.join(constants)})")
+                         f"(known for plant '{rigid.name}': {' '.join(constants)})")
     missing = [k for k in constants if k not in plant]
     if missing:
-        raise PendcError(f"{pre}[plant] lacks {', '.join(missing)} (body '{rigid.name}': "
-                         + "; ".join(f"{k}, {constants[k][1]} ({constants[k][0]})" for k in missing) + ")")
+        raise PendcError(f"{pre}[plant] lacks {', '.join(missing)} (plant '{rigid.name}': "
+                         + "; ".join(f"{k}, {constants[k].description} ({constants[k].unit})" for k in missing) + ")")
     out = {}
     for k in constants:
         v = _check_value(f"{pre}plant.{k}", plant[k])
-        if v <= 0:
+        lo, hi = constants[k].lo, constants[k].hi
+        if lo >= 0 and v <= 0:
             raise PendcError(f"{pre}plant.{k} must be positive, got {v}")
+        if not lo <= v <= hi:
+            raise PendcError(f"{pre}plant.{k} = {v} is outside its bounds [{lo}, {hi}] {constants[k].unit}")
         out[k] = v
     return out
 
 
-def _validate_effects(effects: dict, source: str, rigid: Body) -> dict:
+def _validate_effects(effects: dict, source: str, rigid: PlantDefinition) -> dict:
     pre = f"{source}: " if source else ""
     catalogue = rigid.catalogue
     if not isinstance(effects, dict):
         raise PendcError(f"{pre}[effects] must be a table of effect tables")
-    of_body = "" if rigid.name == DEFAULT_BODY else f" for body '{rigid.name}'"
+    of_body = f" for plant '{rigid.name}'"
     for name in effects:
         if name not in catalogue:
             raise PendcError(f"{pre}unknown effect '{name}'{of_body} (known: {', '.join(catalogue)})")
@@ -207,17 +229,7 @@ def _validate_effects(effects: dict, source: str, rigid: Body) -> dict:
         if a in out and b in out:
             raise PendcError(f"{pre}effects '{a}' and '{b}' both define the {what}; keep one")
     for name in out:
-        for alternatives in catalogue[name].requires:
+        for alternatives in catalogue[name].requires + implied_requirements(rigid, catalogue[name]):
             if not any(a in out for a in alternatives):
                 raise PendcError(f"{pre}effect '{name}' needs one of: {', '.join(alternatives)}")
     return out
-
-
-def build_equations(model: PlantModel) -> Equations:
-    """Assemble the state equations of ``model`` from its derived rigid body and its effects."""
-    return model.rigid_body.equations(model)
-
-
-def build_interface(model: PlantModel) -> PlantInterface:
-    """The plant interface of ``model``'s rigid body (see :mod:`pendc.model.interface`)."""
-    return model.rigid_body.interface(model)

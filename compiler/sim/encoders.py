@@ -13,10 +13,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PendcError
-# The cart-pendulum's count sizes under their pre-interface names, for callers not yet
-# reading them from the interface (``interface.sensor_of(state).resolution``); the values are
-# the model's (pendc.model.cart.ENCODERS).
-from ..model.cart import THETA_COUNT, X_COUNT  # noqa: F401
 from .signals import signals_of
 
 

@@ -1,6 +1,6 @@
 """Which signals an experiment makes irrelevant, read off the model's equations.
 
-An experiment holds or removes part of the plant (:mod:`pendc.model.experiments`): a position
+An experiment holds or removes part of the plant (a plant file's ``[experiments]``): a position
 its equations no longer report is not measured (a clamped cart's position), and an input its
 equations no longer contain drives nothing (the drive of a clamped cart). A file of such an
 experiment may lack those columns; they are filled and listed as missing.
@@ -9,7 +9,7 @@ experiment may lack those columns; they are filled and listed as missing.
 from __future__ import annotations
 
 from ..errors import PendcError
-from ..model.experiments import DEFAULT_EXPERIMENT
+from ..model.equations import DEFAULT_EXPERIMENT
 from .signals import signals_of
 
 
@@ -23,10 +23,10 @@ def _model(plant):
 
 
 def experiments_of(model) -> dict:
-    """The experiments ``model``'s body knows (the cart-pendulum's without a model)."""
-    from ..model.experiments import EXPERIMENTS
+    """The experiments ``model``'s plant knows (the default model's without a model)."""
+    from ..model.modelfile import load_model
 
-    return dict(getattr(model, "experiments", None) or EXPERIMENTS)
+    return dict(getattr(model, "experiments", None) or load_model().experiments)
 
 
 def _uses_input(equations) -> bool:

@@ -1,0 +1,537 @@
+"""Read the physics tables of a plant file into a :class:`~pendc.model.definition.PlantDefinition`.
+
+A plant file is TOML (``docs/plant_files.md`` is its reference). This module reads the tables
+that describe the physics: ``[plant]`` (name, core, summary), ``[constants]``,
+``[coordinates]`` and ``[bodies]`` with ``[mechanics]`` (mechanical form) or ``[states]``
+(state-equation form), ``[inputs]``, ``[intermediates]``, ``[quantities]``, ``[sensors]``,
+``[catalogue]``, ``[experiments]``, ``[identification]``, ``[operating_points]`` and
+``[drawing]``. Values (``[plant]`` numbers, ``[effects]``) are :mod:`pendc.model.modelfile`'s.
+
+Every mistake is a one-line :class:`~pendc.errors.PendcError` naming the file and the key.
+Expressions are only checked for the names they use here (:mod:`pendc.model.expressions`
+parses them without executing anything); :mod:`pendc.model.assemble` builds them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+from ..errors import PendcError
+from .definition import (BodyDecl, CoordinateDecl, EffectDecl, ExperimentDecl, IdentificationNotes, InputDecl,
+                         Param, PlantDefinition, SensorDecl, StateDecl)
+from .effect_kinds import KINDS, acts_on, check_effect
+from .expressions import free_names
+
+PHYSICS = ("constants", "coordinates", "states", "mechanics", "bodies", "inputs", "intermediates", "quantities",
+           "sensors", "catalogue", "experiments", "identification", "operating_points", "drawing")
+PLANT_META = ("name", "core", "summary", "source")
+from .equations import DEFAULT_EXPERIMENT
+
+
+class _Reader:
+    """Typed access to one table of the file, with errors that name ``file: key``."""
+
+    def __init__(self, source: str, path: str, table):
+        self.source, self.path = source, path
+        if not isinstance(table, dict):
+            self.fail(f"must be a table, got {_kind(table)}")
+        self.table = table
+
+    def where(self, key: str = "") -> str:
+        key = f"{self.path}.{key}" if key and self.path else (key or self.path)
+        return f"{self.source}: {key}" if self.source else key
+
+    def fail(self, why: str, key: str = ""):
+        raise PendcError(f"{self.where(key)}: {why}")
+
+    def only(self, allowed):
+        extra = [k for k in self.table if k not in allowed]
+        if extra:
+            self.fail(f"unknown key '{extra[0]}' (allowed: {', '.join(allowed)})")
+
+    def text(self, key, default=None, required=False) -> str:
+        if key not in self.table:
+            if required:
+                self.fail("is missing", key)
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+            self.fail(f"must be a string, got {_kind(v)}", key)
+        return str(v) if isinstance(v, str) else repr(v)
+
+    def string(self, key, default="", required=False) -> str:
+        if key not in self.table:
+            if required:
+                self.fail("is missing", key)
+            return default
+        v = self.table[key]
+        if not isinstance(v, str):
+            self.fail(f"must be a string, got {_kind(v)}", key)
+        return v
+
+    def number(self, key, default=None, required=False, positive=False) -> float | None:
+        if key not in self.table:
+            if required:
+                self.fail("is missing", key)
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            self.fail(f"must be a finite number, got {v!r}", key)
+        if positive and v <= 0:
+            self.fail(f"must be positive, got {v!r}", key)
+        return float(v)
+
+    def integer(self, key, default=None, required=False) -> int | None:
+        if key not in self.table:
+            if required:
+                self.fail("is missing", key)
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
+            self.fail(f"must be a positive whole number, got {v!r}", key)
+        return v
+
+    def names(self, key) -> tuple:
+        v = self.table.get(key, [])
+        if not isinstance(v, list) or not all(isinstance(n, str) for n in v):
+            self.fail("must be a list of names", key)
+        return tuple(v)
+
+    def pair(self, key, required=False):
+        if key not in self.table:
+            if required:
+                self.fail("is missing: give [low, high]", key)
+            return None
+        v = self.table[key]
+        if (not isinstance(v, list) or len(v) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float))
+                                                         or not math.isfinite(x) for x in v) or not v[0] < v[1]):
+            self.fail(f"must be [low, high] with low < high, got {v!r}", key)
+        return float(v[0]), float(v[1])
+
+    def sub(self, key, required=False) -> "_Reader | None":
+        if key not in self.table:
+            if required:
+                self.fail("is missing", key)
+            return None
+        return _Reader(self.source, f"{self.path}.{key}" if self.path else key, self.table[key])
+
+
+def _kind(v) -> str:
+    return {bool: "a boolean", str: "a string", int: "a number", float: "a number", list: "a list",
+            dict: "a table"}.get(type(v), type(v).__name__)
+
+
+def _identifier(r: _Reader, name: str, what: str):
+    if not name.isidentifier() or name.startswith("_"):
+        r.fail(f"'{name}' is not a valid {what} name (letters, digits and _, not starting with a digit or _)")
+
+
+def _param(r: _Reader, name: str, positive_default: bool) -> Param:
+    _identifier(r, name, "parameter")
+    p = r.sub(name)
+    p.only(("unit", "meaning", "default", "bounds", "value", "optional"))
+    unit = p.string("unit", required=True)
+    meaning = p.string("meaning", required=True)
+    bounds = p.pair("bounds")
+    value = p.number("value")
+    default = p.number("default", value)
+    if bounds is None:
+        lo, hi = (0.0, math.inf) if positive_default else (-math.inf, math.inf)
+    else:
+        lo, hi = bounds
+    if default is None:
+        default = lo if math.isfinite(lo) else 0.0
+    if not lo <= default <= hi:
+        p.fail(f"default {default:g} is outside bounds [{lo:g}, {hi:g}]")
+    optional = p.table.get("optional", False)
+    if not isinstance(optional, bool):
+        p.fail("must be true or false", "optional")
+    return Param(name, unit, default, lo, hi, meaning, optional)
+
+
+def read_definition(doc: dict, source: str) -> PlantDefinition:
+    """The :class:`PlantDefinition` of a plant file's parsed TOML ``doc`` (``source`` names the
+    file in errors). Raises :class:`PendcError` with one line on any mistake."""
+    top = _Reader(source, "", doc)
+    plant = top.sub("plant", required=True)
+    name = plant.string("name", required=True)
+    _identifier(plant, name, "plant")
+    core = plant.string("core", f"{name}_core")
+    _identifier(plant, core, "core")
+    summary = plant.string("summary", name)
+
+    constants = {}
+    creader = top.sub("constants")
+    if creader is not None:
+        for cname in creader.table:
+            constants[cname] = _param(creader, cname, positive_default=True)
+    inputs = _inputs(top)
+    mech = "coordinates" in doc
+    if mech == ("states" in doc):
+        top.fail("declare the dynamics either as [coordinates] with [bodies] (mechanical) or as [states] "
+                 "(state equations), exactly one of the two")
+    coordinates = _coordinates(top) if mech else ()
+    states = () if mech else _states(top)
+    bodies, gravity, kinetic, potential, determinant = _mechanics(top) if mech else ((), (), "", "", "det")
+    intermediates = _intermediates(top)
+    quantities = _quantities(top)
+    catalogue = _catalogue(top)
+    position_names = [c.name for c in coordinates] + [s.name for s in states]
+    rates = [f"d{c.name}" for c in coordinates]
+    sensors = _sensors(top, position_names + [s.name for s in states])
+    experiments = _experiments(top, position_names, [b.name for b in bodies])
+    notes = _notes(top, catalogue)
+    definition = PlantDefinition(
+        name=name, core=core, summary=summary, form="mechanical" if mech else "state", constants=constants,
+        inputs=inputs, coordinates=coordinates, states=states, bodies=bodies, gravity=gravity, kinetic=kinetic,
+        potential=potential, determinant=determinant, intermediates=intermediates, quantities=quantities,
+        catalogue=catalogue, experiments=experiments, sensors=sensors, notes=notes,
+        operating_points=_operating_points(top, position_names + rates), drawing=_drawing(top),
+        source=plant.string("source", ""),
+        key=json.dumps({k: doc[k] for k in ("plant", *PHYSICS) if k in doc and k != "plant"} | {
+            "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}}, sort_keys=True, default=repr),
+        physics={k: doc[k] for k in PHYSICS if k in doc} | {
+            "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}})
+    _check_names(definition, doc, source)
+    for effect in catalogue.values():
+        check_effect(definition, effect, f"{source}: catalogue.{effect.name}")
+    seen = {n: replace(e, acts_on=acts_on(definition, e)) for n, e in catalogue.items()}
+    return replace(definition, catalogue=seen)
+
+
+def _inputs(top: _Reader) -> tuple:
+    r = top.sub("inputs", required=True)
+    if not r.table:
+        r.fail("declares no input")
+    out = []
+    for name in r.table:
+        _identifier(r, name, "input")
+        i = r.sub(name)
+        i.only(("unit", "meaning", "range"))
+        lo, hi = i.pair("range", required=True)
+        out.append(InputDecl(name, i.string("unit", required=True), i.string("meaning", required=True), lo, hi))
+    return tuple(out)
+
+
+_POSITION_KEYS = ("unit", "meaning", "body", "quantity", "force", "force_unit", "friction", "period", "turns",
+                  "budget", "rate")
+
+
+def _periodic(r: _Reader):
+    period = r.table.get("period")
+    if period is None:
+        return None
+    if period == "none":
+        return "none"
+    return r.number("period", positive=True)
+
+
+def _coordinates(top: _Reader) -> tuple:
+    r = top.sub("coordinates")
+    if not r.table:
+        r.fail("declares no coordinate")
+    out = []
+    for name in r.table:
+        _identifier(r, name, "coordinate")
+        c = r.sub(name)
+        c.only(_POSITION_KEYS)
+        rate = c.sub("rate") or _Reader(c.source, c.path + ".rate", {})
+        rate.only(("unit", "meaning", "quantity", "training_rate"))
+        unit = c.string("unit", required=True)
+        out.append(CoordinateDecl(
+            name=name, unit=unit, meaning=c.string("meaning", required=True), body=c.string("body", name),
+            quantity=c.string("quantity", "position"), rate_unit=rate.string("unit", f"{unit}/s"),
+            rate_meaning=rate.string("meaning", f"rate of {name}"), rate_quantity=rate.string("quantity", "rate"),
+            force=c.string("force", f"Q_{name}"), force_unit=c.string("force_unit", ""),
+            friction=c.string("friction", ""), period=_periodic(c), turns=c.integer("turns"),
+            budget=c.number("budget", positive=True), training_rate=rate.number("training_rate", positive=True)))
+    return tuple(out)
+
+
+def _states(top: _Reader) -> tuple:
+    r = top.sub("states")
+    if not r.table:
+        r.fail("declares no state")
+    out = []
+    for name in r.table:
+        _identifier(r, name, "state")
+        s = r.sub(name)
+        s.only(("unit", "meaning", "derivative", "initial", "body", "quantity", "rate_of", "force", "friction",
+                "period", "turns", "budget", "training_rate", "output"))
+        output = s.table.get("output", True)
+        if not isinstance(output, bool):
+            s.fail("must be true or false", "output")
+        period = _periodic(s)
+        out.append(StateDecl(
+            name=name, unit=s.string("unit", required=True), meaning=s.string("meaning", required=True),
+            derivative=s.text("derivative", required=True), initial=s.text("initial", "0"),
+            body=s.string("body", ""), quantity=s.string("quantity", ""), rate_of=s.string("rate_of", ""),
+            force=s.string("force", ""), friction=s.string("friction", ""),
+            period=None if period == "none" else period, turns=s.integer("turns"),
+            budget=s.number("budget", positive=True), training_rate=s.number("training_rate", positive=True),
+            output=output))
+    names = [s.name for s in out]
+    for s in out:
+        if s.rate_of and s.rate_of not in names:
+            r.fail(f"rate_of names unknown state '{s.rate_of}'", f"{s.name}.rate_of")
+    return tuple(out)
+
+
+def _vector(r: _Reader, key: str, required=False) -> tuple:
+    if key not in r.table:
+        if required:
+            r.fail("is missing", key)
+        return ()
+    v = r.table[key]
+    if not isinstance(v, list) or not 2 <= len(v) <= 3 or not all(
+            isinstance(x, (str, int, float)) and not isinstance(x, bool) for x in v):
+        r.fail("must be a list of 2 or 3 expressions (the last component points up)", key)
+    return tuple(x if isinstance(x, str) else repr(x) for x in v)
+
+
+def _mechanics(top: _Reader):
+    m = top.sub("mechanics") or _Reader(top.source, "mechanics", {})
+    m.only(("gravity", "kinetic", "potential", "determinant"))
+    gravity = _vector(m, "gravity")
+    kinetic, potential = m.text("kinetic", ""), m.text("potential", "")
+    determinant = m.string("determinant", "det")
+    r = top.sub("bodies")
+    bodies = []
+    if r is not None:
+        for name in r.table:
+            _identifier(r, name, "body")
+            b = r.sub(name)
+            kind = b.string("kind", "point")
+            if kind == "point":
+                b.only(("kind", "mass", "inertia", "rotation", "position"))
+                body = BodyDecl(name, kind, mass=b.text("mass", ""), inertia=b.text("inertia", ""),
+                                rotation=b.text("rotation", ""), position=_vector(b, "position"))
+                if body.inertia and not body.rotation:
+                    b.fail("an inertia needs the angle it turns with: rotation = \"...\"", "rotation")
+                if body.mass and not body.position:
+                    b.fail("a mass needs its position: position = [x, y] or [x, y, z]", "position")
+            elif kind == "rod":
+                b.only(("kind", "mass", "start", "end"))
+                body = BodyDecl(name, kind, mass=b.text("mass", required=True), start=_vector(b, "start", True),
+                                end=_vector(b, "end", True))
+            else:
+                b.fail(f"unknown body kind '{kind}' (known: point, rod)", "kind")
+            bodies.append(body)
+    if not bodies and not kinetic:
+        top.fail("a mechanical plant needs [bodies] or [mechanics] kinetic = \"...\" (its kinetic energy)")
+    if bodies and (kinetic or potential):
+        m.fail("give either [bodies] or the energies kinetic/potential, not both")
+    dims = {len(v) for b in bodies for v in (b.position, b.start, b.end) if v}
+    if len(dims) > 1 or (gravity and dims and len(gravity) not in dims):
+        top.fail("bodies and gravity must all be 2-D or all 3-D vectors")
+    if bodies and any(b.mass for b in bodies) and not gravity:
+        m.fail("is missing: gravity = [0, \"-g\"] (or [0, 0, 0] for none)", "gravity")
+    return tuple(bodies), gravity, kinetic, potential, determinant
+
+
+def _intermediates(top: _Reader) -> tuple:
+    r = top.sub("intermediates")
+    if r is None:
+        return ()
+    out = []
+    for name in r.table:
+        _identifier(r, name, "intermediate")
+        v = r.table[name]
+        if isinstance(v, dict):
+            i = r.sub(name)
+            i.only(("value", "unit", "meaning"))
+            out.append((name, i.text("value", required=True), i.string("unit", ""), i.string("meaning", "")))
+        else:
+            out.append((name, r.text(name), "", ""))
+    return tuple(out)
+
+
+def _quantities(top: _Reader):
+    r = top.sub("quantities")
+    if r is None:
+        return None
+    out = []
+    for name in r.table:
+        q = r.sub(name)
+        q.only(("unit", "meaning"))
+        out.append((name, q.string("unit", required=True), q.string("meaning", required=True)))
+    return tuple(out)
+
+
+def _catalogue(top: _Reader) -> dict:
+    r = top.sub("catalogue")
+    out = {}
+    if r is None:
+        return out
+    for name in r.table:
+        _identifier(r, name, "effect")
+        e = r.sub(name)
+        kind = e.string("kind", required=True)
+        if kind not in KINDS:
+            e.fail(f"unknown effect kind '{kind}' (known: {', '.join(KINDS)})", "kind")
+        spec = KINDS[kind]
+        e.only(("kind", "on", "summary", "params", "evidence", "separated_by", "requires", "doc") + spec.roles)
+        params = ()
+        preader = e.sub("params")
+        if preader is not None:
+            params = tuple(_param(preader, p, positive_default=False) for p in preader.table)
+        roles = tuple((role, e.text(role)) for role in spec.roles if role in e.table)
+        for role in spec.required:
+            if role not in e.table:
+                e.fail(f"an effect of kind '{kind}' needs {role} = \"...\" ({spec.describe(role)})", role)
+        requires = e.table.get("requires", [])
+        if not isinstance(requires, list) or not all(
+                isinstance(a, str) or (isinstance(a, list) and all(isinstance(x, str) for x in a)) for a in requires):
+            e.fail("must be a list of effect names (or of lists of alternatives)", "requires")
+        out[name] = EffectDecl(
+            name=name, kind=kind, on=e.string("on", required=spec.needs_on), summary=e.string("summary", kind),
+            params=params, roles=roles, requires=tuple((a,) if isinstance(a, str) else tuple(a) for a in requires),
+            evidence=e.string("evidence", ""), separated_by=e.string("separated_by", ""), doc=e.string("doc", ""))
+    return out
+
+
+def _sensors(top: _Reader, states) -> tuple:
+    r = top.sub("sensors")
+    out = []
+    if r is None:
+        return ()
+    for name in r.table:
+        _identifier(r, name, "sensor")
+        s = r.sub(name)
+        s.only(("kind", "state", "band", "lines", "bands_per_rev"))
+        kind = s.string("kind", "quadrature_encoder")
+        if kind != "quadrature_encoder":
+            s.fail(f"unknown sensor kind '{kind}' (known: quadrature_encoder)", "kind")
+        state = s.string("state", required=True)
+        if state not in states:
+            s.fail(f"names unknown position '{state}' (known: {', '.join(states)})", "state")
+        out.append(SensorDecl(name, state, kind, s.number("band", required=True, positive=True),
+                              s.integer("lines", required=True), s.integer("bands_per_rev", required=True)))
+    if len({s.state for s in out}) != len(out):
+        r.fail("two sensors read the same position")
+    return tuple(out)
+
+
+def _experiments(top: _Reader, positions, bodies) -> dict:
+    r = top.sub("experiments") or _Reader(top.source, "experiments", {})
+    out = {DEFAULT_EXPERIMENT: ExperimentDecl(DEFAULT_EXPERIMENT, "everything moves: the full model")}
+    for name in r.table:
+        _identifier(r, name, "experiment")
+        e = r.sub(name)
+        e.only(("meaning", "held", "removed", "measured"))
+        held, removed, measured = e.names("held"), e.names("removed"), e.names("measured")
+        for h in (*held, *measured):
+            if h not in positions:
+                e.fail(f"names unknown coordinate '{h}' (known: {', '.join(positions)})")
+        for b in removed:
+            if b not in bodies:
+                e.fail(f"names unknown body '{b}' (known: {', '.join(bodies)})", "removed")
+        if name == DEFAULT_EXPERIMENT and (held or removed):
+            e.fail("the free experiment holds and removes nothing")
+        out[name] = ExperimentDecl(name, e.string("meaning", required=True), held, removed, measured)
+    return out
+
+
+def _notes(top: _Reader, catalogue: dict) -> IdentificationNotes:
+    r = top.sub("identification") or _Reader(top.source, "identification", {})
+    r.only(("pairs", "hints"))
+    pairs = {}
+    for i, item in enumerate(r.table.get("pairs", [])):
+        p = _Reader(r.source, f"identification.pairs[{i}]", item)
+        p.only(("effects", "separated_by"))
+        names = p.names("effects")
+        if len(names) != 2 or any(n not in catalogue for n in names):
+            p.fail("effects must name two effects of the catalogue", "effects")
+        pairs[frozenset(names)] = p.string("separated_by", required=True)
+    hints = []
+    for i, item in enumerate(r.table.get("hints", [])):
+        h = _Reader(r.source, f"identification.hints[{i}]", item)
+        h.only(("body", "signal", "free", "reason"))
+        signal = h.string("signal", required=True)
+        if signal not in ("angle", "rate", "input"):
+            h.fail(f"must be angle, rate or input, got '{signal}'", "signal")
+        hints.append((h.string("body", required=True), signal, ",".join(h.names("free")),
+                      h.string("reason", required=True)))
+    evidence = {n: e.evidence for n, e in catalogue.items() if e.evidence}
+    separated = {n: e.separated_by for n, e in catalogue.items() if e.separated_by}
+    return IdentificationNotes(evidence, separated, pairs, tuple(hints))
+
+
+def _operating_points(top: _Reader, names) -> dict:
+    r = top.sub("operating_points")
+    out = {}
+    if r is None:
+        return out
+    for name in r.table:
+        o = r.sub(name)
+        for k in o.table:
+            if k not in names:
+                o.fail(f"names unknown state '{k}' (known: {', '.join(names)})", k)
+        out[name] = tuple((k, o.text(k)) for k in o.table)
+    return out
+
+
+def _drawing(top: _Reader) -> dict:
+    r = top.sub("drawing")
+    if r is None:
+        return {}
+    r.only(("points", "lines"))
+    points = r.sub("points", required=True)
+    pts = {}
+    for name in points.table:
+        pts[name] = _vector(points, name, True)
+    lines = r.table.get("lines", [])
+    if not isinstance(lines, list) or not all(isinstance(line, list) and len(line) == 2 and all(p in pts for p in line)
+                                              for line in lines):
+        r.fail("must be a list of [point, point] pairs naming drawing points", "lines")
+    return {"points": pts, "lines": tuple(tuple(line) for line in lines)}
+
+
+def _check_names(d: PlantDefinition, doc: dict, source: str) -> None:
+    """Every expression uses only names the file declares (one line naming the first stray)."""
+    known = set(d.constants) | {i.name for i in d.inputs} | {n for n, *_ in d.intermediates}
+    for c in d.coordinates:
+        known |= {c.name, f"d{c.name}", c.force}
+    for s in d.states:
+        known.add(s.name)
+        if s.force:
+            known.add(s.force)
+    for e in d.catalogue.values():
+        known |= {p.name for p in e.params}
+        for role, text in e.roles:
+            if role == "name" or role == "state":
+                known.add(text)
+    known |= {"t", "pi"}
+
+    def check(text, where):
+        for n in sorted(free_names(text, where)):
+            if n not in known:
+                raise PendcError(f"{where}: unknown symbol '{n}' (declare it in [constants], [intermediates], "
+                                 f"an effect's params or as a coordinate, state or input)")
+
+    for name, text, _, _ in d.intermediates:
+        check(text, f"{source}: intermediates.{name}")
+    for s in d.states:
+        check(s.derivative, f"{source}: states.{s.name}.derivative")
+        check(s.initial, f"{source}: states.{s.name}.initial")
+    for b in d.bodies:
+        for key in ("mass", "inertia", "rotation"):
+            if getattr(b, key):
+                check(getattr(b, key), f"{source}: bodies.{b.name}.{key}")
+        for key in ("position", "start", "end"):
+            for i, text in enumerate(getattr(b, key)):
+                check(text, f"{source}: bodies.{b.name}.{key}[{i}]")
+    for i, text in enumerate(d.gravity):
+        check(text, f"{source}: mechanics.gravity[{i}]")
+    for key in ("kinetic", "potential"):
+        if getattr(d, key):
+            check(getattr(d, key), f"{source}: mechanics.{key}")
+    for e in d.catalogue.values():
+        for role, text in e.roles:
+            if role in KINDS[e.kind].expressions:
+                check(text, f"{source}: catalogue.{e.name}.{role}")
+    for name, pairs in d.operating_points.items():
+        for k, text in pairs:
+            check(text, f"{source}: operating_points.{name}.{k}")
