@@ -256,7 +256,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .cli_ident import add_parsers as add_identification_parsers
     from .cli_hil import add_parsers as add_hil_parsers
+    from .cli_plant import add_parsers as add_plant_parsers
     add_hil_parsers(sub)
+    add_plant_parsers(sub)
     add_identification_parsers(sub)
 
     _add_report_parsers(sub)
