@@ -41,7 +41,7 @@ class _Reader:
 
     def where(self, key: str = "") -> str:
         key = f"{self.path}.{key}" if key and self.path else (key or self.path)
-        return f"{self.source}: {key}" if self.source else key
+        return f"{self.source}: {key}" if self.source and key else (self.source or key)
 
     def fail(self, why: str, key: str = ""):
         raise PendcError(f"{self.where(key)}: {why}")
@@ -325,7 +325,7 @@ def _mechanics(top: _Reader):
         m.fail("give either [bodies] or the energies kinetic/potential, not both")
     dims = {len(v) for b in bodies for v in (b.position, b.start, b.end) if v}
     if len(dims) > 1 or (gravity and dims and len(gravity) not in dims):
-        top.fail("bodies and gravity must all be 2-D or all 3-D vectors")
+        top.fail("bodies and gravity must be all 2-D or all 3-D vectors")
     if bodies and any(b.mass for b in bodies) and not gravity:
         m.fail("is missing: gravity = [0, \"-g\"] (or [0, 0, 0] for none)", "gravity")
     return tuple(bodies), gravity, kinetic, potential, determinant

@@ -1,0 +1,158 @@
+"""Plant files (pendc.model.plantfile, docs/plant_files.md): the reference's own example reads and
+derives what the physics says, and malformed files get one line naming the file and the key."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import pendc
+from pendc.errors import PendcError
+from pendc.model.modelfile import dumps_model, model_fingerprint, parse_model
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "plant_files.md"
+
+
+def example() -> str:
+    """The complete example of docs/plant_files.md, as a user would copy it."""
+    return re.search(r"```toml\n(.*?)```", DOCS.read_text(encoding="utf-8"), re.S).group(1)
+
+
+def test_the_reference_example_derives_a_cart_pendulum():
+    model = parse_model(example(), "my_cart.toml")
+    eq = model.equations
+    x, dx, th, dth, F = sp.symbols("x dx theta dtheta F", real=True)
+    g, M, m, L = sp.symbols("g M m L", positive=True)
+    b = sp.Symbol("b", real=True)
+    ddx, ddth = eq.inline(eq.derivatives[1]), eq.inline(eq.derivatives[3])
+    # a point-mass pendulum on a cart, written out by hand
+    A = sp.Matrix([[M + m, m * L * sp.cos(th)], [m * L * sp.cos(th), m * L ** 2]])
+    rhs = sp.Matrix([F + m * L * dth ** 2 * sp.sin(th), -m * g * L * sp.sin(th) - b * dth])
+    want = A.LUsolve(rhs)
+    values = {g: 9.81, M: 2.0, m: 0.2, L: 0.3, b: 2e-3, F: 1.5, dx: 0.1, dth: -0.7}
+    for angle in (0.0, 0.4, 2.5, -1.2):
+        values[th] = angle
+        assert float(ddx.subs(values)) == pytest.approx(float(want[0].subs(values)), rel=1e-12)
+        assert float(ddth.subs(values)) == pytest.approx(float(want[1].subs(values)), rel=1e-12)
+    iface = model.interface
+    assert iface.state("theta").period == pytest.approx(2 * np.pi) and iface.state("x").period is None
+    assert iface.input.name == "F" and (iface.input.lo, iface.input.hi) == (-20.0, 20.0)
+    assert iface.state("theta").budget == pytest.approx(0.0031415926535897933 / 4)
+
+
+def test_a_written_plant_reads_back_as_itself():
+    model = parse_model(example(), "my_cart.toml")
+    again = parse_model(dumps_model(model), "again.toml")
+    assert again == model and model_fingerprint(again) == model_fingerprint(model)
+
+
+def test_the_fingerprint_covers_the_physics():
+    text = example()
+    other = parse_model(text.replace('"-L*cos(theta)"', '"-L*cos(theta) + 0"').replace(
+        'position = ["x + L*sin(theta)"', 'position = ["x + 1*L*sin(theta)"'), "b.toml")
+    assert model_fingerprint(other) != model_fingerprint(parse_model(text, "a.toml"))
+
+
+def test_shipped_plants_declare_their_physics():
+    for path in sorted(Path(__file__).resolve().parents[1].glob("models/*.toml")):
+        model = pendc.load_model(path)
+        assert model.definition.catalogue and model.interface.sensors, path.name
+
+
+def _without(text: str, line: str) -> str:
+    assert line in text, line
+    return text.replace(line, "", 1)
+
+
+def _hostile():
+    t = example()
+    return [
+        ("not TOML", "[plant\n", "not valid TOML"),
+        ("unknown top-level table", t + "\n[physics]\nx = 1\n", "unknown top-level key"),
+        ("no name", t.replace('name = "my_cart"', ""), r"plant\.name: is missing"),
+        ("bad name", t.replace('name = "my_cart"', 'name = "my cart"'), "not a valid plant name"),
+        ("constant without unit", t.replace('g = { unit = "m/s^2", ', "g = { "), r"constants\.g\.unit: is missing"),
+        ("constant without value", _without(t, "L = 0.3\n"), r"\[plant\] lacks L"),
+        ("constant out of bounds", t.replace("M = 2.0", "M = 500.0"), r"plant\.M = 500.0 is outside its bounds"),
+        ("bounds reversed", t.replace("bounds = [0.1, 100.0]", "bounds = [100.0, 0.1]"), "low < high"),
+        ("both forms", t + '\n[states.q]\nunit = "m"\nmeaning = "q"\nderivative = "0"\n', "exactly one of the two"),
+        ("no dynamics", t.split("[coordinates.x]")[0] + "[inputs.F]\nunit = \"N\"\nmeaning = \"f\"\nrange = [0, 1]\n",
+         "exactly one of the two"),
+        ("unknown symbol", t.replace('"-L*cos(theta)"', '"-R*cos(theta)"'), r"bodies\.bob\.position\[1\]: unknown symbol 'R'"),
+        ("code in an expression", t.replace('"-L*cos(theta)"', "\"__import__('os').system('touch /tmp/pendc_pwned')\""),
+         r"bodies\.bob\.position\[1\]"),
+        ("attribute access", t.replace('"-L*cos(theta)"', '"L.real"'), r"bodies\.bob\.position\[1\]"),
+        ("unknown function", t.replace('"-L*cos(theta)"', '"-L*cosh2(theta)"'), r"bodies\.bob\.position\[1\]"),
+        ("syntax error", t.replace('"-L*cos(theta)"', '"-L*cos(theta"'), r"bodies\.bob\.position\[1\]"),
+        ("vector of mixed size", t.replace('position = ["x", 0]', 'position = ["x", 0, 0]'), "all 2-D or all 3-D"),
+        ("mass without position", t.replace('position = ["x", 0]\n', ""), r"bodies\.cart\.position: a mass needs"),
+        ("inertia without rotation", t.replace('mass = "M"', 'mass = "M"\ninertia = "m"'), "rotation"),
+        ("unknown body kind", t.replace("[bodies.bob]\n", '[bodies.bob]\nkind = "blob"\n'), "unknown body kind 'blob'"),
+        ("no gravity", _without(t, 'gravity = [0, "-g"]                # the last component points up\n'),
+         r"mechanics\.gravity: is missing"),
+        ("singular mass matrix", t.replace('mass = "m"\n', 'mass = "0*m"\n'), "mass matrix is singular"),
+        ("no input", t.replace("[inputs.F]", "[unused]").replace('unit = "N"\nmeaning = "force on the cart (N)"\n'
+                                                                 "range = [-20.0, 20.0]\n", ""), "inputs"),
+        ("input without range", _without(t, "range = [-20.0, 20.0]\n"), r"inputs\.F\.range: is missing"),
+        ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
+        ("sensor band zero", t.replace("band = 1e-4", "band = 0.0"), r"sensors\.enc_x\.band: must be positive"),
+        ("unknown effect kind", t.replace('kind = "viscous"', 'kind = "magic"'), "unknown effect kind 'magic'"),
+        ("effect role missing", _without(t, 'coefficient = "b"\n'), r"catalogue\.damping\.coefficient: an effect of kind 'viscous' needs"),
+        ("effect on nothing", t.replace('on = "theta"', 'on = "phi"'), r"catalogue\.damping\.on: 'phi' is not a coordinate"),
+        ("unknown role", t.replace('coefficient = "b"', 'coefficient = "b"\nstiffness = "b"'), "unknown key 'stiffness'"),
+        ("effect parameter without meaning", t.replace(', meaning = "pivot damping"', ""), r"params\.b\.meaning: is missing"),
+        ("active effect not in the catalogue", t + "\n[effects.spring]\nk = 1.0\n", "unknown effect 'spring'"),
+        ("effect value out of range", t.replace("b = 2e-3", "b = 5.0"), r"damping\.b = 5\.0 is outside its physical range"),
+        ("experiment holds an unknown coordinate", t + '\n[experiments.held]\nmeaning = "m"\nheld = ["y"]\n',
+         "names unknown coordinate 'y'"),
+        ("experiment removes an unknown body", t + '\n[experiments.off]\nmeaning = "m"\nremoved = ["wheel"]\n',
+         "names unknown body 'wheel'"),
+        ("operating point of an unknown state", t + '\n[operating_points]\nup = { phi = "pi" }\n', "names unknown state 'phi'"),
+        ("extends a missing file", '# values\nextends = "nowhere.toml"\n[plant]\ng = 9.8\n', "nowhere.toml"),
+        ("extends and physics", 'extends = "x.toml"\n' + t, "declares no physics"),
+        ("shipped plant unknown", '[plant]\nbody = "zeppelin"\ng = 9.8\n', "'zeppelin' is not a shipped plant"),
+    ]
+
+
+HOSTILE = _hostile()
+
+
+@pytest.mark.parametrize("label, text, message", HOSTILE, ids=[h[0] for h in HOSTILE])
+def test_a_malformed_plant_file_gets_one_line(label, text, message, tmp_path):
+    path = tmp_path / "plant.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(PendcError) as info:
+        pendc.load_model(path).equations
+    line = str(info.value)
+    assert "\n" not in line and re.search(message, line), line
+    assert line.startswith(str(path)) or "nowhere.toml" in line or "x.toml" in line, line
+    assert not Path("/tmp/pendc_pwned").exists()
+
+
+def test_the_hostile_table_is_large():
+    assert len(HOSTILE) >= 25
+
+
+def test_plant_check_exits_2_with_one_line(tmp_path, capsys):
+    from pendc.cli import main
+
+    path = tmp_path / "plant.toml"
+    path.write_text(HOSTILE[10][1], encoding="utf-8")
+    assert main(["plant", "check", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "unknown symbol 'R'" in err
+
+
+def test_plant_new_writes_a_file_that_checks(tmp_path, capsys):
+    from pendc.cli import main
+
+    target = tmp_path / "rig.toml"
+    assert main(["plant", "new", "rig", "-o", str(target)]) == 0
+    assert main(["plant", "check", str(target)]) == 0
+    out = capsys.readouterr().out
+    assert "d/dt dtheta = ddtheta" in out and "enc_theta" in out
+    assert main(["plant", "new", "rig", "-o", str(target)]) == 2          # never overwrites
+    assert main(["plant", "check", str(target), "--latex"]) == 0
+    assert "\\cos" in capsys.readouterr().out
