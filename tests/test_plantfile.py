@@ -156,3 +156,9 @@ def test_plant_new_writes_a_file_that_checks(tmp_path, capsys):
     assert main(["plant", "new", "rig", "-o", str(target)]) == 2          # never overwrites
     assert main(["plant", "check", str(target), "--latex"]) == 0
     assert "\\cos" in capsys.readouterr().out
+
+
+def test_the_hostile_table_is_documented():
+    text = (DOCS.parent / "hostile_inputs.md").read_text(encoding="utf-8")
+    for label, _, message in HOSTILE:
+        assert f"| {label} | `{message}` |" in text, label
