@@ -24,14 +24,7 @@ from .shooting import ShootingProblem
 
 # Physical ranges of the rigid-body constants when a fit frees them (``--free I,L,m``):
 # wide enough for any bench pendulum and cart, narrow enough to keep the optimiser sane.
-RIGID_SPAN = 10.0           # a rigid-body constant without bounds below is fitted within this factor of its value
-PLANT_BOUNDS = {
-    "g": (9.7, 9.9),
-    "M": (0.05, 1e4),       # virtual mass: motor and spindle inertia make it large
-    "m": (1e-3, 100.0),
-    "L": (1e-3, 5.0),
-    "I": (1e-7, 10.0),
-}
+RIGID_SPAN = 10.0           # a plant constant declared without finite bounds is fitted within this factor of its value
 NULL_SINGULAR = 1e-7     # singular values below this fraction of the largest span no direction
 # Residuals within a segment are correlated, so the segments are the independent pieces of
 # evidence; fewer than this many per parameter cannot support an interval (0.5 s of data is
@@ -63,15 +56,23 @@ class FitResult:
 
 
 def parameter_bounds(model: PlantModel, name: str) -> tuple[float, float]:
-    """Physical range of parameter ``name``: the catalogue's, or :data:`PLANT_BOUNDS`."""
+    """Physical range of parameter ``name``: the catalogue's, the plant file's bounds of a
+    constant, or within :data:`RIGID_SPAN` of a constant declared without finite bounds."""
     for effect in model.effects:
         for p in model.catalogue[effect].params:
             if p.name == name:
                 return p.lo, p.hi
-    if name in PLANT_BOUNDS:
-        return PLANT_BOUNDS[name]
-    value = abs(float(model.plant[name]))      # another body's constant: within a decade of its value
+    if _bounded_constant(model, name):
+        declared = model.definition.constants[name]
+        return declared.lo, declared.hi
+    value = abs(float(model.plant[name]))
     return value / RIGID_SPAN, value * RIGID_SPAN
+
+
+def _bounded_constant(model: PlantModel, name: str) -> bool:
+    """Whether ``name`` is a plant constant its file gives finite bounds."""
+    declared = model.definition.constants.get(name)
+    return declared is not None and np.isfinite(declared.lo) and np.isfinite(declared.hi)
 
 
 class _Transform:
@@ -130,7 +131,7 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
 
     for i in range(len(z)):
         a, b = lo[i], hi[i]
-        if tf.free[i] in PLANT_BOUNDS and z[i] > 0:
+        if _bounded_constant(problem.model, tf.free[i]) and z[i] > 0:
             # a rigid-body constant is known to a factor of a few (it was measured or
             # computed); its physical range is for the optimiser's safety, not a search space
             a, b = max(a, z[i] / 4), min(b, z[i] * 4)
