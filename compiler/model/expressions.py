@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Mapping
 
 import sympy as sp
 
@@ -48,6 +49,10 @@ MAX_DEPTH = 200
 MAX_MAGNITUDE = 1e300
 # Bounds numeric exponents so sympy never builds a huge exact power (9**99999) or expands one.
 MAX_EXPONENT = 1000
+
+# sympy compares Min/Max arguments pairwise with assumption queries when building them and
+# again on every subs/diff: 16 arguments take about a second, 128 over a minute.
+MAX_MINMAX_ARGS = 16
 
 CONSTANTS = {"pi": sp.pi}     # names every expression knows, unless ``symbols`` redefines them
 
@@ -74,12 +79,8 @@ _ALLOWED_NODES = (ast.Expression, ast.Constant, ast.Name, ast.Load, ast.UnaryOp,
                   ast.Compare, *_COMPARE, ast.Call, ast.Tuple)
 _REFUSED = {
     ast.Attribute: "attribute access is not allowed",
-    ast.Subscript: "subscripts (x[...]) are not allowed",
-    ast.Slice: "slices are not allowed",
+    ast.Subscript: "subscripts (x[...]) are not allowed", ast.Slice: "slices are not allowed",
     ast.Lambda: "lambda is not allowed",
-    ast.ListComp: "comprehensions are not allowed", ast.SetComp: "comprehensions are not allowed",
-    ast.DictComp: "comprehensions are not allowed",
-    ast.GeneratorExp: "comprehensions are not allowed",
     ast.JoinedStr: "f-strings are not allowed", ast.FormattedValue: "f-strings are not allowed",
     ast.Starred: "starred arguments (*x) are not allowed",
     ast.NamedExpr: "assignment (:=) is not allowed",
@@ -89,13 +90,16 @@ _REFUSED = {
     ast.Yield: "yield is not allowed", ast.YieldFrom: "yield is not allowed",
     ast.Eq: "'==' is not allowed (it compares floats exactly); use < > <= >=",
     ast.NotEq: "'!=' is not allowed (it compares floats exactly); use < > <= >=",
-    ast.Is: "'is' is not allowed; use < > <= >=", ast.IsNot: "'is not' is not allowed; use < > <= >=",
-    ast.In: "'in' is not allowed; use < > <= >=", ast.NotIn: "'not in' is not allowed; use < > <= >=",
     ast.Mod: "'%' is not allowed", ast.FloorDiv: "'//' is not allowed; use floor(a/b)",
     ast.MatMult: "'@' is not allowed", ast.LShift: "'<<' is not allowed",
     ast.RShift: "'>>' is not allowed", ast.BitOr: "'|' is not allowed; use 'or' in a condition",
     ast.BitAnd: "'&' is not allowed; use 'and' in a condition",
     ast.Invert: "'~' is not allowed; use 'not' in a condition",
+    **{kind: "comprehensions are not allowed"
+       for kind in (ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp)},
+    **{kind: f"'{op}' is not allowed; use < > <= >="
+       for kind, op in ((ast.Is, "is"), (ast.IsNot, "is not"), (ast.In, "in"),
+                        (ast.NotIn, "not in"))},
 }
 _NOT_FINITE = (sp.zoo, sp.nan, sp.oo, -sp.oo)
 
@@ -120,7 +124,8 @@ class _Source:
     def column(self, lineno: int, char_index: int) -> int:
         """1-based column in the user's text of character ``char_index`` of line ``lineno``
         of the rewritten text."""
-        line = self.original.split("\n")[lineno - 1] if lineno >= 1 else ""
+        lines = self.original.split("\n")
+        line = lines[lineno - 1] if 1 <= lineno <= len(lines) else ""
         pos = col = 0
         while col < len(line) and pos + (2 if line[col] == "^" else 1) <= char_index:
             pos += 2 if line[col] == "^" else 1
@@ -136,7 +141,8 @@ class _Source:
     def error(self, reason: str, node: ast.AST | None = None) -> PendcError:
         if node is not None and hasattr(node, "lineno"):
             text = ast.get_source_segment(self.python, node) or ast.unparse(node)
-            reason += f" (at column {self.node_column(node)}: {_short(text)!r})"
+            line = f"line {node.lineno}, " if node.lineno > 1 else ""
+            reason += f" (at {line}column {self.node_column(node)}: {_short(text)!r})"
         return PendcError(f"{self.where}: {reason}")
 
 
@@ -177,7 +183,7 @@ def _parse(text, where: str) -> tuple[_Source, ast.AST]:
 
 def _validate(src: _Source, tree: ast.AST) -> None:
     """Refuse, before anything is built, every node outside the grammar (outermost first)."""
-    stack = [(tree, None)]
+    stack, minmax_args = [(tree, None)], 0
     while stack:
         node, parent = stack.pop()
         kind = type(node)
@@ -203,6 +209,11 @@ def _validate(src: _Source, tree: ast.AST) -> None:
                                     f"(allowed: {_ALL_FUNCTIONS})", node)
             elif not isinstance(node.func, ast.Attribute):   # an Attribute gets its own message
                 raise src.error("only the named functions can be called", node)
+            if isinstance(node.func, ast.Name) and node.func.id.lower() in ("min", "max"):
+                minmax_args += len(node.args)
+                if minmax_args > MAX_MINMAX_ARGS:
+                    raise src.error(f"Min and Max take at most {MAX_MINMAX_ARGS} arguments in "
+                                    f"all in one expression", node)
         stack.extend((child, node) for child in reversed(list(ast.iter_child_nodes(node))))
 
 
@@ -373,7 +384,8 @@ def _log10(number) -> float:
     return math.log10(float(number))
 
 
-def parse_expression(text, symbols, where: str) -> sp.Expr:
+def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Basic],
+                     where: str) -> sp.Expr:
     """The sympy expression ``text`` denotes, built without evaluating any code.
 
     ``text`` is an expression string in the grammar of the module docstring, or a TOML number
@@ -384,17 +396,20 @@ def parse_expression(text, symbols, where: str) -> sp.Expr:
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         return _number(text, where)
     src, tree = _parse(text, where)
+    builder = _Builder(src, symbols)      # outside the try: a bad ``symbols`` is a bug, not input
     try:
-        return _Builder(src, symbols).value(tree.body)
+        return builder.value(tree.body)
     except PendcError:
         raise
     except (TypeError, ValueError, ArithmeticError, RecursionError) as exc:
         # sympy refusing something (e.g. comparing a non-real value); keep it to one line.
-        raise PendcError(f"{where}: cannot build the expression "
-                         f"({_short(f'{type(exc).__name__}: {exc}', 100)})") from None
+        detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        raise PendcError(f"{where}: sympy cannot build the expression "
+                         f"({_short(detail, 100)})") from None
 
 
-def parse_vector(value, symbols, where: str) -> tuple[sp.Expr, ...]:
+def parse_vector(value: list, symbols: Mapping[str, sp.Basic],
+                 where: str) -> tuple[sp.Expr, ...]:
     """Each element of ``value`` (a TOML list of expression strings or numbers) parsed by
     :func:`parse_expression`; element ``i`` is named ``f"{where}[{i}]"`` in errors."""
     if not isinstance(value, (list, tuple)):
@@ -402,7 +417,7 @@ def parse_vector(value, symbols, where: str) -> tuple[sp.Expr, ...]:
     return tuple(parse_expression(item, symbols, f"{where}[{i}]") for i, item in enumerate(value))
 
 
-def free_names(text, where: str) -> set[str]:
+def free_names(text: str | int | float, where: str) -> set[str]:
     """The bare names ``text`` uses (not the functions it calls), checked as safely as by
     :func:`parse_expression` but without resolving them; ``pi`` is included when used (it is
     in :data:`CONSTANTS`). A TOML number uses no names."""

@@ -9,14 +9,19 @@ Unit names resolve through :mod:`sympy.physics.units` to SI base dimensions; the
 read with :mod:`ast` and never evaluated (plant files travel between labs). Grammar: unit names
 combined with ``*``, ``/``, ``^`` or ``**`` (integer or fractional powers such as ``^(1/2)`` or
 ``^0.5``) and parentheses; ``1`` as a factor (``1/s``); ``-``, ``1`` or an empty string mean
-dimensionless; ``%`` is percent. Only coherent SI units (and the angles rad, deg, rev, rpm) are
-accepted: a :class:`Dim` carries no scale, so "mm" or "g" would silently be read as m or kg.
-Angles are dimensionless, so rad/s is 1/s.
+dimensionless; ``%`` is percent; ``°`` is deg. Names follow SI symbols as sympy resolves them,
+so ``T`` is the tesla, ``F`` the farad, ``C`` the coulomb, ``S`` the siemens.
+
+A :class:`Dim` carries no scale, so only coherent SI units are accepted: "mm" or "g" would
+silently be read as m or kg. Angles are dimensionless (rad/s is 1/s); deg, rev, rpm and % are
+accepted for their dimension only, and their scale (pi/180, 2*pi, 2*pi/60, 1/100) is the
+caller's to apply to the value.
 """
 
 from __future__ import annotations
 
 import ast
+from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -34,6 +39,7 @@ BASE_UNITS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "tempera
 _UNIT_SOURCES = {
     "m": "meter", "kg": "kilogram", "s": "second", "A": "ampere", "K": "kelvin",
     "mol": "mole", "cd": "candela", "N": "newton", "J": "joule", "W": "watt", "V": "volt",
+    # Python folds the ohm sign U+2126 into Greek capital omega in names; both are listed.
     "ohm": "ohm", "Ohm": "ohm", "Ω": "ohm", "\u2126": "ohm", "F": "farad", "H": "henry",
     "C": "coulomb", "Pa": "pascal", "Hz": "hertz", "T": "tesla", "Wb": "weber",
     "S": "siemens", "rad": "radian", "deg": "degree", "rev": "radian",
@@ -64,15 +70,20 @@ class Dim:
 
     @property
     def dimensionless(self) -> bool:
+        """True for a pure number (angles included)."""
         return not self.exponents
 
     def __mul__(self, other: "Dim") -> "Dim":
+        if not isinstance(other, Dim):
+            return NotImplemented
         merged = dict(self.exponents)
         for name, power in other.exponents:
             merged[name] = merged.get(name, 0) + power
         return Dim.of(merged)
 
     def __truediv__(self, other: "Dim") -> "Dim":
+        if not isinstance(other, Dim):
+            return NotImplemented
         return self * other ** -1
 
     def __pow__(self, power) -> "Dim":
@@ -124,7 +135,7 @@ def _resolve(source) -> Dim:
 UNITS = {name: _resolve(source) for name, source in _UNIT_SOURCES.items()}
 
 
-def parse_unit(text, where: str) -> Dim:
+def parse_unit(text: str, where: str) -> Dim:
     """The dimension of unit string ``text`` ("N*m*s/rad", "kg*m^2", "1/s", "-"), or a
     one-line :class:`PendcError` starting with ``where``."""
     if not isinstance(text, str):
@@ -310,7 +321,7 @@ def _as_sympy(expr):
     return sp.Integer(expr) if isinstance(expr, int) else sp.Float(expr)
 
 
-def dimension_of(expr, dims, where: str) -> Dim:
+def dimension_of(expr: sp.Basic, dims: Mapping[str, Dim], where: str) -> Dim:
     """The dimension of sympy expression ``expr``, given ``dims`` (symbol name -> Dim).
 
     Sums, Min/Max, Piecewise branches and comparisons need like dimensions (a literal 0 fits
@@ -322,7 +333,8 @@ def dimension_of(expr, dims, where: str) -> Dim:
     return DIMENSIONLESS if dim is None else dim
 
 
-def check_same(expected: Dim, expr, dims, where: str, what: str) -> None:
+def check_same(expected: Dim, expr: sp.Basic, dims: Mapping[str, Dim], where: str,
+               what: str) -> None:
     """Raise "{where}: {what} has units of {got}, expected {expected}" unless ``expr`` has
     dimension ``expected`` (a zero expression fits any)."""
     got = _Checker(dims, where).dim(_as_sympy(expr))
