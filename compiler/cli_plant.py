@@ -1,6 +1,6 @@
 """``pendc plant new NAME`` and ``pendc plant check FILE``: start a plant file, and see what it derives.
 
-``new`` writes a commented skeleton (a pendulum on a driven cart, every table of
+``new`` writes a commented skeleton (a load hanging from a driven trolley, every table of
 ``docs/plant_files.md`` present) that ``check`` accepts as it stands; ``check`` reads a plant
 file, derives its equations and prints them (text, or LaTeX with ``--latex``) with the
 states, inputs, sensors, effects and experiments the compiler will start from.
@@ -15,12 +15,12 @@ from .errors import PendcError
 
 SKELETON = '''# {name}: a plant file (docs/plant_files.md is the reference of every table).
 # Check it with `pendc plant check {name}.toml`, build it with `pendc build --model {name}.toml`.
-# The skeleton is a pendulum on a cart pushed by a force: replace the physics with your plant's.
+# The skeleton is a load hanging from a trolley pushed by a force: replace the physics with your plant's.
 
 [plant]
 name = "{name}"
 core = "{name}_core"
-summary = "a pendulum on a cart pushed by a force (replace with your plant)"
+summary = "a load hanging from a trolley pushed by a force (replace with your plant)"
 source = "where the figures come from (a datasheet, a paper, a measurement)"
 # values of the constants
 g = 9.81
@@ -30,97 +30,97 @@ L = 0.25
 
 [constants]
 g = {{ unit = "m/s^2", meaning = "gravitational acceleration", bounds = [9.0, 10.5] }}
-M = {{ unit = "kg", meaning = "cart mass", bounds = [0.01, 100.0] }}
-m = {{ unit = "kg", meaning = "bob mass", bounds = [0.001, 10.0] }}
-L = {{ unit = "m", meaning = "pivot to bob", bounds = [0.01, 5.0] }}
+M = {{ unit = "kg", meaning = "trolley mass", bounds = [0.01, 100.0] }}
+m = {{ unit = "kg", meaning = "load mass", bounds = [0.001, 10.0] }}
+L = {{ unit = "m", meaning = "hook to load", bounds = [0.01, 5.0] }}
 
 # Generalized coordinates (mechanical form; a plant given by state equations uses [states])
-[coordinates.x]
+[coordinates.s]
 unit = "m"
-meaning = "cart position (m)"
-body = "cart"
-force = "F_x"
-rate = {{ unit = "m/s", meaning = "cart velocity (m/s)", quantity = "velocity" }}
+meaning = "trolley position (m)"
+body = "trolley"
+force = "F_s"
+rate = {{ unit = "m/s", meaning = "trolley velocity (m/s)", quantity = "velocity" }}
 
-[coordinates.theta]
+[coordinates.phi]
 unit = "rad"
-meaning = "pendulum angle from hanging down (rad)"
-body = "pendulum"
+meaning = "load angle from hanging down (rad)"
+body = "load"
 quantity = "angle"
-force = "tau_theta"
-rate = {{ unit = "rad/s", meaning = "pendulum angular velocity (rad/s)", training_rate = 30.0 }}
+force = "tau_phi"
+rate = {{ unit = "rad/s", meaning = "load angular velocity (rad/s)", training_rate = 30.0 }}
 
 [mechanics]
 gravity = [0, "-g"]          # the last component points up
 
-[bodies.cart]
-position = ["x", 0]
+[bodies.trolley]
+position = ["s", 0]
 mass = "M"
 
-[bodies.bob]
-position = ["x + L*sin(theta)", "-L*cos(theta)"]
+[bodies.load]
+position = ["s + L*sin(phi)", "-L*cos(phi)"]
 mass = "m"
 
 [inputs.F]
 unit = "N"
-meaning = "force on the cart (N)"
+meaning = "force on the trolley (N)"
 range = [-10.0, 10.0]
 
-[sensors.enc_x]
-state = "x"
+[sensors.enc_s]
+state = "s"
 band = 1e-4
 lines = 1000
 bands_per_rev = 2000
 
-[sensors.enc_theta]
-state = "theta"
+[sensors.enc_phi]
+state = "phi"
 band = 0.0031415926535897933
 lines = 1000
 bands_per_rev = 2000
 
-[experiments.cart_held]
-meaning = "the cart is clamped: only the pendulum swings"
-held = ["x"]
+[experiments.trolley_held]
+meaning = "the trolley is clamped: only the load swings"
+held = ["s"]
 
 [operating_points]
-upright = {{ theta = "pi" }}
+upright = {{ phi = "pi" }}
 
 [drawing]
-points = {{ cart = ["x", 0], bob = ["x + L*sin(theta)", "-L*cos(theta)"] }}
-lines = [["cart", "bob"]]
+points = {{ trolley = ["s", 0], load = ["s + L*sin(phi)", "-L*cos(phi)"] }}
+lines = [["trolley", "load"]]
 
 # The effects a model of the plant may have (generic kinds: docs/plant_files.md)
 [catalogue.push]
 kind = "drive"
-on = "x"
+on = "s"
 force = "F"
 name = "F_push"
-summary = "the input force pushes the cart"
+summary = "the input force pushes the trolley"
 
-[catalogue.cart_friction]
+[catalogue.rail_friction]
 kind = "viscous"
-on = "x"
-coefficient = "b_x"
-summary = "viscous friction of the cart, -b_x dx"
-evidence = "the residual force on the cart is proportional to its speed"
-params.b_x = {{ unit = "N*s/m", default = 0.5, bounds = [0.0, 100.0], meaning = "viscous coefficient of the cart" }}
+on = "s"
+coefficient = "b_s"
+summary = "viscous friction of the trolley, -b_s ds"
+evidence = "the residual force on the trolley is proportional to its speed"
+params.b_s = {{ unit = "N*s/m", default = 0.5, bounds = [0.0, 100.0], meaning = "viscous coefficient of the trolley" }}
 
-[catalogue.pivot_damping]
+[catalogue.hook_damping]
 kind = "viscous"
-on = "theta"
-coefficient = "b_theta"
-summary = "viscous damping at the pivot, -b_theta dtheta"
-evidence = "the residual torque at the pivot is proportional to the swing's rate"
-params.b_theta = {{ unit = "N*m*s/rad", default = 1e-3, bounds = [0.0, 1.0], meaning = "pivot damping" }}
+on = "phi"
+coefficient = "b_phi"
+summary = "viscous damping at the hook, -b_phi dphi"
+evidence = "the residual torque at the hook is proportional to the swing's rate"
+params.b_phi = {{ unit = "N*m*s/rad", default = 1e-3, bounds = [0.0, 1.0], meaning = "hook damping" }}
 
 # The effects this model has, with their values
 [effects.push]
 
-[effects.cart_friction]
-b_x = 0.5
+[effects.rail_friction]
+b_s = 0.5
 
-[effects.pivot_damping]
-b_theta = 1e-3
+[effects.hook_damping]
+b_phi = 1e-3
 '''
 
 

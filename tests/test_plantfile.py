@@ -152,7 +152,7 @@ def test_plant_new_writes_a_file_that_checks(tmp_path, capsys):
     assert main(["plant", "new", "rig", "-o", str(target)]) == 0
     assert main(["plant", "check", str(target)]) == 0
     out = capsys.readouterr().out
-    assert "d/dt dtheta = ddtheta" in out and "enc_theta" in out
+    assert "d/dt dphi = ddphi" in out and "enc_phi" in out
     assert main(["plant", "new", "rig", "-o", str(target)]) == 2          # never overwrites
     assert main(["plant", "check", str(target), "--latex"]) == 0
     assert "\\cos" in capsys.readouterr().out
