@@ -13,6 +13,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..errors import PendcError
+from .dimensions import check_dimensions
 from .effect_kinds import DRIVE, INPUT, MOVING, SHAPERS, STICKING, target_kind
 from .equations import Equations
 from .expressions import parse_expression
@@ -173,7 +174,7 @@ def build_equations(model) -> Equations:
     held = set(experiment.held)
     measured = experiment.measured or tuple(
         s.state for s in d.sensors if s.state not in held) or tuple(n for n in d.coordinate_names if n not in held)
-    return Equations(
+    equations = Equations(
         states=tuple(states) + tuple(s for s, _, _ in lags),
         input=ctx.symbols[d.inputs[0].name],
         params=tuple(ctx.params),
@@ -186,6 +187,8 @@ def build_equations(model) -> Equations:
         experiment=model.experiment,
         measured=tuple(measured),
     )
+    check_dimensions(model, equations)
+    return equations
 
 
 def _mechanism(ctx, removed=()):
