@@ -56,54 +56,49 @@ class EffectDecl:
 
 
 @dataclass(frozen=True)
-class CoordinateDecl:
-    """A generalized coordinate ``name`` (mechanical form) or a state (state-equation form).
-
-    Mechanical coordinates get a rate ``d<name>`` and an acceleration ``dd<name>``; ``force``
-    names the generalized force on it (an intermediate the equations bind), ``friction`` the
-    dry-friction term of it when it should be bound under its own name. ``period`` is declared
-    or read off the geometry; ``turns`` is the capacity of a periodic register in whole
-    periods either way; ``budget`` the error budget of the position (default: half a count of
-    its sensor); ``training_rate`` a rate range analysis also starts from."""
+class PositionDecl:
+    """What a coordinate (mechanical form) and a state (state-equation form) both declare:
+    words for reports, the name of the generalized force effects add to (``force``) and of its
+    dry friction when bound on its own (``friction``), and how the hardware holds it: ``period``
+    (declared; a mechanism's is read off its geometry), ``turns`` (whole periods either way a
+    periodic register holds), ``budget`` (the error budget; default half a count of its
+    sensor), ``training_rate`` (a rate range analysis also starts from)."""
 
     name: str
     unit: str
     meaning: str
     body: str = ""
     quantity: str = ""
-    rate_unit: str = ""
-    rate_meaning: str = ""
-    rate_quantity: str = ""
     force: str = ""
-    force_unit: str = ""
     friction: str = ""
-    period: object = None          # None: read off the geometry (mechanical) or not periodic
+    period: object = None          # a number, "none", or None (mechanical: read off the geometry)
     turns: int | None = None
     budget: float | None = None
     training_rate: float | None = None
 
 
 @dataclass(frozen=True)
-class StateDecl:
-    """A state of a state-equation plant: its derivative (expression text), initial value,
-    and how the hardware treats it (as :class:`CoordinateDecl`). ``rate_of`` marks a state that
-    is the rate of another (its derivative then takes the coordinate's generalized force,
-    named ``force``, which effects add to)."""
+class CoordinateDecl(PositionDecl):
+    """A generalized coordinate ``name`` of a mechanism: it gets a rate ``d<name>`` (described by
+    the ``rate_*`` fields) and an acceleration ``dd<name>``; ``force_unit`` is its generalized
+    force's."""
 
-    name: str
-    unit: str
-    meaning: str
-    derivative: str
+    rate_unit: str = ""
+    rate_meaning: str = ""
+    rate_quantity: str = ""
+    force_unit: str = ""
+
+
+@dataclass(frozen=True)
+class StateDecl(PositionDecl):
+    """A state of a state-equation plant: its ``derivative`` (expression text) and ``initial``
+    value. ``rate_of`` marks a state that is the rate of another (its derivative then takes the
+    position's generalized force ``force``, which effects add to); ``output`` whether the
+    hardware reports it every step."""
+
+    derivative: str = ""
     initial: str = "0"
-    body: str = ""
-    quantity: str = ""
     rate_of: str = ""
-    force: str = ""
-    friction: str = ""
-    period: float | None = None
-    turns: int | None = None
-    budget: float | None = None
-    training_rate: float | None = None
     output: bool = True
 
 

@@ -228,50 +228,53 @@ def _periodic(r: _Reader):
     return r.number("period", positive=True)
 
 
-def _coordinates(top: _Reader) -> tuple:
-    r = top.sub("coordinates")
+def _entries(top: _Reader, key: str, what: str):
+    """``(name, reader)`` of each entry of table ``key`` (at least one, each a valid name)."""
+    r = top.sub(key)
     if not r.table:
-        r.fail("declares no coordinate")
-    out = []
+        r.fail(f"declares no {what}")
     for name in r.table:
-        _identifier(r, name, "coordinate")
-        c = r.sub(name)
+        _identifier(r, name, what)
+        yield name, r.sub(name)
+
+
+def _position(e: _Reader, name: str, body: str, quantity: str, force: str) -> dict:
+    """The fields every position declares (:class:`PositionDecl`), with these defaults."""
+    return dict(name=name, unit=e.string("unit", required=True), meaning=e.string("meaning", required=True),
+                body=e.string("body", body), quantity=e.string("quantity", quantity),
+                force=e.string("force", force), friction=e.string("friction", ""), period=_periodic(e),
+                turns=e.integer("turns"), budget=e.number("budget", positive=True))
+
+
+def _coordinates(top: _Reader) -> tuple:
+    out = []
+    for name, c in _entries(top, "coordinates", "coordinate"):
         c.only(_POSITION_KEYS)
         rate = c.sub("rate") or _Reader(c.source, c.path + ".rate", {})
         rate.only(("unit", "meaning", "quantity", "training_rate"))
-        unit = c.string("unit", required=True)
+        fields = _position(c, name, name, "position", f"Q_{name}")
         out.append(CoordinateDecl(
-            name=name, unit=unit, meaning=c.string("meaning", required=True), body=c.string("body", name),
-            quantity=c.string("quantity", "position"), rate_unit=rate.string("unit", f"{unit}/s"),
-            rate_meaning=rate.string("meaning", f"rate of {name}"), rate_quantity=rate.string("quantity", "rate"),
-            force=c.string("force", f"Q_{name}"), force_unit=c.string("force_unit", ""),
-            friction=c.string("friction", ""), period=_periodic(c), turns=c.integer("turns"),
-            budget=c.number("budget", positive=True), training_rate=rate.number("training_rate", positive=True)))
+            **fields, training_rate=rate.number("training_rate", positive=True),
+            rate_unit=rate.string("unit", f"{fields['unit']}/s"), rate_meaning=rate.string("meaning", f"rate of {name}"),
+            rate_quantity=rate.string("quantity", "rate"), force_unit=c.string("force_unit", "")))
     return tuple(out)
 
 
 def _states(top: _Reader) -> tuple:
     r = top.sub("states")
-    if not r.table:
-        r.fail("declares no state")
     out = []
-    for name in r.table:
-        _identifier(r, name, "state")
-        s = r.sub(name)
+    for name, s in _entries(top, "states", "state"):
         s.only(("unit", "meaning", "derivative", "initial", "body", "quantity", "rate_of", "force", "friction",
                 "period", "turns", "budget", "training_rate", "output"))
         output = s.table.get("output", True)
         if not isinstance(output, bool):
             s.fail("must be true or false", "output")
-        period = _periodic(s)
+        fields = _position(s, name, "", "", "")
+        fields["period"] = None if fields["period"] == "none" else fields["period"]
         out.append(StateDecl(
-            name=name, unit=s.string("unit", required=True), meaning=s.string("meaning", required=True),
+            **fields, training_rate=s.number("training_rate", positive=True),
             derivative=s.text("derivative", required=True), initial=s.text("initial", "0"),
-            body=s.string("body", ""), quantity=s.string("quantity", ""), rate_of=s.string("rate_of", ""),
-            force=s.string("force", ""), friction=s.string("friction", ""),
-            period=None if period == "none" else period, turns=s.integer("turns"),
-            budget=s.number("budget", positive=True), training_rate=s.number("training_rate", positive=True),
-            output=output))
+            rate_of=s.string("rate_of", ""), output=output))
     names = [s.name for s in out]
     for s in out:
         if s.rate_of and s.rate_of not in names:
