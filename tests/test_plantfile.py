@@ -166,3 +166,19 @@ def test_the_hostile_table_is_documented():
     text = (DOCS.parent / "hostile_inputs.md").read_text(encoding="utf-8")
     for label, _, message in HOSTILE:
         assert f"| {label} | `{message}` |" in text, label
+
+
+def test_a_state_equation_plant_simulates_to_its_steady_state():
+    """A DC motor given by its state equations (input v, not u): the speed settles where the
+    back-EMF and the bearing friction balance the voltage, k v / (k^2 + R b)."""
+    from pendc.sim.simulator import Simulator
+
+    model = pendc.load_model(Path(__file__).parent / "plant_dc_motor.toml")
+    iface = model.interface
+    assert [s.name for s in iface.states] == ["i", "phi", "omega"] and iface.input.name == "v"
+    assert iface.state("phi").period == pytest.approx(2 * np.pi) and iface.state("omega").derivative_of == "phi"
+    t = np.arange(0, 0.2, 1e-6)
+    res = Simulator(model)(t, np.where(t > 0.01, 5.0, 0.0))
+    v = model.parameter_values()
+    steady = v["k"] * 5.0 / (v["k"] ** 2 + v["R"] * v["b"])
+    assert res["omega"][-1] == pytest.approx(steady, rel=1e-4)
