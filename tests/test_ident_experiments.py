@@ -113,11 +113,12 @@ def test_files_of_different_experiments_fit_together():
 
 
 def test_plant_constants_have_physical_bounds_and_can_be_freed():
-    from pendc.ident.fit import PLANT_BOUNDS, parameter_bounds
+    from pendc.ident.fit import parameter_bounds
 
     for name, value in BASE.plant.items():
         lo, hi = parameter_bounds(BASE, name)
-        assert (lo, hi) == PLANT_BOUNDS[name] and lo < value < hi
+        declared = BASE.definition.constants[name]          # the plant file's bounds
+        assert (lo, hi) == (declared.lo, declared.hi) and lo < value < hi
     data = measured(free_swing(3.0, L=SCT["L"] * 1.03), "cart_held", "longer")
     fitted = fit_parameters(BASE, [data], ["L"])
     assert fitted.values["L"] == pytest.approx(SCT["L"] * 1.03, rel=0.01)

@@ -201,7 +201,7 @@ import json, resource, sys
 import numpy as np, scipy.io
 from pendc.sim import csvread, matread, plausibility, readers, resample
 from pendc.sim.measurements import read_measurements
-from pendc.model import experiments
+from pendc.model import plantfile
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 m = read_measurements(sys.argv[1], options=readers.ReadOptions(uniform=True, plausible=True))
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

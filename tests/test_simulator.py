@@ -19,6 +19,7 @@ from scipy.optimize import brentq
 from pendc.errors import PendcError
 from pendc.model.modelfile import load_model
 from pendc.model.plant import PlantModel
+from plants import sct_model
 from pendc.sim import stimuli
 from pendc.sim.simulator import Simulator
 

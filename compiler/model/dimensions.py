@@ -56,6 +56,7 @@ def check_dimensions(model, equations) -> None:
         if sym.name in expected:
             want, what = expected[sym.name]
             check_same(want, expr, dims, where, what)
+            dims[sym.name] = want          # a zero (no effect yet) has the place's unit, not none
         for state, derivative in lags:
             if state.name not in dims and sym in derivative.free_symbols:
                 dims[state.name] = dims[sym.name]

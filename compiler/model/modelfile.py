@@ -162,6 +162,9 @@ def _merged(text: str, source: str, chain: tuple) -> dict:
             raise PendcError(f"{source}: extends must be the path of a plant file, got {doc['extends']!r}")
         here = Path(source).parent if source not in (STDIN_SOURCE, "<model>") else Path.cwd()
         base_path = (here / doc["extends"]).resolve()
+        shipped = models_dir() / doc["extends"]
+        if not base_path.is_file() and shipped.is_file():   # a copied model still finds the shipped plant
+            base_path = shipped.resolve()
     elif not has_physics(doc):
         base_path = _shipped_plant(doc["plant"].get("body"), source)
     if base_path is None:

@@ -19,7 +19,6 @@ import math
 from ..errors import PendcError
 from .assemble import build_equations, build_interface
 from .definition import PlantDefinition
-from .effect_kinds import acts_on, implied_requirements
 from .equations import Equations
 from .interface import PlantInterface, check_input_range
 from .plantfile import DEFAULT_EXPERIMENT
@@ -229,7 +228,7 @@ def _validate_effects(effects: dict, source: str, rigid: PlantDefinition) -> dic
         if a in out and b in out:
             raise PendcError(f"{pre}effects '{a}' and '{b}' both define the {what}; keep one")
     for name in out:
-        for alternatives in catalogue[name].requires + implied_requirements(rigid, catalogue[name]):
+        for alternatives in catalogue[name].requires:
             if not any(a in out for a in alternatives):
                 raise PendcError(f"{pre}effect '{name}' needs one of: {', '.join(alternatives)}")
     return out

@@ -21,7 +21,7 @@ from dataclasses import replace
 from ..errors import PendcError
 from .definition import (BodyDecl, CoordinateDecl, EffectDecl, ExperimentDecl, IdentificationNotes, InputDecl,
                          Param, PlantDefinition, SensorDecl, StateDecl)
-from .effect_kinds import KINDS, acts_on, check_effect
+from .effect_kinds import KINDS, acts_on, check_effect, implied_requirements
 from .expressions import free_names
 
 PHYSICS = ("constants", "coordinates", "states", "mechanics", "bodies", "inputs", "intermediates", "quantities",
@@ -197,7 +197,8 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     _check_names(definition, doc, source)
     for effect in catalogue.values():
         check_effect(definition, effect, f"{source}: catalogue.{effect.name}")
-    seen = {n: replace(e, acts_on=acts_on(definition, e)) for n, e in catalogue.items()}
+    seen = {n: replace(e, acts_on=acts_on(definition, e), requires=e.requires + implied_requirements(definition, e))
+            for n, e in catalogue.items()}
     return replace(definition, catalogue=seen)
 
 

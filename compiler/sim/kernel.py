@@ -58,11 +58,11 @@ def kernel_source(eq: Equations, clamped: str | None = None) -> str:
     mech = names[:nm]
     unpack_s = f"    {', '.join(names)}, = S\n"
     unpack_p = f"    {', '.join(pnames)}, = P\n"
-    # the kernel's argument is u; a plant file names its input as it likes
-    alias = f"    {eq.input.name} = u\n" if eq.input.name != "u" else ""
+    # a plant file names its input as it likes: the kernel binds that name to its input argument
+    alias = f"    {eq.input.name} = inp\n"
 
     body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in eq.assignments)
-    rhs = ("@njit(cache=True)\ndef rhs(S, u, P):\n" + unpack_s + unpack_p + alias + body
+    rhs = ("@njit(cache=True)\ndef rhs(S, inp, P):\n" + unpack_s + unpack_p + alias + body
            + f"    return {_tuple(pr.doprint(d) for d in eq.derivatives)}\n")
 
     held = list(names)
@@ -74,7 +74,7 @@ def kernel_source(eq: Equations, clamped: str | None = None) -> str:
 
     inits = [f"float({pr.doprint(e)})" for e in eq.initial]  # a literal 0 would make the tuple mixed-type
     force_body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in _needed_assignments(eq, eq.initial))
-    init = (f"@njit(cache=True)\ndef start(SM, u, P):\n    {', '.join(mech)}, = SM\n" + unpack_p + alias + force_body
+    init = (f"@njit(cache=True)\ndef start(SM, inp, P):\n    {', '.join(mech)}, = SM\n" + unpack_p + alias + force_body
             + f"    return {_tuple(mech + inits)}\n")
 
     def combine(a, b, c):
