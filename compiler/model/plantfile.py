@@ -15,158 +15,37 @@ parses them without executing anything); :mod:`pendc.model.assemble` builds them
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import replace
 
 from ..errors import PendcError
 from .definition import (BodyDecl, CoordinateDecl, EffectDecl, ExperimentDecl, IdentificationNotes, InputDecl,
-                         Param, PlantDefinition, SensorDecl, StateDecl)
+                         PlantDefinition, SensorDecl, StateDecl)
 from .effect_kinds import KINDS, acts_on, check_effect, implied_requirements
+from .equations import DEFAULT_EXPERIMENT
 from .expressions import free_names
+from .table_reader import TableReader, check_identifier, read_param, read_period, read_vector
 
 PHYSICS = ("constants", "coordinates", "states", "mechanics", "bodies", "inputs", "intermediates", "quantities",
            "sensors", "catalogue", "experiments", "identification", "operating_points", "drawing")
 PLANT_META = ("name", "core", "summary", "source")
-from .equations import DEFAULT_EXPERIMENT
-
-
-class _Reader:
-    """Typed access to one table of the file, with errors that name ``file: key``."""
-
-    def __init__(self, source: str, path: str, table):
-        self.source, self.path = source, path
-        if not isinstance(table, dict):
-            self.fail(f"must be a table, got {_kind(table)}")
-        self.table = table
-
-    def where(self, key: str = "") -> str:
-        key = f"{self.path}.{key}" if key and self.path else (key or self.path)
-        return f"{self.source}: {key}" if self.source and key else (self.source or key)
-
-    def fail(self, why: str, key: str = ""):
-        raise PendcError(f"{self.where(key)}: {why}")
-
-    def only(self, allowed):
-        extra = [k for k in self.table if k not in allowed]
-        if extra:
-            self.fail(f"unknown key '{extra[0]}' (allowed: {', '.join(allowed)})")
-
-    def text(self, key, default=None, required=False) -> str:
-        if key not in self.table:
-            if required:
-                self.fail("is missing", key)
-            return default
-        v = self.table[key]
-        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
-            self.fail(f"must be a string, got {_kind(v)}", key)
-        return str(v) if isinstance(v, str) else repr(v)
-
-    def string(self, key, default="", required=False) -> str:
-        if key not in self.table:
-            if required:
-                self.fail("is missing", key)
-            return default
-        v = self.table[key]
-        if not isinstance(v, str):
-            self.fail(f"must be a string, got {_kind(v)}", key)
-        return v
-
-    def number(self, key, default=None, required=False, positive=False) -> float | None:
-        if key not in self.table:
-            if required:
-                self.fail("is missing", key)
-            return default
-        v = self.table[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            self.fail(f"must be a finite number, got {v!r}", key)
-        if positive and v <= 0:
-            self.fail(f"must be positive, got {v!r}", key)
-        return float(v)
-
-    def integer(self, key, default=None, required=False) -> int | None:
-        if key not in self.table:
-            if required:
-                self.fail("is missing", key)
-            return default
-        v = self.table[key]
-        if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
-            self.fail(f"must be a positive whole number, got {v!r}", key)
-        return v
-
-    def names(self, key) -> tuple:
-        v = self.table.get(key, [])
-        if not isinstance(v, list) or not all(isinstance(n, str) for n in v):
-            self.fail("must be a list of names", key)
-        return tuple(v)
-
-    def pair(self, key, required=False):
-        if key not in self.table:
-            if required:
-                self.fail("is missing: give [low, high]", key)
-            return None
-        v = self.table[key]
-        if (not isinstance(v, list) or len(v) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float))
-                                                         or not math.isfinite(x) for x in v) or not v[0] < v[1]):
-            self.fail(f"must be [low, high] with low < high, got {v!r}", key)
-        return float(v[0]), float(v[1])
-
-    def sub(self, key, required=False) -> "_Reader | None":
-        if key not in self.table:
-            if required:
-                self.fail("is missing", key)
-            return None
-        return _Reader(self.source, f"{self.path}.{key}" if self.path else key, self.table[key])
-
-
-def _kind(v) -> str:
-    return {bool: "a boolean", str: "a string", int: "a number", float: "a number", list: "a list",
-            dict: "a table"}.get(type(v), type(v).__name__)
-
-
-def _identifier(r: _Reader, name: str, what: str):
-    if not name.isidentifier() or name.startswith("_"):
-        r.fail(f"'{name}' is not a valid {what} name (letters, digits and _, not starting with a digit or _)")
-
-
-def _param(r: _Reader, name: str, positive_default: bool) -> Param:
-    _identifier(r, name, "parameter")
-    p = r.sub(name)
-    p.only(("unit", "meaning", "default", "bounds", "value", "optional"))
-    unit = p.string("unit", required=True)
-    meaning = p.string("meaning", required=True)
-    bounds = p.pair("bounds")
-    value = p.number("value")
-    default = p.number("default", value)
-    if bounds is None:
-        lo, hi = (0.0, math.inf) if positive_default else (-math.inf, math.inf)
-    else:
-        lo, hi = bounds
-    if default is None:
-        default = lo if math.isfinite(lo) else 0.0
-    if not lo <= default <= hi:
-        p.fail(f"default {default:g} is outside bounds [{lo:g}, {hi:g}]")
-    optional = p.table.get("optional", False)
-    if not isinstance(optional, bool):
-        p.fail("must be true or false", "optional")
-    return Param(name, unit, default, lo, hi, meaning, optional)
 
 
 def read_definition(doc: dict, source: str) -> PlantDefinition:
     """The :class:`PlantDefinition` of a plant file's parsed TOML ``doc`` (``source`` names the
     file in errors). Raises :class:`PendcError` with one line on any mistake."""
-    top = _Reader(source, "", doc)
+    top = TableReader(source, "", doc)
     plant = top.sub("plant", required=True)
     name = plant.string("name", required=True)
-    _identifier(plant, name, "plant")
+    check_identifier(plant, name, "plant")
     core = plant.string("core", f"{name}_core")
-    _identifier(plant, core, "core")
+    check_identifier(plant, core, "core")
     summary = plant.string("summary", name)
 
     constants = {}
     creader = top.sub("constants")
     if creader is not None:
         for cname in creader.table:
-            constants[cname] = _param(creader, cname, positive_default=True)
+            constants[cname] = read_param(creader, cname, positive_default=True)
     inputs = _inputs(top)
     mech = "coordinates" in doc
     if mech == ("states" in doc):
@@ -202,13 +81,13 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     return replace(definition, catalogue=seen)
 
 
-def _inputs(top: _Reader) -> tuple:
+def _inputs(top: TableReader) -> tuple:
     r = top.sub("inputs", required=True)
     if not r.table:
         r.fail("declares no input")
     out = []
     for name in r.table:
-        _identifier(r, name, "input")
+        check_identifier(r, name, "input")
         i = r.sub(name)
         i.only(("unit", "meaning", "range"))
         lo, hi = i.pair("range", required=True)
@@ -220,38 +99,29 @@ _POSITION_KEYS = ("unit", "meaning", "body", "quantity", "force", "force_unit", 
                   "budget", "rate")
 
 
-def _periodic(r: _Reader):
-    period = r.table.get("period")
-    if period is None:
-        return None
-    if period == "none":
-        return "none"
-    return r.number("period", positive=True)
-
-
-def _entries(top: _Reader, key: str, what: str):
+def _entries(top: TableReader, key: str, what: str):
     """``(name, reader)`` of each entry of table ``key`` (at least one, each a valid name)."""
     r = top.sub(key)
     if not r.table:
         r.fail(f"declares no {what}")
     for name in r.table:
-        _identifier(r, name, what)
+        check_identifier(r, name, what)
         yield name, r.sub(name)
 
 
-def _position(e: _Reader, name: str, body: str, quantity: str, force: str) -> dict:
+def _position(e: TableReader, name: str, body: str, quantity: str, force: str) -> dict:
     """The fields every position declares (:class:`PositionDecl`), with these defaults."""
     return dict(name=name, unit=e.string("unit", required=True), meaning=e.string("meaning", required=True),
                 body=e.string("body", body), quantity=e.string("quantity", quantity),
-                force=e.string("force", force), friction=e.string("friction", ""), period=_periodic(e),
+                force=e.string("force", force), friction=e.string("friction", ""), period=read_period(e),
                 turns=e.integer("turns"), budget=e.number("budget", positive=True))
 
 
-def _coordinates(top: _Reader) -> tuple:
+def _coordinates(top: TableReader) -> tuple:
     out = []
     for name, c in _entries(top, "coordinates", "coordinate"):
         c.only(_POSITION_KEYS)
-        rate = c.sub("rate") or _Reader(c.source, c.path + ".rate", {})
+        rate = c.sub("rate") or TableReader(c.source, c.path + ".rate", {})
         rate.only(("unit", "meaning", "quantity", "training_rate"))
         fields = _position(c, name, name, "position", f"Q_{name}")
         out.append(CoordinateDecl(
@@ -261,7 +131,7 @@ def _coordinates(top: _Reader) -> tuple:
     return tuple(out)
 
 
-def _states(top: _Reader) -> tuple:
+def _states(top: TableReader) -> tuple:
     r = top.sub("states")
     out = []
     for name, s in _entries(top, "states", "state"):
@@ -283,43 +153,31 @@ def _states(top: _Reader) -> tuple:
     return tuple(out)
 
 
-def _vector(r: _Reader, key: str, required=False) -> tuple:
-    if key not in r.table:
-        if required:
-            r.fail("is missing", key)
-        return ()
-    v = r.table[key]
-    if not isinstance(v, list) or not 2 <= len(v) <= 3 or not all(
-            isinstance(x, (str, int, float)) and not isinstance(x, bool) for x in v):
-        r.fail("must be a list of 2 or 3 expressions (the last component points up)", key)
-    return tuple(x if isinstance(x, str) else repr(x) for x in v)
-
-
-def _mechanics(top: _Reader):
-    m = top.sub("mechanics") or _Reader(top.source, "mechanics", {})
+def _mechanics(top: TableReader):
+    m = top.sub("mechanics") or TableReader(top.source, "mechanics", {})
     m.only(("gravity", "kinetic", "potential", "determinant"))
-    gravity = _vector(m, "gravity")
+    gravity = read_vector(m, "gravity")
     kinetic, potential = m.text("kinetic", ""), m.text("potential", "")
     determinant = m.string("determinant", "det")
     r = top.sub("bodies")
     bodies = []
     if r is not None:
         for name in r.table:
-            _identifier(r, name, "body")
+            check_identifier(r, name, "body")
             b = r.sub(name)
             kind = b.string("kind", "point")
             if kind == "point":
                 b.only(("kind", "mass", "inertia", "rotation", "position"))
                 body = BodyDecl(name, kind, mass=b.text("mass", ""), inertia=b.text("inertia", ""),
-                                rotation=b.text("rotation", ""), position=_vector(b, "position"))
+                                rotation=b.text("rotation", ""), position=read_vector(b, "position"))
                 if body.inertia and not body.rotation:
                     b.fail("an inertia needs the angle it turns with: rotation = \"...\"", "rotation")
                 if body.mass and not body.position:
                     b.fail("a mass needs its position: position = [x, y] or [x, y, z]", "position")
             elif kind == "rod":
                 b.only(("kind", "mass", "start", "end"))
-                body = BodyDecl(name, kind, mass=b.text("mass", required=True), start=_vector(b, "start", True),
-                                end=_vector(b, "end", True))
+                body = BodyDecl(name, kind, mass=b.text("mass", required=True), start=read_vector(b, "start", True),
+                                end=read_vector(b, "end", True))
             else:
                 b.fail(f"unknown body kind '{kind}' (known: point, rod)", "kind")
             bodies.append(body)
@@ -335,13 +193,13 @@ def _mechanics(top: _Reader):
     return tuple(bodies), gravity, kinetic, potential, determinant
 
 
-def _intermediates(top: _Reader) -> tuple:
+def _intermediates(top: TableReader) -> tuple:
     r = top.sub("intermediates")
     if r is None:
         return ()
     out = []
     for name in r.table:
-        _identifier(r, name, "intermediate")
+        check_identifier(r, name, "intermediate")
         v = r.table[name]
         if isinstance(v, dict):
             i = r.sub(name)
@@ -352,7 +210,7 @@ def _intermediates(top: _Reader) -> tuple:
     return tuple(out)
 
 
-def _quantities(top: _Reader):
+def _quantities(top: TableReader):
     r = top.sub("quantities")
     if r is None:
         return None
@@ -364,13 +222,13 @@ def _quantities(top: _Reader):
     return tuple(out)
 
 
-def _catalogue(top: _Reader) -> dict:
+def _catalogue(top: TableReader) -> dict:
     r = top.sub("catalogue")
     out = {}
     if r is None:
         return out
     for name in r.table:
-        _identifier(r, name, "effect")
+        check_identifier(r, name, "effect")
         e = r.sub(name)
         kind = e.string("kind", required=True)
         if kind not in KINDS:
@@ -380,7 +238,7 @@ def _catalogue(top: _Reader) -> dict:
         params = ()
         preader = e.sub("params")
         if preader is not None:
-            params = tuple(_param(preader, p, positive_default=False) for p in preader.table)
+            params = tuple(read_param(preader, p, positive_default=False) for p in preader.table)
         roles = tuple((role, e.text(role)) for role in spec.roles if role in e.table)
         for role in spec.required:
             if role not in e.table:
@@ -396,13 +254,13 @@ def _catalogue(top: _Reader) -> dict:
     return out
 
 
-def _sensors(top: _Reader, states) -> tuple:
+def _sensors(top: TableReader, states) -> tuple:
     r = top.sub("sensors")
     out = []
     if r is None:
         return ()
     for name in r.table:
-        _identifier(r, name, "sensor")
+        check_identifier(r, name, "sensor")
         s = r.sub(name)
         s.only(("kind", "state", "band", "lines", "bands_per_rev"))
         kind = s.string("kind", "quadrature_encoder")
@@ -418,11 +276,11 @@ def _sensors(top: _Reader, states) -> tuple:
     return tuple(out)
 
 
-def _experiments(top: _Reader, positions, bodies) -> dict:
-    r = top.sub("experiments") or _Reader(top.source, "experiments", {})
+def _experiments(top: TableReader, positions, bodies) -> dict:
+    r = top.sub("experiments") or TableReader(top.source, "experiments", {})
     out = {DEFAULT_EXPERIMENT: ExperimentDecl(DEFAULT_EXPERIMENT, "everything moves: the full model")}
     for name in r.table:
-        _identifier(r, name, "experiment")
+        check_identifier(r, name, "experiment")
         e = r.sub(name)
         e.only(("meaning", "held", "removed", "measured"))
         held, removed, measured = e.names("held"), e.names("removed"), e.names("measured")
@@ -438,12 +296,12 @@ def _experiments(top: _Reader, positions, bodies) -> dict:
     return out
 
 
-def _notes(top: _Reader, catalogue: dict) -> IdentificationNotes:
-    r = top.sub("identification") or _Reader(top.source, "identification", {})
+def _notes(top: TableReader, catalogue: dict) -> IdentificationNotes:
+    r = top.sub("identification") or TableReader(top.source, "identification", {})
     r.only(("pairs", "hints"))
     pairs = {}
     for i, item in enumerate(r.table.get("pairs", [])):
-        p = _Reader(r.source, f"identification.pairs[{i}]", item)
+        p = TableReader(r.source, f"identification.pairs[{i}]", item)
         p.only(("effects", "separated_by"))
         names = p.names("effects")
         if len(names) != 2 or any(n not in catalogue for n in names):
@@ -451,7 +309,7 @@ def _notes(top: _Reader, catalogue: dict) -> IdentificationNotes:
         pairs[frozenset(names)] = p.string("separated_by", required=True)
     hints = []
     for i, item in enumerate(r.table.get("hints", [])):
-        h = _Reader(r.source, f"identification.hints[{i}]", item)
+        h = TableReader(r.source, f"identification.hints[{i}]", item)
         h.only(("body", "signal", "free", "reason"))
         signal = h.string("signal", required=True)
         if signal not in ("angle", "rate", "input"):
@@ -463,7 +321,7 @@ def _notes(top: _Reader, catalogue: dict) -> IdentificationNotes:
     return IdentificationNotes(evidence, separated, pairs, tuple(hints))
 
 
-def _operating_points(top: _Reader, names) -> dict:
+def _operating_points(top: TableReader, names) -> dict:
     r = top.sub("operating_points")
     out = {}
     if r is None:
@@ -477,7 +335,7 @@ def _operating_points(top: _Reader, names) -> dict:
     return out
 
 
-def _drawing(top: _Reader) -> dict:
+def _drawing(top: TableReader) -> dict:
     r = top.sub("drawing")
     if r is None:
         return {}
@@ -485,7 +343,7 @@ def _drawing(top: _Reader) -> dict:
     points = r.sub("points", required=True)
     pts = {}
     for name in points.table:
-        pts[name] = _vector(points, name, True)
+        pts[name] = read_vector(points, name, True)
     lines = r.table.get("lines", [])
     if not isinstance(lines, list) or not all(isinstance(line, list) and len(line) == 2 and all(p in pts for p in line)
                                               for line in lines):
