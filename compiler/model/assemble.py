@@ -210,7 +210,7 @@ def _mechanism(ctx, removed=()):
     kinetic = ctx.parse(d.kinetic, "mechanics.kinetic") if d.kinetic else None
     potential = ctx.parse(d.potential, "mechanics.potential") if d.potential else None
     coords = tuple(ctx.symbols[c.name] for c in d.coordinates)
-    return derive(coords, bodies, gravity, kinetic, potential, f"{ctx.where}: bodies")
+    return derive(coords, bodies, gravity, kinetic, potential)
 
 
 def _mechanical(ctx, experiment, drive_out):

@@ -10,6 +10,7 @@ in ``models/``, not two code paths. ``docs/plant_files.md`` is the reference of 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 
 @dataclass(frozen=True)
@@ -227,7 +228,7 @@ class PlantDefinition:
     def __eq__(self, other):
         return isinstance(other, PlantDefinition) and other.key == self.key
 
-    @property
+    @cached_property
     def conflicts(self) -> tuple:
         """Pairs of catalogue effects that define the same part: ``(a, b, what)``."""
         from .effect_kinds import conflicts_of

@@ -57,7 +57,6 @@ class KindSpec:
     on: tuple
     help: dict
     names: tuple = ()              # roles that are names, not expressions
-    needs_on: bool = True
 
     @property
     def roles(self) -> tuple:
@@ -136,9 +135,8 @@ def check_effect(definition, effect, where: str) -> None:
         raise PendcError(f"{where}.on: '{effect.on}' is not a {' or '.join(spec.on)} of this plant "
                          f"(an effect of kind '{effect.kind}' acts on one of: {', '.join(choices) or 'nothing here'})")
     if effect.kind == "saturation":
-        roles = dict(effect.roles)
-        if ("limit" in roles) == ("low" in roles or "high" in roles) or (
-                "limit" not in roles and not ("low" in roles and "high" in roles)):
+        given = {role for role, _ in effect.roles}
+        if given not in ({"limit"}, {"low", "high"}):
             raise PendcError(f"{where}: a saturation takes either limit = \"...\" or both low and high")
     if effect.kind == "drive":
         inputs = [i.name for i in definition.inputs]

@@ -75,7 +75,7 @@ def period_of(geometry, q: sp.Symbol):
     return 2 * sp.pi if all(d == 0 for d in turned) else None
 
 
-def derive(coordinates, bodies, gravity, kinetic=None, potential=None, where: str = "") -> Mechanism:
+def derive(coordinates, bodies, gravity, kinetic=None, potential=None) -> Mechanism:
     """Derive and solve the equations of motion.
 
     ``coordinates`` are plain symbols; ``bodies`` a tuple of ``(kind, mass, inertia,
@@ -83,11 +83,11 @@ def derive(coordinates, bodies, gravity, kinetic=None, potential=None, where: st
     :class:`~pendc.model.definition.BodyDecl`); ``gravity`` the acceleration vector;
     ``kinetic``/``potential`` energies given directly (in the coordinates and their rates
     ``d<q>``) instead of bodies. Cached: the same mechanism derives once per process."""
-    return _derive(tuple(coordinates), tuple(bodies), tuple(gravity), kinetic, potential, where)
+    return _derive(tuple(coordinates), tuple(bodies), tuple(gravity), kinetic, potential)
 
 
 @lru_cache(maxsize=32)
-def _derive(qs, bodies, gravity, kinetic, potential, where) -> Mechanism:
+def _derive(qs, bodies, gravity, kinetic, potential) -> Mechanism:
     t = sp.Symbol("t")
     funcs = {q: sp.Function(q.name)(t) for q in qs}
     rates = tuple(sp.Symbol(f"d{q.name}", real=True) for q in qs)

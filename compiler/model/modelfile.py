@@ -118,16 +118,12 @@ def parse_model(text: str, source: str = "<model>", _chain: tuple = ()) -> Plant
     plant = doc["plant"]
     definition = read_definition(doc, source)
     constants = {k: v for k, v in plant.items() if k not in PLANT_META and k != "body"}
-    for name, decl in definition.constants.items():
-        if name not in constants and decl.default is not None and "value" in _declared(doc, name):
-            constants[name] = _declared(doc, name)["value"]
+    for name in definition.constants:        # a value given in the declaration instead of [plant]
+        declared = doc.get("constants", {}).get(name)
+        if name not in constants and isinstance(declared, dict) and "value" in declared:
+            constants[name] = declared["value"]
     return PlantModel(plant=constants, effects=doc.get("effects", {}), free=tuple(free), source=source,
                       hardware=hardware, definition=definition, input_range=_input_range(doc.get("input"), source))
-
-
-def _declared(doc, name) -> dict:
-    table = doc.get("constants", {}).get(name, {})
-    return table if isinstance(table, dict) else {}
 
 
 def _load_toml(text: str, source: str) -> dict:

@@ -101,17 +101,6 @@ class PlantModel:
             values.update(params)
         return values
 
-    def parameter(self, name: str):
-        """The declaration (:class:`~pendc.model.definition.Param`) of a constant or of an
-        effect parameter of the catalogue called ``name`` (KeyError if none)."""
-        if name in self.definition.constants:
-            return self.definition.constants[name]
-        for effect in self.definition.catalogue.values():
-            for p in effect.params:
-                if p.name == name:
-                    return p
-        raise KeyError(name)
-
     def for_experiment(self, name: str) -> "PlantModel":
         """The same model under experiment ``name`` (same parameters, other equations)."""
         return replace(self, experiment=name)

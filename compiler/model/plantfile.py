@@ -62,6 +62,8 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     sensors = _sensors(top, position_names + [s.name for s in states])
     experiments = _experiments(top, position_names, [b.name for b in bodies])
     notes = _notes(top, catalogue)
+    physics = {k: doc[k] for k in PHYSICS if k in doc} | {
+        "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}}
     definition = PlantDefinition(
         name=name, core=core, summary=summary, form="mechanical" if mech else "state", constants=constants,
         inputs=inputs, coordinates=coordinates, states=states, bodies=bodies, gravity=gravity, kinetic=kinetic,
@@ -69,10 +71,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
         catalogue=catalogue, experiments=experiments, sensors=sensors, notes=notes,
         operating_points=_operating_points(top, position_names + rates), drawing=_drawing(top),
         source=plant.string("source", ""),
-        key=json.dumps({k: doc[k] for k in ("plant", *PHYSICS) if k in doc and k != "plant"} | {
-            "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}}, sort_keys=True, default=repr),
-        physics={k: doc[k] for k in PHYSICS if k in doc} | {
-            "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}})
+        key=json.dumps(physics, sort_keys=True, default=repr), physics=physics)
     _check_names(definition, doc, source)
     for effect in catalogue.values():
         check_effect(definition, effect, f"{source}: catalogue.{effect.name}")
@@ -248,7 +247,7 @@ def _catalogue(top: TableReader) -> dict:
                 isinstance(a, str) or (isinstance(a, list) and all(isinstance(x, str) for x in a)) for a in requires):
             e.fail("must be a list of effect names (or of lists of alternatives)", "requires")
         out[name] = EffectDecl(
-            name=name, kind=kind, on=e.string("on", required=spec.needs_on), summary=e.string("summary", kind),
+            name=name, kind=kind, on=e.string("on", required=True), summary=e.string("summary", kind),
             params=params, roles=roles, requires=tuple((a,) if isinstance(a, str) else tuple(a) for a in requires),
             evidence=e.string("evidence", ""), separated_by=e.string("separated_by", ""), doc=e.string("doc", ""))
     return out
