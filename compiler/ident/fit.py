@@ -22,9 +22,9 @@ from ..errors import PendcError
 from ..model.plant import PlantModel
 from .shooting import ShootingProblem
 
-# Physical ranges of the rigid-body constants when a fit frees them (``--free I,L,m``):
-# wide enough for any bench pendulum and cart, narrow enough to keep the optimiser sane.
-RIGID_SPAN = 10.0           # a plant constant declared without finite bounds is fitted within this factor of its value
+# A plant constant a fit frees (``--free I,L,m``) stays within the bounds its plant file declares;
+# one declared without finite bounds stays within this factor of its value (the optimiser's safety).
+RIGID_SPAN = 10.0
 NULL_SINGULAR = 1e-7     # singular values below this fraction of the largest span no direction
 # Residuals within a segment are correlated, so the segments are the independent pieces of
 # evidence; fewer than this many per parameter cannot support an interval (0.5 s of data is

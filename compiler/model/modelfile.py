@@ -14,6 +14,7 @@ import os
 import re
 import tomllib
 from dataclasses import replace
+from functools import lru_cache
 from pathlib import Path
 
 from ..atomic import write_atomic
@@ -183,11 +184,14 @@ def _merged(text: str, source: str, chain: tuple) -> dict:
 
 def shipped_plants() -> dict:
     """Plant name -> the shipped model file of it that declares its physics (the first in
-    name order), as a :class:`PlantModel`."""
-    out = {}
-    for name, path in _shipped_files().items():
-        out[name] = load_model(path)
-    return out
+    name order), as a :class:`PlantModel`. Read once per process: every command's parser
+    names the shipped plants' experiments in its help."""
+    return dict(_shipped_models())
+
+
+@lru_cache(maxsize=1)
+def _shipped_models() -> tuple:
+    return tuple((name, load_model(path)) for name, path in _shipped_files().items())
 
 
 def _shipped_files() -> dict:
