@@ -31,10 +31,11 @@ def main() -> int:
     from pendc.ir.compiled import CompiledGraph
     from pendc.ir.interpret import FixedInterpreter
     from pendc.passes.ranges import per_step
-    from pendc.sim.stimuli import chirp, swing_up
+    from pendc.sim.stimuli import Stimuli
 
     t0 = time.perf_counter()
-    build = compile_cached(load_model())
+    model = load_model()
+    build = compile_cached(model)
     build_seconds = time.perf_counter() - t0
     golden = GoldenModel(build.graph, build.options.dt)
     golden.run_steps(golden.quantize_input([5.0] * 10))          # compile / load the kernel
@@ -49,7 +50,8 @@ def main() -> int:
     shared.run({"u": [5.0] * 10})
     baked.run({"u": [5.0] * 10})
     runs = {}
-    for name, (t, u) in {"chirp_20s": chirp(), "swing_up_5s": swing_up()}.items():
+    on = Stimuli(model.interface.input)
+    for name, (t, u) in {"chirp_20s": on.chirp(), "swing_up_5s": on.swing_up()}.items():
         steps = per_step(u, t, build.options.dt)
         ints = golden.quantize_input(steps)
         t0 = time.perf_counter()
@@ -68,7 +70,7 @@ def main() -> int:
                       "float_seconds": float_s, "float_steps_per_second": len(steps) / float_s,
                       "shared_fixed_steps_per_second": len(steps) / shared_s,
                       "compiled_fixed_steps_per_second": len(steps) / baked_s}
-    t_sw, u_sw = swing_up()
+    t_sw, u_sw = on.swing_up()
     ints = golden.quantize_input(per_step(u_sw, t_sw, build.options.dt)[:10_000])
     interp = FixedInterpreter(build.graph)
     t0 = time.perf_counter()

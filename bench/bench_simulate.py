@@ -1,7 +1,7 @@
 """Benchmark: the float simulator on the issue's chirp.
 
 Simulates the default model (thesis Table 14) on the 20 s chirp
-(``pendc.sim.stimuli.chirp()``: centre 5.2646 V, 1 V, 0.3 -> 2 Hz, 1 kHz samples)
+(``Stimuli(input).chirp()``: level 1 about the input's neutral, 0.3 -> 2 Hz, 1 kHz samples)
 with the default integrator, forward Euler at 1 us (2e7 steps), on one thread.
 Equation derivation, kernel compilation (a warm-up call on a few samples) and the
 timed run are reported separately; RK4 at the same step is timed as well.
@@ -47,7 +47,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     from pendc.model.modelfile import default_model_path, load_model
-    from pendc.sim import stimuli
+    from pendc.sim.stimuli import REFERENCE_SPAN, Stimuli
     from pendc.sim.simulator import Simulator
 
     dt = 1e-6
@@ -56,7 +56,8 @@ def main(argv=None) -> int:
     model.equations  # sympy derivation + effect assembly
     derive_seconds = time.perf_counter() - t0
 
-    t, u = stimuli.chirp()
+    inp = model.interface.input
+    t, u = Stimuli(inp).chirp()
     steps = int(np.sum(np.maximum(1, np.ceil(np.diff(t) / dt - 1e-6))))
 
     def timed(method):
@@ -80,7 +81,8 @@ def main(argv=None) -> int:
     out = {
         "benchmark": "simulate",
         "model": name,
-        "stimulus": "chirp 20 s, 5.2646 V +- 1 V, 0.3->2 Hz, 1 kHz",
+        "stimulus": f"chirp 20 s, {inp.neutral:g} {inp.unit} +- {(inp.hi - inp.lo) / REFERENCE_SPAN:g} {inp.unit}, "
+                    "0.3->2 Hz, 1 kHz",
         "method": "euler",
         "dt": dt,
         "steps": steps,

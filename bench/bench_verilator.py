@@ -1,7 +1,7 @@
 """Benchmark: Verilator throughput of the generated core, and its accuracy on the chirp.
 
 (a) standalone: ``verilator --binary --timing`` with a plain Verilog testbench
-    (tb/vbinary.py): the issue's chirp (``pendc.sim.stimuli.chirp()``, first 2 s) from a
+    (tb/vbinary.py): the issue's chirp (``Stimuli(input).chirp()``, first 2 s) from a
     ``$readmemh`` file, ``step`` held high; model steps per second, real-time factor
     (simulated seconds per wall second), and max |x - float| / |theta - float| against
     the float simulator ``pendc.Simulator(load_model())`` (acceptance: 0.5 mm, 5 mrad),
@@ -53,10 +53,10 @@ def _hdl(work: Path, log, request: dict | None = None) -> tuple[Path, dict, str]
 def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps: int) -> dict:
     import pendtb
     from pendc.golden import GoldenModel
-    from pendc.sim import stimuli
+    from pendc.sim.stimuli import Stimuli
 
     model, build = pendtb.model_and_build()
-    t, u = stimuli.chirp()
+    t, u = Stimuli(model.interface.input).chirp()
     n = int(round(seconds * 1000))
     ints = GoldenModel(build.graph, build.options.dt).quantize_input(pendtb.steps_of(t[:n + 1], u[:n + 1]))
     cfg = {"ii": report["ii"], "period_ns": pendtb.PERIOD_NS, "chunk": pendtb.CHUNK,
@@ -103,10 +103,10 @@ def _step_loops(hdl: Path, report: dict, comb_hdl: Path, comb_report: dict, work
     import core_step_loop
     import pendtb
     from pendc.golden import GoldenModel
-    from pendc.sim import stimuli
+    from pendc.sim.stimuli import Stimuli
 
-    _, build = pendtb.model_and_build()
-    t, u = stimuli.chirp()
+    model, build = pendtb.model_and_build()
+    t, u = Stimuli(model.interface.input).chirp()
     n = int(round(seconds * 1000))
     ints = GoldenModel(build.graph, build.options.dt).quantize_input(pendtb.steps_of(t[:n + 1], u[:n + 1]))
     u_chunks = ints.reshape(n, pendtb.CHUNK)[:, 0]
@@ -116,7 +116,7 @@ def _step_loops(hdl: Path, report: dict, comb_hdl: Path, comb_report: dict, work
             runs[f"{build_name}_ii{rep['ii']}_{flags}"] = core_step_loop.run_step_loop(
                 h, rep, build, u_chunks, pendtb.CHUNK, work / "step_loop", flags)
     meeting = [k for k, r in runs.items() if (r["steps_per_cpu_s"] or 0) >= 1_000_000 and r["bit_exact_vs_golden"]]
-    return {"stimulus": f"pendc.sim.stimuli.chirp() first {seconds:g} s, one input integer per 1000 steps",
+    return {"stimulus": f"Stimuli(input).chirp() first {seconds:g} s, one input integer per 1000 steps",
             "target_steps_per_cpu_s": 1_000_000, "runs": runs, "meeting_1M_steps_per_s": meeting,
             "default_build_meets_1M_steps_per_s": any(k.startswith("default_") for k in meeting)}
 

@@ -95,14 +95,15 @@ def write_output(output: str | None, text: str) -> None:
 def cmd_stimulus(args) -> int:
     from .sim.measurements import format_csv
     from .sim.signals import TIME
-    from .sim.stimuli import named_stimuli
+    from .model.modelfile import load_model
+    from .sim.stimuli import Stimuli
 
-    stimuli = named_stimuli()
+    inp = load_model(getattr(args, "model", None)).interface.input
+    stimuli = Stimuli(inp).named()
     if args.name not in stimuli:
         raise PendcError(f"unknown stimulus '{args.name}' (known: {', '.join(stimuli)})")
     t, u = stimuli[args.name]
-    from .model.modelfile import load_model
-    name = load_model(getattr(args, "model", None)).interface.input.name
+    name = inp.name
     write_output(args.output, format_csv({TIME: t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
 
@@ -180,8 +181,9 @@ def cmd_report(args) -> int:
     if args.what == "qformat":
         report = reports.qformat_report(build)
         if args.drift:
-            from .sim.stimuli import chirp, swing_up
-            report["drift"] = reports.drift_report(build, {"chirp": chirp(), "swing_up": swing_up()})
+            from .sim.stimuli import Stimuli
+            on = Stimuli(model.interface.input)
+            report["drift"] = reports.drift_report(build, {"chirp": on.chirp(), "swing_up": on.swing_up()})
         text = reports.format_qformat_report(report)
     else:
         report = reports.resources_report(build)
@@ -265,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("stimulus", help="write one of the standard input signals as a CSV (t and the model's input)")
     p.add_argument("name", help="chirp_low, chirp_high, steps, swing_up or random")
-    p.add_argument("--model", help="model whose input names the signal's column (default: the default model)")
+    p.add_argument("--model", help="model whose input the signal drives: its name, range and neutral value (default: the default model)")
     p.add_argument("-o", "--output", help="output CSV; default (or '-'): standard output")
     p.set_defaults(func=cmd_stimulus)
     return parser

@@ -16,10 +16,12 @@ from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, VERS
 
 # ---------------------------------------------------------------- stimuli
 
-def window_stimuli() -> dict:
-    """name -> (t, u, trained): the training set plus two inputs it never saw."""
-    from pendc.sim import stimuli
-    out = {name: (t, u, True) for name, (t, u) in stimuli.named_stimuli().items()}
+def window_stimuli(inp) -> dict:
+    """name -> (t, u, trained) on the input ``inp`` (an InputSpec): the training set plus two
+    inputs it never saw."""
+    from pendc.sim.stimuli import Stimuli
+    stimuli = Stimuli(inp)
+    out = {name: (t, u, True) for name, (t, u) in stimuli.named().items()}
     # a multisine with another seed sampled at 1 MHz, so u changes on every model step
     t, u = stimuli.multisine(duration=2.0, seed=7, amplitude=1.5, fs=1e6)
     out["multisine_seed7_1MHz"] = (t, u, False)
@@ -215,7 +217,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     # -- every-step windows: from reset and from three states deep inside each stimulus
     t0 = time.time()
     jobs, done = [], {}
-    for name, (t, u, trained) in window_stimuli().items():
+    for name, (t, u, trained) in window_stimuli(iface.input).items():
         if stimuli_names is not None and name not in stimuli_names:
             continue
         ints = golden.quantize_input(steps_of(t, u, dt))
@@ -264,7 +266,8 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
 
     # -- long runs from reset, input changing every CHUNK steps, compared every CHUNK steps
     t0 = time.time()
-    from pendc.sim import stimuli
+    from pendc.sim.stimuli import Stimuli
+    stimuli = Stimuli(iface.input)
     sources = {"chirp": stimuli.chirp(), "random": stimuli.random_levels()}
     for name, chunks in long_chunks.items():
         t, u = sources[name]
@@ -318,8 +321,8 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
 
     # -- bus: runs from reset with a constant U (lockstep bursts, free run)
-    for name, volts in BUS_LEVELS.items():
-        q = int(golden.quantize_input([stimuli.V_CENTER + volts])[0])
+    for name, level in BUS_LEVELS.items():
+        q = int(golden.quantize_input([stimuli.on_input(level)])[0])
         tr = golden.run_steps(np.full(BUS_STEPS + 1, q, dtype=np.int64), every=1)
         rows = _rows(tr, ports)
         vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}

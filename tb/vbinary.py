@@ -48,19 +48,19 @@ def run(binary: Path, core_ports, u_chunks: np.ndarray, chunk: int = CHUNK) -> t
 
 def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log=print, model_path=None,
               build_=None) -> dict:
-    """The chirp (``pendc.sim.stimuli.chirp()``) for ``seconds`` through the harness, against the
+    """The chirp (``Stimuli(input).chirp()``) for ``seconds`` through the harness, against the
     golden model (bit-exact at every 1000th step) and the float simulator (per state an encoder
     reads: ``max_abs_<state>_error_<unit>`` and the time ``at_t_<state>_s`` of the worst error).
     The rows the harness answered are kept in ``work``/chirp_rows.txt for inspection."""
     from pendc import Simulator
     from pendc.golden import GoldenModel
-    from pendc.sim import stimuli
+    from pendc.sim.stimuli import Stimuli
 
     # the build the HDL came from (a preset's arithmetic differs from the default build's)
     model, build_ = (build_.model, build_) if build_ is not None else model_and_build(model_path)
     ports = core_ports_of(build_)
     dt = build_.options.dt
-    t, u = stimuli.chirp()
+    t, u = Stimuli(model.interface.input).chirp()
     n = int(round(seconds * 1000))
     t, u = t[:n + 1], u[:n + 1]
     golden = GoldenModel(build_.graph, dt)
@@ -94,7 +94,7 @@ def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log
         accuracy[f"at_t_{e.state}_s"] = float(t[int(np.argmax(err))])
     steps = n * CHUNK
     return {
-        "stimulus": f"pendc.sim.stimuli.chirp() first {seconds:g} s (1 kHz samples held per 1 us step)",
+        "stimulus": f"Stimuli(input).chirp() first {seconds:g} s (1 kHz samples held per 1 us step)",
         "core": ports.module, "steps": steps, "simulated_s": steps * dt, "clock_cycles": steps * report["ii"],
         "build_s": round(build_s, 2), "wall_s": round(wall, 4),
         "steps_per_s": steps / wall, "cycles_per_s": steps * report["ii"] / wall, "real_time_factor": steps * dt / wall,

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pendc.model.modelfile import load_model
 from pendc.model.plant import PlantModel
+from pendc.sim.stimuli import Stimuli
 
 DEFAULT = load_model()                                   # models/sct_thesis_final.toml
 CATALOGUE = DEFAULT.catalogue                             # the SCT plant's effects
@@ -49,3 +50,9 @@ def derive_rigid_body():
 def derive_furuta():
     """The QUBE's Furuta pendulum's derived mechanism (from models/furuta_qube.toml)."""
     return _rigid(plant_named("furuta"), ("g", "J_r", "L_r", "m_p", "L_p"))
+
+
+# The standard stimuli on the default model's input (its 0-10 V drive about the idle voltage)
+STIMULI = Stimuli(DEFAULT.interface.input)
+chirp, steps, swing_up, multisine, random_levels = (STIMULI.chirp, STIMULI.steps, STIMULI.swing_up,
+                                                    STIMULI.multisine, STIMULI.random_levels)

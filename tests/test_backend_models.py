@@ -25,7 +25,7 @@ from pendc.passes.lower import lower_model
 from pendc.passes.fold_constants import live_nodes
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.ranges import per_step
-from pendc.sim.stimuli import swing_up
+from plants import swing_up
 
 pytestmark = pytest.mark.skipif(shutil.which("iverilog") is None, reason="Icarus Verilog (iverilog) not installed")
 

@@ -20,7 +20,7 @@ from pendc.ident.compare import (Comparison, allowed_outside, autocorrelation, c
                                  fit_percent, regime_partitions, regimes, worst_windows)
 from pendc.ident.report_text import format_text as format_comparison
 from pendc.model.modelfile import load_model
-from pendc.sim import stimuli
+from plants import STIMULI as stimuli
 from pendc.sim.encoders import encoder_resolution
 from pendc.sim.measurements import Measurement, format_csv, parse_measurements
 from pendc.sim.simulator import Simulator

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pendc.model.modelfile import load_model
-from pendc.sim import stimuli
+from plants import STIMULI as stimuli
 from pendc.sim.measurements import format_csv, parse_measurements, read_measurements
 from pendc.sim.simulator import Simulator
 from cli_capture import run_cli

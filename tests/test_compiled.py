@@ -14,7 +14,7 @@ from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import Overflow, QFormat, Rounding
 from pendc.passes.lower import lower_model
-from pendc.sim.stimuli import swing_up
+from plants import swing_up
 
 Q = QFormat.parse
 MODES = {"nt": (Rounding.NEAREST, Overflow.WRAP), "ns": (Rounding.NEAREST, Overflow.SATURATE),

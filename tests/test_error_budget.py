@@ -17,6 +17,7 @@ from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.qformats import assign_qformats
 from pendc.passes.ranges import analyze_ranges
 from pendc.passes.tabulate import fill_lut_tables, tabulate_luts
+from plants import DEFAULT
 
 DT = 1e-6
 OPTIONS = BuildOptions(training_scale=0.02)
@@ -56,7 +57,7 @@ def test_report_is_within_budget_when_met(build):
 
 def test_report_errors_are_reproducible(build):
     rep = build.error
-    errors, node_errors = compare_fixed_float(build.graph, check_stimuli(rep.seconds), DT)
+    errors, node_errors = compare_fixed_float(build.graph, check_stimuli(DEFAULT.interface.input, rep.seconds), DT)
     assert errors == rep.errors
     assert node_errors == rep.node_errors
     for s in STATES:                   # the sampled node errors include the states
@@ -68,7 +69,7 @@ def test_rounds_share_float_runs_without_changing_a_number(build):
     """A widening round's float twin is the first round's (the same kernel, tables and resets):
     with ``float_runs`` kept across the two calls it runs once per stimulus and sampling, and
     every error equals the one computed without it."""
-    stimuli = check_stimuli(build.error.seconds)
+    stimuli = check_stimuli(DEFAULT.interface.input, build.error.seconds)
     base = typed_default(build, {})
     wide = typed_default(build, {s: WIDEN_STEP for s in STATES})
     memo = {}
@@ -78,7 +79,7 @@ def test_rounds_share_float_runs_without_changing_a_number(build):
 
 
 def test_widening_reduces_the_state_error(build):
-    stimuli = check_stimuli(build.error.seconds)
+    stimuli = check_stimuli(DEFAULT.interface.input, build.error.seconds)
     base = typed_default(build, {})
     wide = typed_default(build, {s: WIDEN_STEP for s in STATES})
     for s in STATES:
@@ -135,7 +136,7 @@ def toy():
     seconds = 0.01
     g = toy_graph()
     verify(g)
-    ranges = analyze_ranges(g, check_stimuli(seconds), DT)
+    ranges = analyze_ranges(g, check_stimuli(DEFAULT.interface.input, seconds), DT)
     tab = tabulate_luts(g, ranges)
     calls = []
 
@@ -153,7 +154,8 @@ def toy():
 def test_budget_loop_widens_then_grows_tables(toy):
     typed, calls, seconds = toy
     calls.clear()
-    graph, rep = meet_error_budget(typed, {"x": 0.0, "theta": 0.0}, DT, seconds, max_rounds=5)
+    graph, rep = meet_error_budget(typed, {"x": 0.0, "theta": 0.0}, DT, seconds, max_rounds=5,
+                                   inp=DEFAULT.interface.input)
     rounds = MAX_WIDEN // WIDEN_STEP
     assert [c[0].get("x", 0) for c in calls] == [WIDEN_STEP * k for k in range(rounds + 1)] + [MAX_WIDEN]
     assert calls[-1][1] == {"y": 5}
@@ -169,7 +171,7 @@ def test_budget_loop_widens_then_grows_tables(toy):
 def test_budget_loop_stops_when_met(toy):
     typed, calls, seconds = toy
     calls.clear()
-    graph, rep = meet_error_budget(typed, {"x": 1e3, "theta": 1e3}, DT, seconds)
+    graph, rep = meet_error_budget(typed, {"x": 1e3, "theta": 1e3}, DT, seconds, inp=DEFAULT.interface.input)
     assert rep.met and rep.actions == () and rep.widened == {}
     assert calls == [({}, {})]
     for errs in rep.errors.values():
@@ -181,7 +183,7 @@ def test_budget_loop_widens_products_after_accumulators():
     product levels (the least accurate products first), never beyond the top level."""
     seconds = 0.01
     g = toy_graph()
-    ranges = analyze_ranges(g, check_stimuli(seconds), DT)
+    ranges = analyze_ranges(g, check_stimuli(DEFAULT.interface.input, seconds), DT)
     tab = tabulate_luts(g, ranges)
     products = ("dx_inc", "x_inc", "dtheta_inc", "theta_inc", "y")
     seen = []
@@ -194,7 +196,7 @@ def test_budget_loop_widens_products_after_accumulators():
 
     rounds = MAX_WIDEN // WIDEN_STEP
     graph, rep = meet_error_budget(typed, {"x": 0.0, "theta": 0.0}, DT, seconds, max_rounds=rounds + 3,
-                                   products=products, max_level=2)
+                                   products=products, max_level=2, inp=DEFAULT.interface.input)
     assert not rep.met
     assert all(all(v == 0 for v in s.values()) for s in seen[:rounds + 1])
     assert any("wider multiplier operands" in a for a in rep.actions[rounds:])
@@ -211,7 +213,7 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
     from pendc.passes.ranges import per_step
     seconds = 0.01
     g = toy_graph()
-    ranges = analyze_ranges(g, check_stimuli(seconds), DT)
+    ranges = analyze_ranges(g, check_stimuli(DEFAULT.interface.input, seconds), DT)
     tab = tabulate_luts(g, ranges)
     products = ("dx_inc", "x_inc", "dtheta_inc", "theta_inc", "y")
     graphs = [fill_lut_tables(assign_qformats(tab, ranges, widen=widen, shape=(18, 18),
@@ -221,7 +223,7 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
     assert casts[0] != casts[1] or casts[1] != casts[2]          # the rounds really differ in their CASTs
     twins = [float_twin(x) for x in graphs]
     assert len({kernel_source(t, "float")[0] for t, _ in twins}) == 1
-    t, u = check_stimuli(seconds)["swing_up"]
+    t, u = check_stimuli(DEFAULT.interface.input, seconds)["swing_up"]
     steps = {"u": per_step(np.asarray(u, float), np.asarray(t, float), DT)}
     for graph, (twin, alias) in zip(graphs, twins):
         assert set(alias) == {n.name for n in graph.of_kind(Kind.CAST)}

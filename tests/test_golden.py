@@ -10,7 +10,7 @@ from pendc.golden import GoldenModel
 from pendc.ir.interpret import FixedInterpreter
 from pendc.passes.ranges import per_step
 from plants import THETA_COUNT, X_COUNT
-from pendc.sim.stimuli import chirp, swing_up
+from plants import chirp, swing_up
 
 DT = 1e-6
 
@@ -63,8 +63,8 @@ def test_encoders_decode_to_the_states(golden, name, stimulus):
 
 @pytest.mark.parametrize("stimulus", ["chirp_low", "chirp_high", "steps", "swing_up", "random"])
 def test_fast_path_is_the_interpreter_bit_for_bit(build, golden, stimulus):
-    from pendc.sim.stimuli import named_stimuli
-    t, u = named_stimuli()[stimulus]
+    from plants import STIMULI
+    t, u = STIMULI.named()[stimulus]
     steps = per_step(u, t, DT)
     start = len(steps) // 3          # from the middle of the run, where everything moves
     ints = golden.quantize_input(steps[start:start + 10_000])

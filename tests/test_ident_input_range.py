@@ -106,10 +106,12 @@ def test_an_input_spec_checks_its_range():
 
 
 def test_the_stimuli_and_the_dac_stay_in_the_range(sct, qube):
-    _, u = identification_experiment(center=0.0, plant=sct)
-    assert u.min() == 0.0 and u.max() <= 10.0             # centred at 0 V: the 0-10 V drive clips below
-    _, u = identification_experiment(center=0.0, plant=qube)
-    assert u.min() < -2.0 and u.max() > 2.0               # the ±10 V amplifier takes both signs
+    t, u = identification_experiment(plant=sct)
+    assert u.min() >= 0.0 and u.max() <= 10.0 and u[-1] == sct.interface.input.neutral   # idle at the end
+    assert u.max() - u.min() == pytest.approx(5.6)        # the levels' ±2.8 on a 10 V span
+    _, u = identification_experiment(plant=qube)
+    assert u.min() < -2.0 and u.max() > 2.0 and u[-1] == 0.0   # the ±10 V amplifier takes both signs
+    assert u.max() - u.min() == pytest.approx(11.2)       # the same levels on a 20 V span
     amplifier = qube.interface.input.range
     codes = (dac_output(u, amplifier) - amplifier.lo) / (amplifier.span / 4095)
     assert np.allclose(codes, np.round(codes), atol=1e-6)

@@ -14,7 +14,7 @@ from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
 from pendc.ir.nodes import Kind
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.passes.ranges import per_step
-from pendc.sim.stimuli import chirp, swing_up
+from plants import chirp, swing_up
 
 DT = 1e-6
 STEPS = 10_000

@@ -20,7 +20,7 @@ from plants import CATALOGUE, sct_model
 from pendc.model.plant import PlantModel
 from pendc.passes.lower import lower_model
 from pendc.passes.ranges import per_step
-from pendc.sim.stimuli import swing_up
+from plants import swing_up
 
 DT = 1e-6
 STATES = ("x", "dx", "theta", "dtheta")

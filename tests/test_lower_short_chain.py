@@ -21,7 +21,7 @@ from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
 from pendc.passes.pipeline import BuildOptions, preset_options, validate_options
 from pendc.passes.step_bound import periodic_tables
-from pendc.sim.stimuli import swing_up
+from plants import swing_up
 
 SHORT = {"fold_dt": True, "turns_phase": True, "deep_last": True, "narrow_abs": True, "lookahead": True,
          "clamp_on_increment": True, "sum_into_mux": True}

@@ -15,6 +15,7 @@ from pendc.ir.verify import verify
 from pendc.model.modelfile import default_model_path, parse_model
 from pendc.passes.pipeline import BuildOptions, compile_model, options_from_model, training_stimuli
 from pendc.passes.resources import estimate_resources
+from plants import DEFAULT
 
 OPTIONS = BuildOptions(training_scale=0.02)
 
@@ -63,7 +64,7 @@ def test_untyped_graph_is_folded_and_deduplicated(build):
 
 def test_ranges_cover_the_training_stimuli(build):
     r = build.ranges
-    names = tuple(training_stimuli(OPTIONS.training_scale))
+    names = tuple(training_stimuli(DEFAULT.interface.input, OPTIONS.training_scale))
     assert set(names) == {"chirp_low", "chirp_high", "steps", "swing_up", "random"}
     assert r.sources[:len(names)] == names
     # then the full-scale envelope a plant must survive (switching, track ends, spinning)
@@ -74,8 +75,8 @@ def test_ranges_cover_the_training_stimuli(build):
 
 
 def test_training_stimuli_are_shortened():
-    full = training_stimuli(1.0)
-    short = training_stimuli(0.02)
+    full = training_stimuli(DEFAULT.interface.input, 1.0)
+    short = training_stimuli(DEFAULT.interface.input, 0.02)
     for name, (t, u) in short.items():
         assert len(t) == len(u) == max(2, round(len(full[name][0]) * 0.02))
         assert (t == full[name][0][:len(t)]).all()

@@ -96,6 +96,8 @@ def _hostile():
         ("no input", t.replace("[inputs.F]", "[unused]").replace('unit = "N"\nmeaning = "force on the cart (N)"\n'
                                                                  "range = [-20.0, 20.0]\n", ""), "inputs"),
         ("input without range", _without(t, "range = [-20.0, 20.0]\n"), r"inputs\.F\.range: is missing"),
+        ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
+         r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
         ("sensor band zero", t.replace("band = 1e-4", "band = 0.0"), r"sensors\.enc_x\.band: must be positive"),
         ("unknown effect kind", t.replace('kind = "viscous"', 'kind = "magic"'), "unknown effect kind 'magic'"),

@@ -10,8 +10,8 @@ from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
 from pendc.passes.ranges import envelope_runs, full_scale_switching, Ranges, analyze_ranges, per_step
-from pendc.sim.stimuli import steps as step_stimulus
-from pendc.sim.stimuli import swing_up
+from plants import steps as step_stimulus
+from plants import swing_up
 
 DT = 1e-6
 

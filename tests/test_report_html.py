@@ -17,7 +17,7 @@ from pendc.ident.compare import compare
 from pendc.ident.report_html import render_html, write_html_report
 from pendc.ident.sidebyside import compare_models
 from pendc.model.modelfile import load_model
-from pendc.sim import stimuli
+from plants import STIMULI as stimuli
 from pendc.sim.measurements import Measurement
 from pendc.sim.simulator import Simulator
 

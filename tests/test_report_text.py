@@ -17,7 +17,7 @@ import pytest
 from pendc.ident.report_text import format_side_by_side, text_report, trend
 from pendc.ident.sidebyside import compare_models
 from pendc.model.modelfile import load_model
-from pendc.sim import stimuli
+from plants import STIMULI as stimuli
 from pendc.sim.measurements import Measurement
 from pendc.sim.simulator import Simulator
 

@@ -21,6 +21,7 @@ from pendc.passes.ranges import analyze_ranges
 from pendc.passes.resources import dsp_for, product_widths
 from pendc.passes.schedule import schedule_for, schedule_graph
 from pendc.passes.tabulate import fill_lut_tables, tabulate_luts
+from plants import DEFAULT
 
 DT = 1e-6
 SHAPE = (18, 18)
@@ -38,7 +39,7 @@ def toy_plant(levels: dict):
         n += [make(s, Kind.REGISTER, [f"{s}_sum"], reset=0.0), make(f"{s}_inc", Kind.GAIN, [src], value=gain),
               make(f"{s}_sum", Kind.ADD, [s, f"{s}_inc"])]
     g = Graph.build("toy", n, [(s, s) for s in ("x", "dx", "theta", "dtheta")])
-    ranges = analyze_ranges(g, check_stimuli(0.02), DT)
+    ranges = analyze_ranges(g, check_stimuli(DEFAULT.interface.input, 0.02), DT)
     typed = fill_lut_tables(assign_qformats(tabulate_luts(g, ranges), ranges, margin_bits=2, shape=SHAPE,
                                             levels=levels))
     verify(typed, typed=True)

@@ -7,7 +7,7 @@ from pendc import Simulator, load_model
 from pendc.errors import PendcError
 from pendc.ident.shooting import ShootingProblem, estimate_velocities, horizon_fit, prepare
 from pendc.sim.measurements import format_csv, parse_measurements
-from pendc.sim.stimuli import chirp
+from plants import chirp
 
 
 @pytest.fixture(scope="module")

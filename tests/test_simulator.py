@@ -20,7 +20,7 @@ from pendc.errors import PendcError
 from pendc.model.modelfile import load_model
 from pendc.model.plant import PlantModel
 from plants import sct_model
-from pendc.sim import stimuli
+from plants import STIMULI as stimuli
 from pendc.sim.simulator import Simulator
 
 from reference_spec2 import TABLE14, simulate_reference

@@ -19,34 +19,33 @@ from ..model.plant import PlantModel
 from ..sim.encoders import quantize
 from ..sim.signals import PlantSignals, signals_of
 from ..sim.simulator import Simulator
-from ..sim.stimuli import V_CENTER
+from ..sim.stimuli import Stimuli
 
 FS = 1000.0
 
 
-def identification_experiment(duration: float = 20.0, center: float = V_CENTER, seed: int = 7, plant=None):
+def identification_experiment(duration: float = 20.0, seed: int = 7, plant=None):
     """The standard 20 s experiment: small and large steps, a chirp, a resonant swing-up
-    and a quiet end where the pendulum swings freely (damping shows there). The input stays
-    within the range the actuator of ``plant`` takes (a model or interface; default: the
-    default model's, the SCT drive's 0-10 V)."""
+    and a quiet end where the pendulum swings freely (damping shows there). The levels are
+    :mod:`~pendc.sim.stimuli` reference levels on the input of ``plant`` (a model or interface;
+    default: the default model's), about its neutral value and within its range."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(duration * FS)) + 1) / FS
-    u = np.full_like(t, center)
+    u = np.zeros_like(t)
     seg = duration / 20.0
     levels = [0.3, -0.3, 0.6, -0.6, 2.8, -2.8, 1.2, -1.2]
     for i, lv in enumerate(levels):                         # 0-4 s: steps
-        u[(t >= i * 0.5 * seg) & (t < (i + 1) * 0.5 * seg)] = center + lv
+        u[(t >= i * 0.5 * seg) & (t < (i + 1) * 0.5 * seg)] = lv
     m = (t >= 4 * seg) & (t < 10 * seg)                      # 4-10 s: chirp 0.3 -> 3 Hz
     tau = t[m] - 4 * seg
     T = 6 * seg
-    u[m] = center + 1.5 * np.sin(2 * np.pi * (0.3 * tau + (3.0 - 0.3) / (2 * T) * tau**2))
+    u[m] = 1.5 * np.sin(2 * np.pi * (0.3 * tau + (3.0 - 0.3) / (2 * T) * tau**2))
     m = (t >= 10 * seg) & (t < 14 * seg)                     # 10-14 s: resonant square wave
-    u[m] = center + 2.0 * np.sign(np.sin(2 * np.pi * 0.9 * (t[m] - 10 * seg)))
+    u[m] = 2.0 * np.sign(np.sin(2 * np.pi * 0.9 * (t[m] - 10 * seg)))
     m = (t >= 14 * seg) & (t < 16 * seg)                     # 14-16 s: random levels
     holds = rng.uniform(-2.0, 2.0, 40)
-    u[m] = center + holds[((t[m] - 14 * seg) / 0.05).astype(int) % 40]
-    drive = signals_of(plant).interface.input.range
-    return t, np.clip(u, drive.lo, drive.hi)                 # 16-20 s: u = V_off, free swing
+    u[m] = holds[((t[m] - 14 * seg) / 0.05).astype(int) % 40]
+    return t, Stimuli(signals_of(plant).interface.input).on_input(u)   # 16-20 s: idle, free swing
 
 
 def dac_output(u, input_range: InputRange, dac_bits: int = 12) -> np.ndarray:
@@ -90,10 +89,11 @@ def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noi
 
 def free_swing(true_model: PlantModel, duration: float = 30.0, angle0: float = 0.8, seed: int = 17) -> dict:
     """The thesis' pivot experiment: the cart clamped, the pendulum (the last periodic
-    position) released from ``angle0`` at rest; the drive is idle (the log holds u = V_off)."""
+    position) released from ``angle0`` at rest; the actuator is idle (the log holds the input's
+    neutral value)."""
     t = np.arange(int(round(duration * FS)) + 1) / FS
-    u = np.full_like(t, true_model.parameter_values().get("V_off", V_CENTER))
     sig = signals_of(true_model)
+    u = np.full_like(t, sig.interface.input.neutral)
     x0 = np.zeros(len(sig.mechanical))
     x0[sig.index(sig.periodic[-1])] = angle0
     return make_dataset(true_model, t, u, seed=seed, experiment="cart_held", x0=tuple(x0))

@@ -306,7 +306,7 @@ def build_interface(model) -> PlantInterface:
     names = {s.name for s in states}
     return PlantInterface(
         name=d.name, core=d.core, states=tuple(states),
-        inputs=tuple(input_spec((i.name, i.unit, i.meaning), model.input_range or (i.lo, i.hi)) for i in d.inputs),
+        inputs=tuple(input_spec((i.name, i.unit, i.meaning), model.input_range or (i.lo, i.hi), i.neutral) for i in d.inputs),
         sensors=tuple(SensorSpec(s.name, s.state, d.body_of(s.state), s.band, s.lines, s.bands_per_rev)
                       for s in d.sensors),
         quantities=tuple(QuantitySpec(n, u, m) for n, u, m in quantities if n not in names))

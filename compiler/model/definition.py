@@ -121,13 +121,15 @@ class BodyDecl:
 
 @dataclass(frozen=True)
 class InputDecl:
-    """An input port: unit, meaning and the range its actuator takes."""
+    """An input port: unit, meaning, the range its actuator takes and where it is idle
+    (``neutral``: None for the default, see :class:`~pendc.model.interface.InputSpec`)."""
 
     name: str
     unit: str
     meaning: str
     lo: float
     hi: float
+    neutral: float | None = None
 
 
 @dataclass(frozen=True)

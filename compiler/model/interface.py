@@ -119,7 +119,10 @@ class InputSpec:
     """One input of the plant: its port name, unit, meaning, full scale (the largest |value|
     the hardware's input port holds) and the range ``lo`` .. ``hi`` its actuator takes (the
     SCT drive 0-10 V, the QUBE's amplifier ±10 V; ±``full_scale`` when not given). The range
-    lies within ±``full_scale``: a one-line :class:`PendcError` otherwise."""
+    lies within ±``full_scale``: a one-line :class:`PendcError` otherwise.
+
+    ``neutral`` is the input at which the actuator is idle, where the standard stimuli centre
+    (the file's ``neutral``; default zero when the range holds it, else the range's middle)."""
 
     name: str
     unit: str
@@ -127,6 +130,7 @@ class InputSpec:
     full_scale: float
     lo: float | None = None
     hi: float | None = None
+    neutral: float | None = None
 
     def __post_init__(self):
         where = f"the range of input '{self.name}'"
@@ -137,6 +141,7 @@ class InputSpec:
             raise PendcError(f"{where} [{lo:g}, {hi:g}] {self.unit} exceeds its full scale ±{self.full_scale:g}")
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
+        object.__setattr__(self, "neutral", neutral_input(lo, hi, self.neutral, f"the neutral of input '{self.name}'"))
 
     @property
     def range(self) -> InputRange:
@@ -144,11 +149,23 @@ class InputSpec:
         return InputRange(self.lo, self.hi, self.unit)
 
 
-def input_spec(described: tuple, input_range: tuple) -> InputSpec:
+def neutral_input(lo: float, hi: float, neutral: float | None, where: str) -> float:
+    """``neutral`` checked to lie in [lo, hi]; when None, zero if the range holds it, else its middle."""
+    if neutral is None:
+        return 0.0 if lo <= 0.0 <= hi else (lo + hi) / 2
+    if not lo <= neutral <= hi:
+        raise PendcError(f"{where} {neutral:g} lies outside the range [{lo:g}, {hi:g}]")
+    return float(neutral)
+
+
+def input_spec(described: tuple, input_range: tuple, neutral: float | None = None) -> InputSpec:
     """The :class:`InputSpec` of ``described`` (name, unit, meaning) taking ``input_range``
-    (lo, hi): the hardware port's full scale is the larger end's magnitude."""
+    (lo, hi) idle at ``neutral`` (dropped when the range no longer holds it): the hardware
+    port's full scale is the larger end's magnitude."""
     lo, hi = input_range
-    return InputSpec(*described, full_scale=max(abs(lo), abs(hi)), lo=lo, hi=hi)
+    if neutral is not None and not lo <= neutral <= hi:
+        neutral = None
+    return InputSpec(*described, full_scale=max(abs(lo), abs(hi)), lo=lo, hi=hi, neutral=neutral)
 
 
 @dataclass(frozen=True)

@@ -88,9 +88,13 @@ def _inputs(top: TableReader) -> tuple:
     for name in r.table:
         check_identifier(r, name, "input")
         i = r.sub(name)
-        i.only(("unit", "meaning", "range"))
+        i.only(("unit", "meaning", "range", "neutral"))
         lo, hi = i.pair("range", required=True)
-        out.append(InputDecl(name, i.string("unit", required=True), i.string("meaning", required=True), lo, hi))
+        neutral = i.number("neutral")
+        if neutral is not None and not lo <= neutral <= hi:
+            i.fail(f"neutral {neutral:g} lies outside the range [{lo:g}, {hi:g}]", "neutral")
+        out.append(InputDecl(name, i.string("unit", required=True), i.string("meaning", required=True), lo, hi,
+                             neutral))
     return tuple(out)
 
 

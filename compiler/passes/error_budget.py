@@ -27,8 +27,8 @@ from ..ir import lut as lut_sem
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.shared_source import same_structure
-from ..model.interface import graph_interface
-from ..sim.stimuli import chirp, swing_up
+from ..model.interface import graph_interface, require_interface
+from ..sim.stimuli import Stimuli
 from .ranges import input_port, per_step
 
 WIDEN_STEP = 8               # fraction bits added to the state accumulators per round
@@ -60,11 +60,13 @@ class ErrorReport:
         return dict(self.__dict__, actions=list(self.actions))
 
 
-def check_stimuli(seconds: float) -> dict:
-    """The first ``seconds`` of the standard 20 s chirp and 5 s swing-up-like input (the same
-    signals the ranges were trained on, so a short check never leaves the trained range)."""
+def check_stimuli(inp, seconds: float) -> dict:
+    """The first ``seconds`` of the standard 20 s chirp and 5 s swing-up-like input on the input
+    ``inp`` (an InputSpec; the signals the ranges were trained on, so a short check never
+    leaves the trained range)."""
     out = {}
-    for name, (t, u) in {"chirp": chirp(), "swing_up": swing_up()}.items():
+    on = Stimuli(inp)
+    for name, (t, u) in {"chirp": on.chirp(), "swing_up": on.swing_up()}.items():
         n = int(np.searchsorted(t, max(seconds, 0.01) + 1e-9))
         out[name] = (t[:n], u[:n])
     return out
@@ -156,11 +158,12 @@ def interpolation_error(node, fin) -> float:
 
 
 def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: str = "compiled",
-                      max_rounds: int = 16, products: tuple = (), max_level: int = 2):
+                      max_rounds: int = 16, products: tuple = (), max_level: int = 2, inp=None):
     """Call ``typed(widen, addr_bits, levels)`` -> typed graph until every state in ``budgets`` is
     within its budget on the check stimuli; ``products`` are the nodes whose operand level may
-    rise (up to ``max_level``). Returns (graph, ErrorReport)."""
-    stimuli = check_stimuli(seconds)
+    rise (up to ``max_level``); the check stimuli drive the input ``inp`` (an InputSpec; default:
+    the input of the plant the graphs were lowered from). Returns (graph, ErrorReport)."""
+    stimuli = None if inp is None else check_stimuli(inp, seconds)
     widen: dict = {}
     addr: dict = {}
     levels: dict = {p: 0 for p in products}
@@ -170,6 +173,8 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     for _ in range(max_rounds):
         used = dict(levels)
         graph = typed(dict(widen), dict(addr), dict(levels)) if products else typed(dict(widen), dict(addr))
+        if stimuli is None:           # on the input of the plant the graphs come from
+            stimuli = check_stimuli(require_interface(graph).input, seconds)
         anchor, since = (anchor, since + 1) if anchor is not None and same_structure(graph, anchor) else (graph, 0)
         # from the third round of one structure on, the rounds differ from its first in the same
         # nodes (the widened accumulators and their readers): they share one kernel. The first two

@@ -20,7 +20,7 @@ from ..ir.qformat import QFormat
 from ..ir.verify import verify
 from ..model.interface import PlantInterface
 from ..model.plant import PlantModel
-from ..sim.stimuli import named_stimuli
+from ..sim.stimuli import Stimuli
 from .eliminate_common import eliminate_common_subexpressions
 from .error_budget import BudgetError, ErrorReport, meet_error_budget
 from .fold_constants import fold_constants
@@ -112,10 +112,11 @@ def preset_options(preset: str | None) -> dict:
     return dict(PRESET_OPTIONS.get(preset or "", {}))
 
 
-def training_stimuli(scale: float = 1.0) -> dict:
-    """The range-analysis stimuli (swing-up-like, chirps, steps, full-scale random), optionally shortened."""
+def training_stimuli(inp, scale: float = 1.0) -> dict:
+    """The range-analysis stimuli (swing-up-like, chirps, steps, full-scale random) on the input
+    ``inp`` (an InputSpec), optionally shortened."""
     out = {}
-    for name, (t, u) in named_stimuli().items():
+    for name, (t, u) in Stimuli(inp).named().items():
         n = max(2, int(round(len(t) * scale)))
         out[name] = (t[:n], u[:n])
     return out
@@ -213,7 +214,7 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     untyped = graph
     _require_nodes(graph, opt.ranges, "range")
     _require_nodes(graph, opt.qformats, "Q-format")
-    ranges = analyze_ranges(graph, training_stimuli(opt.training_scale), opt.dt, overrides=opt.ranges,
+    ranges = analyze_ranges(graph, training_stimuli(model.interface.input, opt.training_scale), opt.dt, overrides=opt.ranges,
                             engine=opt.engine)
     graph = _checked(tabulate_luts(graph, ranges, margin=opt.lut_margin, addr_bits=opt.lut_addr_bits),
                      "tabulate_luts")
