@@ -1,9 +1,11 @@
 """Parameter fitting: bounded nonlinear least squares on the multiple-shooting residual.
 
 The optimiser works on scaled variables (each parameter divided by a typical
-magnitude) so that b_x ~ 900 and tau_c ~ 0.004 are equally easy to move. Bounds are
-the catalogue's physical ranges. When mu_s and mu_c are both free, mu_s is
-parametrised as mu_c + d with d >= 0, so every fit satisfies mu_s >= mu_c. Confidence
+magnitude) so that a viscous coefficient near 900 and a friction torque near 0.004 are
+equally easy to move. Bounds are the catalogue's physical ranges. An ordering the plant
+file declares (``[identification] constraints``: ``parameter`` at least ``at_least``, such
+as static friction at least the Coulomb level) holds whenever a fit frees both: the
+parameter is parametrised as its lower one + d with d >= 0. Confidence
 intervals come from the Jacobian at the optimum (Gauss-Newton covariance scaled by
 the residual variance) and a cluster-robust one, whichever is wider. A parameter the
 data do not excite (a direction of the Jacobian with no singular value, or an
@@ -75,19 +77,35 @@ def _bounded_constant(model: PlantModel, name: str) -> bool:
     return declared is not None and np.isfinite(declared.lo) and np.isfinite(declared.hi)
 
 
+def orderings(model: PlantModel, free: list) -> list:
+    """``[(i, j), ...]``: free parameter ``free[i]`` is kept at least ``free[j]`` (the plant
+    file's ``[identification] constraints`` whose two parameters are both free), lower ones
+    first (a chain's substitutions then apply in order)."""
+    notes = getattr(getattr(model, "definition", None), "notes", None)
+    pairs = [(free.index(p), free.index(low)) for p, low, _ in getattr(notes, "constraints", ())
+             if p in free and low in free]
+    out = []
+    while pairs:
+        ready = [(i, j) for i, j in pairs if not any(k == j for k, _ in pairs)]
+        if not ready:                              # a loop (the plant file's reader refuses one)
+            raise PendcError("the declared parameter orderings form a loop")
+        out += ready
+        pairs = [q for q in pairs if q not in ready]
+    return out
+
+
 class _Transform:
-    """Scaled optimiser variables <-> parameter values (with the mu_s >= mu_c substitution)."""
+    """Scaled optimiser variables <-> parameter values (with the declared orderings'
+    substitution: a parameter kept at least another is its lower one + d, d >= 0)."""
 
     def __init__(self, model: PlantModel, free: list, start: np.ndarray):
         self.free = list(free)
         self.scale = np.maximum(np.abs(start), [self._typical(model, p) for p in self.free])
-        self.ordered = "mu_s" in self.free and "mu_c" in self.free
-        self.i_s = self.free.index("mu_s") if self.ordered else None
-        self.i_c = self.free.index("mu_c") if self.ordered else None
+        self.orders = orderings(model, self.free)
         lo, hi = zip(*(parameter_bounds(model, p) for p in self.free)) if self.free else ((), ())
         self.lo, self.hi = np.array(lo, float), np.array(hi, float)
-        if self.ordered:
-            self.lo[self.i_s], self.hi[self.i_s] = 0.0, self.hi[self.i_s]
+        for i, _ in self.orders:
+            self.lo[i] = 0.0
 
     @staticmethod
     def _typical(model, name):
@@ -99,16 +117,23 @@ class _Transform:
 
     def to_z(self, values: np.ndarray) -> np.ndarray:
         v = np.array(values, float)
-        if self.ordered:
-            v[self.i_s] = max(v[self.i_s] - v[self.i_c], 0.0)
+        given = v.copy()
+        for i, j in self.orders:
+            v[i] = max(given[i] - given[j], 0.0)
         return v / self.scale
 
     def to_values(self, z: np.ndarray) -> np.ndarray:
         v = np.asarray(z, float) * self.scale
-        if self.ordered:
+        if self.orders:
             v = v.copy()
-            v[self.i_s] = v[self.i_s] + v[self.i_c]
+            for i, j in self.orders:
+                v[i] = v[i] + v[j]
         return v
+
+    def jacobian(self) -> np.ndarray:
+        """d values / d z (the map is linear): column k is :meth:`to_values` of unit vector k."""
+        return np.column_stack([self.to_values(np.eye(len(self.free))[k]) for k in range(len(self.free))]) \
+            if self.free else np.zeros((0, 0))
 
     def bounds(self):
         return self.lo / self.scale, self.hi / self.scale
@@ -234,9 +259,7 @@ def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> tuple[d
     cov_sandwich = bread @ meat @ bread * n_clusters / (n_clusters - 1)
     cov_gn = bread * float(r @ r) / max(n - k, 1)
     # map the covariance of the scaled variables to the parameters (linear map)
-    A = np.diag(tf.scale)
-    if tf.ordered:
-        A[tf.i_s, tf.i_c] = tf.scale[tf.i_c]
+    A = tf.jacobian()
     var = np.maximum(np.diag(A @ cov_sandwich @ A.T), np.diag(A @ cov_gn @ A.T))
     half = 1.96 * np.sqrt(np.maximum(var, 0.0))
     ci = {}

@@ -167,12 +167,14 @@ class IdentificationNotes:
     ``(body, signal kind, parameters, reason)``: when the unexplained acceleration of ``body``
     follows a signal of that kind ("angle", "rate", "input"), the comma-separated
     ``parameters`` are the constants to free; a hint applies only to a model that has every
-    parameter it names."""
+    parameter it names. ``constraints``: ``(parameter, at_least, reason)``: a fit that frees
+    both keeps ``parameter >= at_least``."""
 
     evidence: dict
     separated_by: dict
     pair_separated_by: dict
     parameter_hints: tuple
+    constraints: tuple = ()        # ((parameter, at_least, reason), ...): orderings a fit keeps
 
     def separating_experiment(self, names: list) -> str:
         """What would separate the tied effects ``names``: the pair's own entry when there is

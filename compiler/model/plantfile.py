@@ -61,7 +61,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     rates = [f"d{c.name}" for c in coordinates]
     sensors = _sensors(top, position_names + [s.name for s in states])
     experiments = _experiments(top, position_names, [b.name for b in bodies])
-    notes = _notes(top, catalogue)
+    notes = replace(_notes(top, catalogue), constraints=_constraints(top, catalogue, constants))
     physics = {k: doc[k] for k in PHYSICS if k in doc} | {
         "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}}
     definition = PlantDefinition(
@@ -301,7 +301,7 @@ def _experiments(top: TableReader, positions, bodies) -> dict:
 
 def _notes(top: TableReader, catalogue: dict) -> IdentificationNotes:
     r = top.sub("identification") or TableReader(top.source, "identification", {})
-    r.only(("pairs", "hints"))
+    r.only(("pairs", "hints", "constraints"))
     pairs = {}
     for i, item in enumerate(r.table.get("pairs", [])):
         p = TableReader(r.source, f"identification.pairs[{i}]", item)
@@ -322,6 +322,39 @@ def _notes(top: TableReader, catalogue: dict) -> IdentificationNotes:
     evidence = {n: e.evidence for n, e in catalogue.items() if e.evidence}
     separated = {n: e.separated_by for n, e in catalogue.items() if e.separated_by}
     return IdentificationNotes(evidence, separated, pairs, tuple(hints))
+
+
+def _constraints(top: TableReader, catalogue: dict, constants: dict) -> tuple:
+    """``[identification] constraints = [{ parameter, at_least, reason }]``: orderings a fit
+    keeps, as ``((parameter, at_least, reason), ...)``. Both names are parameters of the file
+    (constants or catalogue params); a parameter has at most one lower one, and the orderings
+    form no loop."""
+    r = top.sub("identification") or TableReader(top.source, "identification", {})
+    items = r.table.get("constraints", [])
+    if not isinstance(items, list):
+        r.fail("must be a list of { parameter, at_least, reason } tables", "constraints")
+    known = set(constants) | {p.name for e in catalogue.values() for p in e.params}
+    out, below = [], {}
+    for i, item in enumerate(items):
+        c = TableReader(r.source, f"identification.constraints[{i}]", item if isinstance(item, dict) else {})
+        if not isinstance(item, dict):
+            c.fail("must be a table { parameter, at_least, reason }")
+        c.only(("parameter", "at_least", "reason"))
+        upper, lower = c.string("parameter", required=True), c.string("at_least", required=True)
+        for key, name in (("parameter", upper), ("at_least", lower)):
+            if name not in known:
+                c.fail(f"names unknown parameter '{name}' (a constant or a catalogue effect's parameter)", key)
+        if upper == lower or upper in below:
+            c.fail(f"'{upper}' already has a lower bound or is bounded by itself", "parameter")
+        below[upper] = lower
+        seen, step = {upper}, lower
+        while step in below:
+            if below[step] in seen:
+                c.fail(f"the constraints on '{upper}' form a loop", "at_least")
+            seen.add(step)
+            step = below[step]
+        out.append((upper, lower, c.string("reason", "")))
+    return tuple(out)
 
 
 def _operating_points(top: TableReader, names) -> dict:
