@@ -1,30 +1,31 @@
 """``pendc compare``: how well does a model reproduce one measured run, where and why not.
 
 The model is simulated in free run (no resets to the data) from the data's initial
-state (velocities as diagnose and fit estimate them: the ``dx``/``dtheta`` columns, else a
+state (velocities as diagnose and fit estimate them: the data's rate columns, else a
 31 ms Savitzky-Golay derivative) on the measured input (zero-order hold), and in 0.5 s segments that restart from
 the measured state (:mod:`pendc.ident.horizon`). Every figure says which it is:
 
 * **free-run fit** and **horizon fit** per output, as MATLAB's ``compare``:
-  ``100 (1 - ||y - yhat|| / ||y - mean y||)``; for theta also the **wrapped** free-run
-  fit, whose error is the angle difference folded into (-pi, pi], because an unwrapped
-  angle counts every extra turn of the simulated pendulum as 2 pi of error;
+  ``100 (1 - ||y - yhat|| / ||y - mean y||)``; for the last periodic position (the swinging
+  angle) also the **wrapped** free-run fit, whose error is the angle difference folded into
+  (-pi, pi], because an unwrapped angle counts every extra turn of the simulated body as
+  2 pi of error;
 * the **headline**: which of the two fits means something on these data
   (:mod:`pendc.ident.headline`), and why;
 * **worst windows**: the non-overlapping 0.5 s windows with the largest RMS residual;
 * **regimes**: the share of the squared residual that falls in each operating regime
-  (cart standing or moving left/right, small or large swing, weak or strong drive,
-  centre or ends of the track, input saturated or not), next to the share of time
+  (the first position's body standing or moving either way, small or large swing, weak or
+  strong drive, centre or ends of a translation's travel, input saturated or not), next to the share of time
   spent there, so a concentration of the error shows at a glance;
 * **whiteness**: residual autocorrelation and residual-input cross-correlation with
   99 % bands, as MATLAB's ``resid`` (:mod:`pendc.ident.whiteness`).
 
 Windows and regimes examine the residual of the headline's simulation: a free run that
 diverged has its error everywhere after the divergence, which says nothing. Whiteness
-always tests the free-run residual (theta wrapped): a horizon residual restarts from zero
+always tests the free-run residual (angles wrapped): a horizon residual restarts from zero
 every segment, so it is correlated by construction.
-The regimes are classified on the *measured* motion (the cart velocity from the
-data's ``dx`` column, else a Savitzky-Golay derivative of x): a wrong model must not
+The regimes are classified on the *measured* motion (the first position's rate from the
+data's rate column, else a Savitzky-Golay derivative of the position): a wrong model must not
 decide which regime the real rig was in. :func:`compare_models` puts several models
 side by side on the same runs. The reports (text, HTML) live in
 :mod:`pendc.ident.report_text` and :mod:`pendc.ident.report_html`, which import this module.
@@ -47,7 +48,7 @@ from . import headline as hl
 from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, measured_motion
 from .outputs import experiment_of, plan_outputs
 from .smoothing import SAVGOL_WINDOW, estimate_velocities
-from .regimes import DEFAULT_V_OFF, input_centre, regime_partitions, regimes, wrap_angle  # noqa: F401
+from .regimes import CENTRE_NAME, centre_and_name, input_centre, regime_partitions, regimes, wrap_angle  # noqa: F401
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
                         autocorrelation, cross_correlation, decimate, whiteness)
 
@@ -63,14 +64,17 @@ class Comparison:
     ``fit`` is the **free-run** fit% keyed by output; ``fit_horizon`` (a property) the
     horizon fit% of ``horizon_run``; ``fit_wrapped`` the free-run fit of :attr:`angle` with
     the angle error wrapped to (-pi, pi]; ``turns`` the largest number of whole turns by
-    which simulated and measured theta differ (first reached at ``turn_time`` s).
+    which simulated and measured :attr:`angle` differ (first reached at ``turn_time`` s).
     ``headline`` says which fit leads and why. ``residual`` (measured minus simulated, m
     and rad) is the residual that ``windows`` and ``regimes`` examine: the free run's or
     the horizon simulation's, as ``residual_of`` says; ``free_residual`` is always the free
-    run's, and ``whiteness`` tests it (theta wrapped to (-pi, pi]). ``measured`` holds the data's positions and the cart velocity
-    ``dx`` used to classify regimes (``motion_source`` says where it came from). ``outputs``
-    are the positions compared (a held cart's run compares theta only); ``notes`` say
-    which were left out and why.
+    run's, and ``whiteness`` tests it (angles wrapped to (-pi, pi]). ``measured`` holds the data's
+    positions and the first position's rate used to classify regimes (``motion_source`` says
+    where it came from). ``outputs`` are the positions compared (a run that holds a coordinate
+    compares the others only); ``notes`` say which were left out and why. ``v_off`` is the
+    input's centre (:func:`~pendc.ident.regimes.input_centre`), ``centre_name`` what holds it
+    (the drive's offset parameter, else :data:`~pendc.ident.regimes.CENTRE_NAME`): the JSON
+    key of its value.
     """
 
     fit: dict
@@ -84,7 +88,8 @@ class Comparison:
     data_source: str = ""
     dt: float = 1e-4
     method: str = "rk4"
-    v_off: float = DEFAULT_V_OFF    # the input's centre (the drive offset V_off; 0 for a plant without one)
+    v_off: float = 0.0              # the input's centre (where the drive pushes nothing at rest)
+    centre_name: str = CENTRE_NAME  # the parameter that holds it, else CENTRE_NAME
     motion_source: str = ""
     outputs: tuple = ()
     experiment: str = "free"
@@ -117,7 +122,7 @@ class Comparison:
 
     @property
     def angle(self) -> str | None:
-        """The plant's periodic position whose wrapped fit and turns are reported (the last: the
+        """The plant's periodic position whose wrapped fit and turns are reported (the last: e.g. a
         pendulum's angle), or None; its figures are NaN and 0 when it is not compared."""
         return angle_of(self.model)
 
@@ -148,18 +153,19 @@ class Comparison:
             "turns": {"max": self.turns, "first_t": self.turn_time,
                       "label": f"largest whole number of turns between simulated and measured {self.angle} (free run)"},
             "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
-            "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness, "V_off": self.v_off,
+            "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness,
+            self.centre_name: self.v_off,
             f"{self.motion_rate}_source": self.motion_source, "notes": list(self.notes)})
 
     @property
     def motion_rate(self) -> str:
-        """The rate the regimes classify the motion by (the first position's: the cart's ``dx``)."""
+        """The rate the regimes classify the motion by (the first position's)."""
         sig = signals_of(self.model)
         return sig.rate(sig.positions[0]) or sig.positions[0]
 
 
 def angle_of(model) -> str | None:
-    """The last periodic position of ``model``'s plant (the pendulum's angle), or None."""
+    """The last periodic position of ``model``'s plant (e.g. a pendulum's angle), or None."""
     periodic = signals_of(model).periodic if model is not None else ()
     return periodic[-1] if periodic else None
 
@@ -189,18 +195,18 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     """Simulate ``model`` on ``data``'s input, in free run and with a ``horizon`` s restart,
     and compare the outputs (see the module docstring).
 
-    The model is set to the experiment the data declare (a held cart does not move), and
+    The model is set to the experiment the data declare (a held coordinate does not move), and
     the outputs compared are chosen as diagnose and fit choose them
     (:func:`pendc.ident.outputs.plan_outputs`: held, constant or missing ones are left out,
-    ``notes`` says which; ``outputs``, e.g. ``("theta",)``, restricts them further).
+    ``notes`` says which; ``outputs``, a tuple of position names, restricts them further).
     Why 0.1 ms RK4 and not the 1 us Euler reference: identification calls this many
     times (every candidate, every data set), and 0.1 ms RK4 is ~40x faster. Measured
-    on the 20 s chirp (``stimuli.chirp()``) with the Table 14 model, it stays within
-    0.8 counts of theta (0.26 mrad) of the 1 us Euler run; x differs by up to
-    9 counts (22 um, RMS 3.8 counts, against 44000 counts of travel), and fit% by
-    less than 0.05 points. The x error is first order, not RK4's: the exact-zero
-    sticking test makes friction jump at every velocity reversal, and a fixed step
-    lands on the jump at a random phase (1e-5 RK4 still differs by 0.5 counts). Pass
+    on the 20 s chirp (``stimuli.chirp()``) with the default model, it stays within
+    0.8 counts of the pendulum angle (0.26 mrad) of the 1 us Euler run; the cart's
+    position differs by up to 9 counts (22 um, RMS 3.8 counts, against 44000 counts of
+    travel), and fit% by less than 0.05 points. The position error is first order, not
+    RK4's: an exact-zero sticking test makes friction jump at every velocity reversal, and
+    a fixed step lands on the jump at a random phase (1e-5 RK4 still differs by 0.5 counts). Pass
     ``dt=1e-6, method="euler"`` to compare with the hardware's own integrator.
     """
     experiment = experiment_of(data, model)
@@ -237,7 +243,7 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     else:
         residual, residual_of = free_residual, "free run"
     periodic = [k for k in outputs if sig.period(k) is not None]
-    angle = angle_of(model)                            # the pendulum's: the last periodic position
+    angle = angle_of(model)                            # the last periodic position
     turns, turn_time, wrapped_fit = 0, None, float("nan")
     if angle in outputs:
         turns, turn_time = turns_apart(t, free_residual[angle])
@@ -245,8 +251,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     # the whiteness tests need an uninterrupted residual: a horizon residual restarts at zero every
     # segment and is correlated by construction, so they always see the free run (whole turns wrapped)
     white_input = {k: (wrap_difference(r) if k in periodic else r) for k, r in free_residual.items()}
-    # the regimes: the motion of the first position (the cart, the arm), where along its travel
-    # it is (a translation), the swing of the last periodic one (the pendulum), the input
+    # the regimes: the motion of the first position, where along its travel it is (a
+    # translation), the swing of the last periodic one, the input
     lead = sig.positions[0]
     lead_rate = sig.rate(lead)
     lead_measured = y[lead] if lead in y else np.zeros_like(t)
@@ -258,12 +264,12 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     else:
         lead_velocity, motion_source = np.zeros_like(t), f"{sig.body_of(lead)} held (not measured)"
     missing = set(getattr(data, "missing", ()) or ())
-    # partitions by an axis the run did not have (a held cart, an input the file lacked) say nothing
+    # partitions by an axis the run did not have (a held coordinate, an input the file lacked) say nothing
     motion = {k: v for k, v in y.items()}
     if lead in outputs and lead_rate is not None:
         motion[lead_rate] = lead_velocity
-    v_off = input_centre(model)
-    partitions = regime_partitions(model, motion, u, v_off,
+    v_off, centre_name = centre_and_name(model)
+    partitions = regime_partitions(model, motion, u, v_off, centre_name=centre_name,
                                    skip=("drive", "input saturation") if sig.input in missing else ())
     return Comparison(
         fit={k: fit_percent(y[k], simulated[k]) for k in outputs},
@@ -272,7 +278,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         regimes=regimes(residual, partitions),
         whiteness=whiteness(t, white_input, u, input_missing=sig.input in missing),
         measured={**y, **({lead_rate: lead_velocity} if lead_rate else {})},
-        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, motion_source=motion_source,
+        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, centre_name=centre_name,
+        motion_source=motion_source,
         outputs=outputs, experiment=experiment, free_residual=free_residual, fit_wrapped=wrapped_fit,
         turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
         notes=tuple(plan.notes))

@@ -23,6 +23,7 @@ from ..model.plant import PlantModel
 from ..sim.experiment_axes import irrelevant_axes
 from ..sim.signals import signals_of
 from .outputs import experiment_of
+from .plant_roles import drive_offset
 from .smoothing import velocity_and_acceleration
 
 MOVING = {"m/s": 0.005}   # per rate unit: below this a translation counts as standing (sticking friction)
@@ -202,7 +203,8 @@ def _basis(model: PlantModel, sig: dict) -> dict:
     each rate, its sign and its square with sign, the input about its centre, and
     position-periodic forces along each translation."""
     s = signals_of(model)
-    centre = float(model.parameter_values().get("V_off", 0.0))
+    offset = drive_offset(model)
+    centre, centre_name = offset if offset is not None else (0.0, "")
     basis = {}
     for p in s.positions:
         basis[p] = sig[p]
@@ -212,7 +214,7 @@ def _basis(model: PlantModel, sig: dict) -> dict:
         if rate is not None:
             v = sig[rate]
             basis[rate], basis[f"sgn({rate})"], basis[f"{rate}*|{rate}|"] = v, np.sign(v), v * np.abs(v)
-    basis[f"{s.input} - V_off" if "V_off" in model.parameter_names() else s.input] = sig[s.input] - centre
+    basis[f"{s.input} - {centre_name}" if centre_name else s.input] = sig[s.input] - centre
     for p in [p for p in s.positions if s.period(p) is None]:
         for lam in WAVELENGTHS:   # position-periodic forces (ripple, cogging) show only against the position
             basis[f"sin(2 pi {p}/{lam:g})"] = np.sin(2 * np.pi * sig[p] / lam)

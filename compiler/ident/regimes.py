@@ -4,18 +4,17 @@ Each partition splits the run's samples into regimes that cover every sample exa
 classified on the *measured* motion (a wrong model must not decide which regime the real
 rig was in). The partitions are read off the plant interface:
 
-* **<body> motion** for the first position (the cart, the arm): standing, moving + or - (its
-  rate below or beyond ``STANDSTILL`` of its unit: static friction's realm);
-* **<body> angle** for the last periodic position (the pendulum): small or large swing from
-  its zero (``SMALL_SWING``: sin(theta) ~ theta still holds within 1.5 %);
-* **drive**: the input near or far from its centre (the drive's offset V_off if the model has
-  one, else the middle of the input's range; ``LOW_DRIVE``: about the SCT's static break-away
-  voltage, 0.40 V for Table 14);
-* **<position> position** for a translation (the cart on its track): centre or near an end
-  (``TRACK_END`` of its unit: the outer third of each half of the SCT's 750 mm track);
+* **<body> motion** for the first position (e.g. a cart's or a rotary arm's): standing,
+  moving + or - (its rate below or beyond ``STANDSTILL`` of its unit: static friction's realm);
+* **<body> angle** for the last periodic position (e.g. a pendulum's): small or large swing
+  from its zero (``SMALL_SWING``: sin(q) ~ q still holds within 1.5 %);
+* **drive**: the input near or far from its centre (where the model's drive law pushes
+  nothing at rest, e.g. a servo drive's offset voltage, else the middle of the input's
+  range; ``LOW_DRIVE``: about the static break-away input of a laboratory cart, 0.40 V);
+* **<position> position** for a translation (e.g. a cart on its track): centre or near an
+  end (``TRACK_END`` of its unit: the outer third of each half of a 750 mm track);
 * **input saturation**: the input within ``SATURATION_MARGIN`` of the span of the range its
-  actuator takes (the interface's: the SCT drive's 0-10 V, the QUBE's ±10 V) from either end,
-  or not.
+  actuator takes (the plant file's ``[inputs]`` range) from either end, or not.
 """
 
 from __future__ import annotations
@@ -31,7 +30,7 @@ SMALL_SWING = 0.3            # rad from the angle's zero
 LOW_DRIVE = 0.5              # input units from its centre
 TRACK_END = {"m": 0.25}      # per position unit: beyond this the body is near an end of its travel
 SATURATION_MARGIN = 0.005    # fraction of the input range's span
-DEFAULT_V_OFF = 5.0          # V, spec §3 Table 3: the SCT drive's nominal offset (the middle of 0-10 V)
+CENTRE_NAME = "input_centre"  # what reports call the input's centre when no parameter holds it
 
 
 def wrap_angle(angle, period: float = 2 * math.pi):
@@ -40,13 +39,21 @@ def wrap_angle(angle, period: float = 2 * math.pi):
 
 
 def input_centre(model) -> float:
-    """The input the plant rests at: the model's drive offset ``V_off``, else the middle of the
-    range its actuator takes (the SCT drive's nominal 5 V of its 0-10 V, as Table 3 has it;
-    0 for the QUBE's ±10 V amplifier)."""
-    values = model.parameter_values()
-    if "V_off" in values:
-        return float(values["V_off"])
-    return model.interface.input.range.centre
+    """The input the plant rests at: where the model's drive law pushes nothing at rest
+    (:func:`~pendc.ident.plant_roles.drive_offset`: a drive's offset parameter, 0 for a law
+    without one), else the middle of the range its actuator takes."""
+    return centre_and_name(model)[0]
+
+
+def centre_and_name(model) -> tuple:
+    """``(value, name)`` of :func:`input_centre`: the name of the parameter that holds it, else
+    :data:`CENTRE_NAME`."""
+    from .plant_roles import drive_offset
+
+    found = drive_offset(model)
+    if found is not None:
+        return found[0], found[1] or CENTRE_NAME
+    return model.interface.input.range.centre, CENTRE_NAME
 
 
 def saturation_limits(drive) -> tuple:
@@ -64,11 +71,12 @@ def _number(value: float, unit: str) -> str:
     return f"{value:g} {unit}"
 
 
-def regime_partitions(plant, measured: dict, u, centre: float, skip=()) -> list:
+def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_name: str = CENTRE_NAME) -> list:
     """``[(partition, [(name, definition, mask), ...]), ...]``; each partition's masks cover
     every sample exactly once. ``measured`` holds the data's positions and rates by state name
     (absent ones are not partitioned); ``plant`` is a model or its interface; partitions named
-    in ``skip`` are left out."""
+    in ``skip`` are left out; ``centre`` is the input's centre (:func:`input_centre`), which
+    the definitions call ``centre_name``."""
     sig = signals_of(plant)
     spec = sig.interface.input
     u = np.asarray(u, dtype=np.float64)
@@ -92,8 +100,8 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=()) -> list:
             ("large swing", f"|{swing}| >= {SMALL_SWING:g} {sig.unit(swing)}", th >= SMALL_SWING)]))
     e = np.abs(u - centre)
     name = spec.name
-    about = f"|{name} - V_off|" if centre else f"|{name}|"
-    where = f", V_off = {centre:.4g} {spec.unit}" if centre else ""
+    about = f"|{name} - {centre_name}|" if centre else f"|{name}|"
+    where = f", {centre_name} = {centre:.4g} {spec.unit}" if centre else ""
     out.append(("drive", [
         ("weak drive", f"{about} < {LOW_DRIVE:g} {spec.unit}{where}", e < LOW_DRIVE),
         ("strong drive", f"{about} >= {LOW_DRIVE:g} {spec.unit}", e >= LOW_DRIVE)]))

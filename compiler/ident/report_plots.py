@@ -176,14 +176,14 @@ def _zoom(ax, t0: float, t1: float) -> None:
 
 def scatter_axes(c: Comparison) -> list:
     """``(label, values)`` the residual is plotted against: the measured rates, the periodic
-    positions wrapped to one turn, the input about its centre, the translations (for the
-    cart-pendulum dx, theta wrapped, u - V_off, x); those that vary in the run."""
+    positions wrapped to one turn, the input about its centre, the translations; those that
+    vary in the run."""
     sig = signals_of(c.model)
     spec = sig.interface.input
     against = [(f"{r} ({sig.unit(r)})", c.measured[r]) for r in sig.rates if r in c.measured]
     against += [(f"{p} wrapped to ±π ({sig.unit(p)})", wrap_angle(c.measured[p], sig.period(p)))
                 for p in sig.periodic if p in c.measured]
-    centre = f"{spec.name} - V_off" if c.v_off else spec.name
+    centre = f"{spec.name} - {c.centre_name}" if c.v_off else spec.name
     against.append((f"{centre} ({spec.unit})", c.simulated.u - c.v_off))
     against += [(f"{p} ({sig.unit(p)})", c.measured[p]) for p in sig.positions if sig.period(p) is None
                 and p in c.measured]
