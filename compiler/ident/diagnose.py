@@ -9,17 +9,18 @@ fraction of the held-out simulation error it removes:
 A flexible effect that only bends to the fitting data does not lower the held-out
 error, so it cannot win by flexibility (the penalty the Bayesian information
 criterion would give is also reported). The evidence sentence comes from the
-equation error: accelerations estimated from the data give the force on the cart and
-the torque at the pivot that the model leaves unexplained, and their correlation with
+equation error: accelerations estimated from the data give the generalized force on
+each coordinate that the model leaves unexplained, and their correlation with
 what the candidate adds says in physical terms why it fits. Before blaming a missing
 effect, the residual is compared with what the measurement chain alone would leave
 (:mod:`.noise`): at that level there is "nothing systematic left". When the residual
 is above it and no candidate removes most of it, the diagnosis says so and lists what
-the residual correlates with (x-dependent signals included: a rail ripple shows there).
-Only candidates that a compared output can see are tested (an effect on the cart is
-invisible in a held-cart swing), and a sensor offset only where something in the model
-depends on the absolute position it shifts (without end stops or a spring on the track,
-an offset of x changes no residual: the note says so rather than guessing). When the best
+the residual correlates with (position-dependent signals included: a ripple along a rail
+shows there). Only candidates that a compared output can see are tested (an effect on a
+coordinate the experiment holds is invisible), and a sensor offset only where something in
+the model depends on the absolute position it shifts (without a force that acts beyond a
+threshold of the position, such as end stops, or a spring, an offset of a translation
+changes no residual: the note says so rather than guessing). When the best
 candidates' scores differ by less than the noise of the score, the diagnosis says that the
 data cannot separate them and which experiment would (:mod:`.ties`).
 """
@@ -40,11 +41,12 @@ from .evidence import describe_candidate, residual_correlations
 from .fit import fit_parameters
 from .noise import NOISE_FACTOR, noise_ratio
 from .outputs import experiment_of, plan_outputs
+from .plant_roles import engagement
 from .shooting import ShootingProblem
 from .ties import find_tie
 
 EXPLAINED = 0.5     # a candidate that removes at least half the held-out error explains it
-NEAR_END = 0.8      # end stops are tested only when the cart comes this close to x_end
+NEAR_END = 0.8      # a threshold force is tested only when the data come this close to its threshold
 
 
 @dataclass(frozen=True)
@@ -90,7 +92,7 @@ class Diagnosis:
 
 def visible_parts(datasets: list, outputs=None, model=None) -> set:
     """What the compared outputs of ``datasets`` can see: the positions compared and the
-    bodies they belong to (for the cart-pendulum "cart", "pendulum", "x", "theta")."""
+    bodies they belong to (the names the plant file declares)."""
     from ..model.equations import DEFAULT_EXPERIMENT
 
     plan = plan_outputs(datasets, outputs, model)
@@ -126,7 +128,7 @@ def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=N
             continue
         if seen is not None and cls.acts_on not in seen:
             continue
-        if name == "end_stops" and reach is not None and reach < NEAR_END * 0.375:
+        if _out_of_reach(model, name, datasets):
             continue
         if any(name in (a, b) and (b if name == a else a) in model.effects for a, b, _ in _conflicts(model)):
             continue
@@ -138,13 +140,24 @@ def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=N
     return out
 
 
-def _reach(datasets, model) -> float | None:
-    """The largest |position| the data read of a translation (a position that does not wrap:
-    how near the cart comes to its end stops); None without data."""
+def _out_of_reach(model, name: str, datasets) -> bool:
+    """Whether effect ``name`` acts only beyond a threshold of a position
+    (:func:`~pendc.ident.plant_roles.engagement`) that the data never come near."""
+    found = engagement(model, name)
+    if found is None or not datasets:
+        return False
+    reach = _reach(datasets, model, found[0])
+    return reach is not None and reach < NEAR_END * found[2]
+
+
+def _reach(datasets, model, position: str | None = None) -> float | None:
+    """The largest |position| the data read of ``position``, default of any translation (a
+    position that does not wrap: how near a body comes to the ends of its travel); None
+    without data."""
     if not datasets:
         return None
     sig = signals_of(model)
-    lines = [p for p in sig.positions if sig.period(p) is None]
+    lines = [position] if position else [p for p in sig.positions if sig.period(p) is None]
     return max((float(np.max(np.abs(d.column(p)))) for d in datasets for p in lines
                 if d.columns.get(p) is not None), default=0.0)
 
@@ -175,26 +188,44 @@ def offset_blindness(model: PlantModel, datasets: list, output: str, reach: floa
 
     Shooting starts every segment from the measured state, so a constant offset of a
     sensor changes the residual only through physics that depends on the absolute
-    position: gravity for an angle, end stops or a spring for the cart's position."""
+    position: gravity for an angle; for a translation a spring, or a force that acts only
+    beyond a threshold of it (:func:`~pendc.ident.plant_roles.engagement`, e.g. end stops).
+    What would show the offset is the offset effect's ``separated_by`` in the plant file."""
     sig = signals_of(model)
     state = sig.index(output)
     translation = sig.period(output) is None
     experiments = {experiment_of(d, model) for d in datasets}
+    body, unit = sig.body_of(output), sig.unit(output)
+    shown_by = f"what would show an offset of the position sensor: {_offset_experiment(model, output)}"
     if any(_depends_on(model, e, state) for e in experiments):
-        if translation and "end_stops" in model.effects and reach is not None and \
-                not any(_depends_on(model.without_effect("end_stops"), e, state) for e in experiments):
-            x_end = model.effects["end_stops"].get("x_end", 0.375)
-            if reach < NEAR_END * x_end:
-                return (f"the cart never comes near the end stops (|x| <= {reach:.3g} m, stops at {x_end:g} m), "
-                        "the only place where the model depends on its absolute position; a run into the end "
-                        "stops would show an offset of the position sensor")
+        limits = [(n, found) for n in model.effects if (found := engagement(model, n)) and found[0] == output]
+        if translation and limits and reach is not None:
+            without = model
+            for n, _ in limits:
+                without = without.without_effect(n)
+            if not any(_depends_on(without, e, state) for e in experiments):
+                name, (_, _, threshold) = min(limits, key=lambda item: item[1][2])
+                if reach < NEAR_END * threshold:
+                    words = name.replace("_", " ")
+                    return (f"the {body} never comes near the {words} (|{output}| <= {reach:.3g} {unit}, "
+                            f"{name} acts beyond {threshold:g} {unit}), the only place where the model depends "
+                            f"on its absolute position; {shown_by}")
         return ""
     if translation:
-        return (f"nothing in the model depends on where the {sig.body_of(output)} is on the track (no end stops, no spring), so an "
-                "offset of the position sensor changes no residual: it is not identifiable from these data; a "
-                "run into the end stops with end_stops in the model would show it")
+        return (f"nothing in the model depends on where the {body} is along its travel (no spring, no force "
+                "beyond a threshold of its position), so an offset of the position sensor changes no residual: "
+                f"it is not identifiable from these data; {shown_by}")
     return ("nothing in the model depends on the absolute angle in these experiments, so an offset of the angle "
-            f"sensor changes no residual; a swing of the {sig.body_of(output)} would show it")
+            f"sensor changes no residual; a swing of the {body} would show it")
+
+
+def _offset_experiment(model, output: str) -> str:
+    """What shows an offset of the sensor of translation ``output``: the plant file's
+    ``separated_by`` of its offset effect, else a run to the ends of its travel."""
+    for decl in _catalogue(model).values():
+        if decl.kind == "offset" and decl.on == output and decl.separated_by:
+            return decl.separated_by
+    return f"a run of the {signals_of(model).body_of(output)} to the ends of its travel"
 
 
 def free_parameters(effect: str, model=None) -> list:
@@ -252,7 +283,7 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
              workers: int = 1, progress=None, outputs=None, effects=None) -> Diagnosis:
     """Rank the missing-effect hypotheses for ``model`` on ``datasets`` (Measurements).
 
-    ``outputs`` restricts the compared outputs (e.g. ``("theta",)``); ``effects`` restricts
+    ``outputs`` restricts the compared outputs (a tuple of position names); ``effects`` restricts
     the candidates to those named (each still subject to the checks of
     :func:`candidate_effects`); ``workers`` > 1 tests candidates in parallel processes;
     ``progress(done, total, name)`` is called after each candidate."""

@@ -18,7 +18,7 @@ such a difference:
 
 When no segment prefers B beyond the measurement noise, the segments do not disagree and
 the t-interval does not apply: evidence often sits in the two or three segments where
-something happens (the cart meeting a stop), and a spread over unequal segments would
+something happens (a body meeting a stop), and a spread over unequal segments would
 call that noise.
 
 Which experiment would separate two effects is physics of the body: its
