@@ -20,14 +20,15 @@ from __future__ import annotations
 import pytest
 
 from pendc import load_model
-from pendc.ident.datagen import hidden_effect_cases, identification_experiment, make_dataset
+from demo_data import hidden_cases
+from pendc.ident.datagen import identification_experiment, make_dataset
 from pendc.ident.diagnose import EXPLAINED, diagnose, free_parameters
 from pendc.ident.fit import fit_parameters
 from pendc.ident.shooting import horizon_fit
 from pendc.sim.measurements import format_csv, parse_measurements
 
 BASE = load_model()
-CASES = hidden_effect_cases(BASE)
+CASES = hidden_cases(BASE)
 LONGER = {"velocity_limit": 14.0}    # cases that need a longer experiment than 10 s to discriminate
 # the cases of test_diagnose_cases.py (about half the time: velocity_limit alone is a quarter);
 # every other case is test_diagnose_more_cases.py's

@@ -17,7 +17,7 @@ import pytest
 from pendc import load_model
 from pendc.backend.emit import render_core, write_tree
 from pendc.golden import GoldenModel
-from pendc.ident.datagen import HIDDEN_PARAMS
+from demo_data import HIDDEN_PARAMS
 from pendc.ir.nodes import Kind
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 
 from pendc import load_model
-from pendc.ident.datagen import (closed_loop_swing_up, degrade_input, demo_datasets, identification_experiment,
-                                 make_dataset)
+from pendc.ident.datagen import degrade_input, identification_experiment, make_dataset
+from demo_data import closed_loop_swing_up, demo_datasets
 from pendc.sim.measurements import format_csv
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -44,11 +44,12 @@ def test_shipped_files_are_what_the_generator_makes():
 
 
 def test_free_swing_holds_the_cart_and_the_unknown_pendulum_differs():
-    from pendc.ident.datagen import free_swing, unknown_pendulum
+    from demo_data import unknown_pendulum
+    from pendc.ident.datagen import free_swing
 
     base = load_model()
     other = unknown_pendulum(base)
     swing = free_swing(other, duration=2.0)
-    assert np.all(swing["x"] == 0.0) and np.all(swing["u"] == base.effects["drive"]["V_off"])
+    assert np.all(swing["x"] == 0.0) and np.all(swing["u"] == base.interface.input.neutral)   # idle: the neutral input
     assert swing["theta"][0] == 0.8 and np.min(swing["theta"]) < -0.7
     assert other.plant["m"] == base.plant["m"] * 1.05 and other.effects["viscous_pendulum"]["b_theta"] == 0.0025
