@@ -11,7 +11,7 @@ from .errors import PendcError
 EPILOG = """\
 examples:
   pendc compare data/hidden_spring_validation.csv
-  pendc compare data/hidden_spring_validation.csv --model models/sct_thesis_final.toml \\
+  pendc compare data/hidden_spring_validation.csv --model MODEL.toml \\
       --model demo_out/with_spring.toml --html demo_out/compare.html     (two models side by side)
 
 The first line is the headline: the free-run fit where a free run is meaningful on the
@@ -60,7 +60,7 @@ def add_parser(sub) -> None:
                        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_data_options(p, many=True)
     p.add_argument("--model", action="append", metavar="MODEL.toml",
-                   help="model file; repeat to put models side by side (default: models/sct_thesis_final.toml)")
+                   help="model file; repeat to put models side by side (default: the shipped default model)")
     p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
                    "(default 0.5, as diagnose and fit)")
     p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "

@@ -14,7 +14,7 @@ import math
 import re
 import sys
 
-MODEL_HELP = "model file (default: models/sct_thesis_final.toml; '-': standard input)"
+MODEL_HELP = "model file (default: the shipped default model, which models/DEFAULT names; '-': standard input)"
 
 # The examples name the default model's signals ({plant:WORD}: filled from its interface when
 # the help is printed, pendc.cli_help); the rules hold for any model's signals.
@@ -57,11 +57,11 @@ reading other formats, examples (the signals of the default model, {plant:body})
   one To Workspace variable per signal ({plant:angle}, {plant:position}, {plant:input}, tout): the names map themselves:
     %(prog)s run.mat
   Simulink 'Array' or 'Structure' (no time in the file): give the sample time:
-    %(prog)s run.mat --columns {plant:angle}=data:1 --sample-time 1e-4 --experiment cart_held
-  a clamped-cart free swing with no {plant:position} and no {plant:input} column (filled with 0, listed as missing):
-    %(prog)s swing.csv --experiment cart_held
+    %(prog)s run.mat --columns {plant:angle}=data:1 --sample-time 1e-4 --experiment {experiment:held}
+  a free swing with the driven coordinate clamped, no {plant:position} and no {plant:input} column (filled with 0, listed as missing):
+    %(prog)s swing.csv --experiment {experiment:held}
   several experiments at once (one name per file) and known encoder steps:
-    %(prog)s held.csv cart.csv --experiment cart_held,pendulum_removed --resolution {plant:angle}={plant:angle_step},{plant:position}={plant:position_step}
+    %(prog)s held.csv other.csv --experiment {experiment:held},{experiment:other} --resolution {plant:angle}={plant:angle_step},{plant:position}={plant:position_step}
   from standard input:
     pendc simulate stim.csv | %(prog)s -
 """
@@ -282,7 +282,26 @@ def add_data_options(p, many: bool = True) -> None:
                    help="resample onto a uniform grid at this rate (default: keep a uniform file's rate "
                         "up to 1 kHz, average faster ones down to 1 kHz)")
     p.formatter_class = argparse.RawDescriptionHelpFormatter
-    p.epilog = (p.epilog + "\n\n" if p.epilog else "") + FORMATS_HELP
+    words = example_experiments()
+    p.epilog = (p.epilog + "\n\n" if p.epilog else "") + \
+        FORMATS_HELP.replace("{experiment:held}", words["held"]).replace("{experiment:other}", words["other"])
+
+
+def example_experiments() -> dict:
+    """The default model's experiments the examples cite, from its plant file: ``held`` holds
+    the driven coordinate alone, ``other`` is the next experiment besides free (NAME when the
+    file declares none)."""
+    from .ident.plant_roles import driven_coordinate, holding_experiment
+    from .model.equations import DEFAULT_EXPERIMENT
+    from .model.modelfile import default_model_path, shipped_plants
+
+    model = next((m for m in shipped_plants().values() if m.source == str(default_model_path())), None)
+    if model is None:
+        return {"held": "NAME", "other": "NAME"}
+    driven = driven_coordinate(model)
+    held = (holding_experiment(model, driven) if driven else None) or "NAME"
+    other = next((e for e in model.definition.experiments if e not in (held, DEFAULT_EXPERIMENT)), "NAME")
+    return {"held": held, "other": other}
 
 
 def reading_arguments(args) -> list:
@@ -382,7 +401,7 @@ def load_datasets(args, paths=None, plant=None) -> list:
 
 
 def load_model_and_data(args):
-    """The model of ``--model`` (default: the thesis' final model) and the data sets."""
+    """The model of ``--model`` (default: the shipped default model) and the data sets."""
     from .model.modelfile import load_model
 
     model = load_model(args.model)

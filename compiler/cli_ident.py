@@ -103,22 +103,29 @@ def cmd_diagnose(args) -> int:
         hint = parameter_hint(model, d.correlations)
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
-                         f"--model {args.model or 'models/sct_thesis_final.toml'} --free {hint[0]} -o NEW.toml")
+                         f"--model {args.model or _default_model()} --free {hint[0]} -o NEW.toml")
     elif d.tie:
         lines.append(f"Ambiguous: {d.tie['message']}")
         for name in d.tie["effects"]:
             c = next(c for c in d.candidates if c.effect == name)
             lines.append(f"  {name}: {c.evidence}")
         lines.append(f"Next: run the separating experiment, then pendc diagnose both files together; or fit each: "
-                     f"pendc fit {_data_words(args)} --model {args.model or 'models/sct_thesis_final.toml'} "
+                     f"pendc fit {_data_words(args)} --model {args.model or _default_model()} "
                      f"--add {d.tie['effects'][0]} -o NEW.toml")
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
-        lines.append(f"Next: pendc fit {_data_words(args)} --model {args.model or 'models/sct_thesis_final.toml'} "
+        lines.append(f"Next: pendc fit {_data_words(args)} --model {args.model or _default_model()} "
                      f"--add {best.effect} -o NEW.toml")
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
+
+
+def _default_model() -> str:
+    """The shipped default model's file as a command names it (``models/<file>``)."""
+    from .model.modelfile import default_model_path
+
+    return f"models/{default_model_path().name}"
 
 
 def _data_words(args) -> str:
@@ -144,7 +151,7 @@ def _provenance(args, free: list, before: dict, after: dict) -> dict:
     """Where a fitted model came from: source model, data (by content hash), command, figures."""
     from .model.modelfile import data_fingerprint
 
-    meta = {"generator": "pendc fit", "source_model": args.model or "models/sct_thesis_final.toml",
+    meta = {"generator": "pendc fit", "source_model": args.model or _default_model(),
             "data": "; ".join(data_fingerprint(p) for p in args.data),
             "command": _command(args),
             "fitted": ", ".join(free)}
@@ -224,7 +231,7 @@ def cmd_fit(args) -> int:
 
 
 def _add_ident_options(p) -> None:
-    p.add_argument("--model", help="model file (default: models/sct_thesis_final.toml)")
+    p.add_argument("--model", help="model file (default: the shipped default model, which models/DEFAULT names)")
     p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
                                      "default model's: {plant:positions}, or any of them; default: every output "
                                      "the data move; held or missing ones are left out with a note)")
@@ -252,7 +259,7 @@ def add_parsers(sub) -> None:
     _add_ident_options(p)
     p.add_argument("--add", help="effects to add, comma-separated (their parameters are fitted)")
     p.add_argument("--free", help="more parameters to fit, comma-separated: plant constants or effect parameters "
-                   "(e.g. I,L,alpha,V_off for the default model)")
+                   "(the plant file's [constants] and its catalogue's params)")
     p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
     p.add_argument("-o", "--output", required=True, help="new model file")
     p.add_argument("--max-evaluations", type=int, default=200, help="budget of model evaluations (default 200)")

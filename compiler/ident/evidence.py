@@ -3,15 +3,15 @@
 Positions are smoothed and differentiated (Savitzky-Golay, ~51 ms, cubic:
 :func:`pendc.ident.smoothing.velocity_and_acceleration`) to get velocities and
 accelerations; the model's own accelerations at the measured states and input are
-subtracted. What remains, per coordinate of the plant (for the cart-pendulum the cart's and
-the pendulum's), is the residual a missing effect has to supply. The coordinates, their
+subtracted. What remains, per coordinate of the plant (e.g. a cart's force and a
+pendulum's torque), is the residual a missing effect has to supply. The coordinates, their
 rates and which of them are angles come from the plant interface, the accelerations from
 the model's state equations, so the same code reads any plant.
 
 Samples where a translation is nearly at rest (below ``MOVING`` of its rate's unit) are
 left out of its statistics: there the model's friction is a sticking rule that a measured
 (never exactly zero) velocity cannot exercise. A coordinate the experiment holds (a
-clamped cart, a removed pendulum) has no statistics.
+clamped body, a removed one) has no statistics.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ WAVELENGTHS = (0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.12, 0.2)
 
 
 def acceleration_name(rate: str) -> str:
-    """The name of a rate's derivative (``dx`` -> ``ddx``), as the equations name it."""
+    """The name of a rate's derivative (``d<position>`` -> ``dd<position>``), as the equations name it."""
     return f"d{rate}"
 
 
@@ -115,7 +115,7 @@ def _coordinates(model: PlantModel) -> list:
 
 
 def target_name(model: PlantModel, position: str) -> str:
-    """How a report names a coordinate's residual: "cart acceleration", "pendulum acceleration"."""
+    """How a report names a coordinate's residual: "<body> acceleration" (the body the plant file names)."""
     return f"{signals_of(model).body_of(position)} acceleration"
 
 

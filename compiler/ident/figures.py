@@ -5,7 +5,7 @@ the *k-step horizon fit* (the simulation restarts from the measured state every
 ``horizon`` seconds: what identification minimises) or the *free-run fit* (one
 simulation from the first sample to the last), per file and pooled.
 fit% = 100 (1 - |sim - data| / |data - mean(data)|) per output (MATLAB's ``compare``).
-A free-run theta fit counts each extra turn of an unwrapped angle as 2 pi of error, so
+A free-run fit of an angle counts each extra turn of an unwrapped angle as 2 pi of error, so
 the wrapped-angle error (the angle difference folded into (-pi, pi]) is given beside it.
 """
 
@@ -28,7 +28,7 @@ def _fit(err: np.ndarray, y: np.ndarray) -> float:
 def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, outputs=None) -> dict:
     """Free-run fit per file and pooled: ``{"label", "pooled", "files": [{"file", "experiment",
     "fit", "wrapped_<angle>_rms"}]}`` (the RMS free-run error of the plant's last periodic position,
-    the pendulum's angle, wrapped to one turn); a run that diverges scores -inf."""
+    e.g. a pendulum's angle, wrapped to one turn); a run that diverges scores -inf."""
     problem = ShootingProblem(model, datasets, [], dt=dt, segment=1e9, outputs=outputs)
     files, num, den, wrapped_sq, wrapped_n = [], {}, {}, 0.0, 0
     for rec in problem.records:
@@ -51,7 +51,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             fit[o] = _fit(err, y)
             num[o] = num.get(o, 0.0) + float(err @ err)
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))
-            if periodic and o == periodic[-1]:       # the pendulum's angle: the last periodic position
+            if periodic and o == periodic[-1]:       # the swinging angle: the last periodic position
                 wrapped = np.angle(np.exp(1j * err))
                 key = f"wrapped_{o}_rms"
                 extra[key] = float(np.sqrt(np.mean(wrapped ** 2)))
@@ -75,7 +75,7 @@ def figures(model: PlantModel, datasets: list, horizon: float = 0.5, dt: float =
 
 
 def values_text(fig: dict) -> str:
-    """``x 97.1 %, theta 88.0 % (wrapped-angle RMS error 0.012 rad)`` of one figure dict."""
+    """``<output> 97.1 %, <angle> 88.0 % (wrapped-angle RMS error 0.012 rad)`` of one figure dict."""
     parts = ", ".join(f"{o} {v:.1f} %" for o, v in (fig.get("pooled") or fig.get("fit")).items())
     wrapped = [k for k in fig if k.startswith("wrapped_") and k.endswith("_rms")]
     if wrapped:
@@ -84,7 +84,7 @@ def values_text(fig: dict) -> str:
 
 
 def describe(fig: dict) -> str:
-    """``0.5 s horizon fit: x 97.1 %, theta 88.0 %`` (pooled)."""
+    """``0.5 s horizon fit: <output> 97.1 %, <angle> 88.0 %`` (pooled)."""
     return f"{fig['label']}: {values_text(fig)}"
 
 

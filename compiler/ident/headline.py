@@ -9,7 +9,7 @@ measures chaos, not the model, and it can go down when the model gets better (th
 fitted spring changes how often the simulated pendulum goes over the top).
 
 The test: simulate the model from the data's initial state and from that state moved by
-one encoder count (2.5 um of cart, 0.314 mrad of pendulum) up and down; when the two runs
+one encoder count of each position (its plant file's sensor) up and down; when the two runs
 differ, anywhere in the run, by more than ``SENSITIVITY`` of the data's spread (their
 fit% against each other falls below ``100 (1 - SENSITIVITY)``), the free run is not
 meaningful for these data and the headline is the horizon fit.

@@ -1,7 +1,7 @@
 """The k-step (prediction-horizon) simulation of one measured run, for figures and plots.
 
 Every ``horizon`` seconds the simulation restarts from the *measured* state (positions
-from the data, velocities from the data's ``dx``/``dtheta`` columns or a Savitzky-Golay
+from the data, velocities from the data's rate columns or a Savitzky-Golay
 derivative of the positions, as :mod:`pendc.ident.shooting` does) and runs on the
 measured input until the next restart. What it shows: the error a model makes within
 half a second, which a chaotic swing or a sticking cart cannot blow up, so it is what

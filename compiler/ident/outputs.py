@@ -1,9 +1,9 @@
 """Which measured outputs identification compares, and how each is weighted.
 
-Why this exists: an output that the data do not excite (a clamped cart's constant x, a
-column the file did not have) carries no information, yet scaled by its tiny spread it
-used to outweigh everything else (a micrometre of modelled cart creep against a
-constant x beat the whole swing of theta). So each output is scaled by the larger of
+Why this exists: an output that the data do not excite (the constant position of a
+clamped body, a column the file did not have) carries no information, yet scaled by its
+tiny spread it used to outweigh everything else (a micrometre of modelled creep of a
+clamped cart beat the whole swing of its pendulum). So each output is scaled by the larger of
 its spread and its measurement resolution (the encoder count, or the quantisation step
 the file declares or shows), and outputs that are held, constant, missing, outside the
 experiment or not asked for are dropped, each with a one-line note for the user.
@@ -27,7 +27,7 @@ HELD_COUNTS = 2.0   # an output that never moves more than this many resolution 
 def experiment_of(data, model=None) -> str:
     """The experiment a measurement declares (``free`` when it says nothing): its
     ``experiment`` attribute, else a ``# experiment: NAME`` metadata line; it must be one of
-    ``model``'s body (the cart-pendulum's without a model)."""
+    ``model``'s experiments (the default model's without a model)."""
     meta = getattr(data, "meta", None) or {}
     name = getattr(data, "experiment", None) or meta.get("experiment") or DEFAULT_EXPERIMENT
     known = experiments_of(model)
@@ -54,8 +54,8 @@ def signals_for(data):
 
 def resolution_of(data, name: str) -> float:
     """Measurement resolution of column ``name``: as the file or user gives it, else the
-    quantisation step the data show, else one count of the plant's encoder on it (the SCT's
-    x4 count for its positions)."""
+    quantisation step the data show, else one count of the plant's encoder on it (the x4
+    count of the sensor its plant file declares)."""
     given = (getattr(data, "resolution", None) or {}).get(name)
     if given is not None and np.isfinite(given) and given > 0:
         return float(given)
@@ -81,7 +81,7 @@ class OutputPlan:
 
 def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
     """Choose and weight the outputs of ``datasets`` (the positions of their plant);
-    ``requested`` (e.g. ``("theta",)``) restricts them; ``model`` (default: the default
+    ``requested`` (a tuple of position names) restricts them; ``model`` (default: the default
     model) says which positions each experiment holds. Raises PendcError when nothing is
     left to compare."""
     positions = signals_for(datasets[0]).positions if datasets else signals_of(model).positions
@@ -126,7 +126,8 @@ def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
 
 
 def _held_hint(model, position: str) -> str:
-    """`` (the cart looks held: --experiment cart_held)``: the experiment that holds ``position``."""
+    """`` (the <body> looks held: --experiment <name>)``: the plant file's experiment that holds
+    ``position``."""
     from ..sim.experiment_axes import _model
 
     plant = _model(model)
@@ -139,7 +140,7 @@ def _held_hint(model, position: str) -> str:
 
 
 def parse_outputs(text: str | None, plant=None):
-    """``--outputs theta`` or ``x,theta`` (positions of ``plant``, default the default model) ->
+    """``--outputs NAME`` or ``NAME,NAME`` (positions of ``plant``, default the default model) ->
     tuple, or None for "all"."""
     if not text:
         return None

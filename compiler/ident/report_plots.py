@@ -24,13 +24,15 @@ MODEL_COLOURS = ("#d1495b", "#2a9d8f", "#8d6cab", "#e9a23b", "#6b8e23")
 
 
 def scale(c: Comparison, output: str) -> tuple:
-    """``(factor, axis label)`` of a plotted trajectory: ``x (mm)``, ``theta (rad)``."""
+    """``(factor, axis label)`` of a plotted trajectory: ``<output> (mm)`` for a position in
+    metres, ``<output> (rad)`` for an angle."""
     factor, unit = trajectory_scale(unit_of(c.model, output))
     return factor, f"{output} ({unit})"
 
 
 def residual_scale(c: Comparison, output: str) -> tuple:
-    """``(factor, axis label)`` of a plotted residual: ``x residual (mm)``, ``theta residual (mrad)``."""
+    """``(factor, axis label)`` of a plotted residual: ``<output> residual (mm)`` for metres,
+    ``<output> residual (mrad)`` for radians."""
     factor, unit = small_scale(unit_of(c.model, output))
     return factor, f"{output} residual ({unit})"
 
@@ -75,7 +77,7 @@ def _shade(ax, c: Comparison, output: str) -> None:
 
 
 def figure_free(s: SideBySide, run):
-    """Per output: measured and every model's free run; then the residuals (theta wrapped)."""
+    """Per output: measured and every model's free run; then the residuals (angles wrapped)."""
     c0 = run[0]
     n = len(c0.outputs)
     fig = new_figure(12, 3.2 * n + 2.4 * n, rows=2 * n)

@@ -41,7 +41,7 @@ def percent(value) -> str:
 
 
 def fits_words(fits: dict) -> str:
-    """``x 94.55 %, theta 99.76 %``."""
+    """``<output> 94.55 %, <output> 99.76 %`` (each output's name and fit)."""
     return ", ".join(f"{k} {percent(v)}" for k, v in fits.items())
 
 
@@ -129,8 +129,8 @@ def _analyses(c: Comparison) -> list:
     return lines
 
 
-def whiteness_words(k: str, a: dict, x: dict, rms: float, plant=None) -> list:
-    """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``x``
+def whiteness_words(k: str, a: dict, xc: dict, rms: float, plant=None) -> list:
+    """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``xc``
     (``plant``: whose encoder count on ``k`` says what is rounding; default the default model)."""
     step = 1e3 * a["lag_seconds"]
     if a["white"]:
@@ -145,16 +145,16 @@ def whiteness_words(k: str, a: dict, x: dict, rms: float, plant=None) -> list:
         if counts < FEW_COUNTS:   # a whiteness test sees structure far below what matters
             out.append(f"        but it is only {counts:.1f} encoder counts rms: at this level the structure may be "
                        "the encoder's rounding or the integration step")
-    if not x.get("tested", True):
-        return out + [f"  {k:5s} residual against the input: not tested: {x['reason']}"]
-    if x["independent"]:
+    if not xc.get("tested", True):
+        return out + [f"  {k:5s} residual against the input: not tested: {xc['reason']}"]
+    if xc["independent"]:
         return out + [f"  {k:5s} residual shows no significant correlation with the input"]
-    mid = len(x["lags"]) // 2
-    lag = max(x["outside"] or x["lags"], key=lambda j: abs(x["ccf"][j + mid]))
+    mid = len(xc["lags"]) // 2
+    lag = max(xc["outside"] or xc["lags"], key=lambda j: abs(xc["ccf"][j + mid]))
     when = (f"the input {lag * step:.3g} ms earlier" if lag >= 0
             else f"the input {-lag * step:.3g} ms later, i.e. feedback or a slow drift")
-    return out + [f"  {k:5s} residual follows the input: {len(x['outside'])} of {len(x['lags'])} lags outside the "
-                  f"band (r = {x['ccf'][lag + mid]:+.2f} with {when}): the drive, friction or delay is wrong"]
+    return out + [f"  {k:5s} residual follows the input: {len(xc['outside'])} of {len(xc['lags'])} lags outside the "
+                  f"band (r = {xc['ccf'][lag + mid]:+.2f} with {when}): the drive, friction or delay is wrong"]
 
 
 def short(label: str) -> str:

@@ -9,7 +9,7 @@ from the encoders, velocities from a Savitzky-Golay derivative of them), and the
 residual is the simulated-minus-measured output over every segment, each output
 scaled by the larger of its spread and its resolution (see :mod:`.outputs`; held,
 missing and unasked outputs are left out). Each data set is simulated under its own
-experiment (held cart, removed pendulum, free), and sensor offsets of the model map
+experiment (the coordinates it holds and the bodies it removes, as the plant file declares), and sensor offsets of the model map
 the simulated state to what the sensors read. Errors
 cannot accumulate past a segment, yet each segment is long enough (hundreds of
 samples) for friction, damping, lags and delays to shape it.
@@ -49,7 +49,7 @@ class Record:
     rate_names: tuple = ()   # (position, name of its rate state) pairs
 
     def __getattr__(self, name: str):
-        """A position or its rate by the state's name (``rec.theta``, ``rec.dtheta``)."""
+        """A position or its rate by the state's name (``rec.<position>``, ``rec.d<position>``)."""
         if name.startswith("_") or name in ("positions", "rates", "rate_names"):
             raise AttributeError(name)
         if name in self.positions:
@@ -63,7 +63,7 @@ class Record:
 def measured_motion(data, model=None) -> tuple[dict, dict]:
     """``({position: values}, {position: velocities})`` of a run, for every position of its
     plant: a position the file lacks is zeros (a held axis); velocities come from the data's
-    rate columns (``dx``, ``dtheta``), else the Savitzky-Golay derivative of the position,
+    rate columns (``d<position>``), else the Savitzky-Golay derivative of the position,
     and a position ``model``'s experiment holds has zero velocity. So every simulation that
     starts from the data (free run, horizon segments, diagnose, fit) starts from the same state."""
     sig = signals_for(data)
@@ -122,7 +122,7 @@ class ShootingProblem:
 
     ``residual(values)`` is the stacked, scaled (simulated - measured) outputs over all
     segments of all data sets; ``cost`` is half its squared norm. ``outputs`` restricts
-    the compared outputs (e.g. ``("theta",)``); ``scales`` overrides the output scales
+    the compared outputs (a tuple of position names); ``scales`` overrides the output scales
     (to score other data on the same footing). ``notes`` says what was left out and why.
     """
 

@@ -110,7 +110,8 @@ INPUT_UNTESTED = {
 
 def input_status(u, missing: bool = False) -> str:
     """``measured``, or why a cross-correlation with ``u`` means nothing: ``missing`` (the file
-    had no u column) or ``constant`` (a held-cart swing at V_off, for instance)."""
+    had no u column) or ``constant`` (e.g. a free swing with the driven coordinate held and the
+    input idle)."""
     if missing:
         return "missing"
     u = np.asarray(u, dtype=np.float64)
@@ -126,11 +127,11 @@ def untested(status: str) -> dict:
 def whiteness(t, residual: dict, u, input_missing: bool = False) -> dict:
     """Correlation tests of each residual, on a residual decimated to ~``WHITENESS_DT``.
 
-    Why decimate: the data are sampled at ~1 kHz while the plant moves at ~1 Hz
-    (pendulum 0.9 Hz, cart time constant M/b_x ~ 0.12 s), so at full rate 25 lags span
-    25 ms, in which any error is trivially correlated with itself. At 10 ms a lag
-    still resolves everything the stimuli excite (Nyquist 50 Hz) and 25 lags span
-    0.25 s, about the cart's time constant. Short runs are decimated less, to keep at
+    Why decimate: the data are sampled at ~1 kHz while a laboratory plant moves at ~1 Hz
+    (a pendulum's 0.9 Hz swing, a servo cart's 0.12 s mechanical time constant), so at full
+    rate 25 lags span 25 ms, in which any error is trivially correlated with itself. At
+    10 ms a lag still resolves everything the stimuli excite (Nyquist 50 Hz) and 25 lags
+    span 0.25 s, about such a time constant. Short runs are decimated less, to keep at
     least ``MIN_WHITENESS_SAMPLES``. Returns ``{output: autocorrelation + lag_seconds,
     ..., "xcorr": {output: cross-correlation with u + lag_seconds}}``. An input the file
     lacked (``input_missing``) or that never changes is not tested: its entries say so

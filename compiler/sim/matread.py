@@ -14,7 +14,7 @@ Every numeric signal in the file becomes a named column; the names are what
 - timeseries-like structs with ``Time`` and ``Data`` fields, named like a variable;
 - other structs: each field, named ``struct.field``, and cell arrays: each cell,
   named ``cell{i}`` (1-based, column-major as MATLAB counts), by the same rules;
-- a text variable or a scalar -> metadata (so ``experiment = 'cart_held'`` in the
+- a text variable or a scalar -> metadata (so ``experiment = '<name>'`` in the
   file declares the experiment, ``Ts = 1e-4`` can give a sample time).
 
 MATLAB objects (timeseries, Simulink.SimulationOutput, saved without ``-v7`` struct

@@ -25,7 +25,7 @@ from .csvread import read_csv_table
 from .readers import ReadOptions, build_measurement, read_table
 from .signals import PlantSignals, signals_of
 
-REQUIRED = None   # the plant's time, input and positions (t, u, x, theta for the cart-pendulum)
+REQUIRED = None   # the plant's time, input and positions (as its interface names them)
 _KEY = r"[A-Za-z_][\w.\-]*"
 FIT_WINDOW = 0.010  # s, for initial_state's velocity estimate
 
@@ -73,7 +73,7 @@ class Measurement:
         return values
 
     def __getattr__(self, name: str):
-        """A plant signal by name (``m.theta``): its column, or None when the file has none."""
+        """A plant signal by name (``m.<position>``): its column, or None when the file has none."""
         if name.startswith("_") or name in ("columns", "signals"):
             raise AttributeError(name)
         if name in self.columns:
@@ -83,12 +83,12 @@ class Measurement:
         raise AttributeError(f"'Measurement' has no attribute or signal '{name}'")
 
     def initial_state(self) -> tuple:
-        """The plant's reported state at ``t[0]`` (``(x, dx, theta, dtheta)`` for the
-        cart-pendulum), for starting a simulation from the data.
+        """The plant's reported state at ``t[0]`` (each position and its rate, in the
+        interface's order), for starting a simulation from the data.
 
         Positions come from the first row; an absent position column counts as 0 (the
-        spec's default initial state). Velocities come from their rate columns (``dx``,
-        ``dtheta``) when present; otherwise they are the slope of a least-squares line
+        spec's default initial state). Velocities come from their rate columns
+        (``d<position>``) when present; otherwise they are the slope of a least-squares line
         through the samples of the first ``FIT_WINDOW`` (10 ms) of the position, and at
         least 3 samples, which averages out the encoder quantisation that a plain
         first difference would amplify. With fewer than 2 samples the velocity is 0.
@@ -128,7 +128,7 @@ def parse_measurements(text: str, source: str = "<string>", required=REQUIRED,
     ``t`` and ``u`` are always required, plus the names in ``required`` (unless the
     experiment or ``options.allow_missing`` lets an axis be absent: it is then filled
     and listed in ``missing``). Errors: malformed rows, missing or duplicate columns,
-    NaN/inf in a known column (``required``, t, u, x, theta, dx, dtheta), time not
+    NaN/inf in a known column (``required``, time, input, positions and rates), time not
     strictly increasing or jumping by an outlier, angles in degrees, and with
     ``options.plausible`` the rig's limits (:mod:`pendc.sim.plausibility`: outliers,
     milliseconds, millimetres, millivolts). Voltages outside 0-10 V only add an entry

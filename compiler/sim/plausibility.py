@@ -1,19 +1,20 @@
 """Plausibility checks on measured columns: say what looks wrong, in one line, by row.
 
-The checks are per signal, by its unit as the plant interface gives it (the limits are
-those of a laboratory rig, the SCT's in the thesis, spec §1 and II.56):
+The checks are per signal, by its unit as the plant interface gives it; the limits are
+those of any laboratory rig, not of one plant (the figures below that justify them are a
+typical bench rig's: a 750 mm track, a 0-10 V drive, an angle encoder designed for 8π rad/s):
 
-- a position in metres lies within ``POSITION_LIMIT`` of its zero (the SCT track is
-  750 mm long, ±0.375 m from its middle, so 1 m), its plausible span ``POSITION_SPAN``:
+- a position in metres lies within ``POSITION_LIMIT`` of its zero (a 750 mm track is
+  ±0.375 m from its middle, so 1 m is generous), its plausible span ``POSITION_SPAN``:
   many rows beyond the limit mean a smaller unit (the one in which the values span no
   more than the span: centimetres or millimetres), a few rows an outlier;
-- an input lies within ``INPUT_MARGIN`` times its full scale (the SCT drive takes 0-10 V,
-  so 100 V): many rows beyond mean a smaller unit (millivolts), a few rows an outlier
-  (outside the range the actuator takes, the interface's, is only a warning, as a clipped
-  amplifier can show);
+- an input lies within ``INPUT_MARGIN`` times its full scale (the plant interface's; 100 V
+  for a 10 V input): many rows beyond mean a smaller unit (millivolts), a few rows an
+  outlier (outside the range the actuator takes, the interface's, is only a warning, as a
+  clipped amplifier can show);
 - rates stay below ``RATE_LIMIT`` of their unit;
-- an angle (a periodic position in radians) turns at most about 8π ≈ 25 rad/s on the
-  SCT, so a sample that jumps away from both neighbours by more than ``ANGLE_SPIKE``
+- an angle (a periodic position in radians) turns at most about 8π ≈ 25 rad/s on a bench
+  rig, so a sample that jumps away from both neighbours by more than ``ANGLE_SPIKE``
   (1 rad, 40 ms at top speed) while they agree with each other is an outlier; angles in
   degrees are caught by :func:`check_radians`;
 - a swing lasts about a second, so sampling slower than ``MIN_RATE`` (10 Hz) cannot
@@ -31,13 +32,13 @@ from ..errors import PendcError
 from .table import Table
 
 POSITION_LIMIT = {"m": 1.0}     # per unit: no rig position lies farther from its zero
-POSITION_SPAN = {"m": 0.75}     # per unit: the longest travel (the SCT's track)
+POSITION_SPAN = {"m": 0.75}     # per unit: the longest travel (a 750 mm track)
 INPUT_MARGIN = 10.0             # x full scale: beyond it, a unit mistake or an outlier
-U_LIMIT = 100.0                 # V: the SCT drive's INPUT_MARGIN x 10 V (the simulate command's check)
+U_LIMIT = 100.0                 # V: INPUT_MARGIN x a 10 V input (the simulate command's check)
 ANGLE_SPIKE = 1.0               # rad
-MAX_RAD_RATE = 60.0             # rad/s; the pendulum never exceeds ~8π ≈ 25 rad/s (II.56)
+MAX_RAD_RATE = 60.0             # rad/s; a bench rig's angle stays below ~8π ≈ 25 rad/s
 MIN_RATE = 10.0                 # Hz
-RATE_LIMIT = {"m/s": 10.0,      # the SCT cart is clamped at 0.55 m/s
+RATE_LIMIT = {"m/s": 10.0,      # a bench rig's carriage moves well below 1 m/s
               "rad/s": 200.0}
 UNIT_FRACTION = 0.01   # more than this fraction of rows out of range -> a unit mistake
 _DEG_UNITS = {"deg", "degree", "degrees", "°"}
@@ -129,7 +130,7 @@ def unwrap_if_wrapped(angle: np.ndarray, period: float = 2 * math.pi) -> tuple[n
     of wraps.
 
     A jump of more than half a period between samples is a wrap when it is within 0.5 rad
-    (for a 2π period) of one turn (the pendulum moves at most ~25 rad/s, 0.25 rad per sample
+    (for a 2π period) of one turn (a bench rig's angle moves at most ~25 rad/s, 0.25 rad per sample
     at 100 Hz); angles in degrees jump by 360 and are left for :func:`check_radians`.
     """
     d = np.diff(angle)
@@ -153,7 +154,7 @@ def degrees_suspected(names: list, angle: str) -> list:
 def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, name: str) -> None:
     """Reject angles (column ``name``) that look like degrees.
 
-    An angle is unwrapped radians, and the SCT pendulum turns at most about 8π rad/s (II.56).
+    An angle is unwrapped radians, and a bench rig's angle turns at most about 8π rad/s.
     So a swing beyond ±2π that also moves faster than ``MAX_RAD_RATE`` (60 rad/s) between
     consecutive samples, or any |angle| > 200, is taken as degrees (a full turn is 360, and
     180°/s is already 3.1 rad/s). A ``<name>_unit: deg`` metadata entry is refused unless the

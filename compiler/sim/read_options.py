@@ -3,8 +3,8 @@ unit of each signal.
 
 Every setting that concerns one signal is keyed by the signal's name as the plant interface
 spells it, so the options read any plant's files; the keywords ``<signal>_unit``,
-``<signal>_zero`` and ``<signal>_sign`` set them one signal at a time (the cart-pendulum's
-scripts write ``theta_unit="deg"``).
+``<signal>_zero`` and ``<signal>_sign`` set them one signal at a time (a script writes
+``<angle>_unit="deg"``).
 """
 
 from __future__ import annotations
@@ -47,9 +47,8 @@ class ReadOptions(_ReadFields):
     """How to read another lab's file (every field has a ``--option`` of the same name).
 
     ``plant`` is the model (or its plant interface) whose signals the file holds (None:
-    the default model, the SCT cart-pendulum): its interface names the columns (time, the
-    input, each position, optionally their rates) and their units. ``columns`` maps such
-    a name (for the cart-pendulum t, u, x, theta, dx, dtheta) to the file's name;
+    the default model): its interface names the columns (time, the input, each position,
+    optionally their rates) and their units. ``columns`` maps such a name to the file's name;
     ``separator`` and ``decimal`` are characters (None: whitespace) or ``...`` to
     detect them. ``units`` maps a signal to its unit in the file: a name of
     :data:`~pendc.sim.signals.UNIT_SCALES` for the signal's SI unit, or a number (the SI
@@ -58,14 +57,14 @@ class ReadOptions(_ReadFields):
     to where the file's zero is (``upright``: half a period from the interface's zero) and
     ``sign`` to -1 when the file counts it the other way: angle = sign * file + half a
     period. The same settings are taken as keywords ``<signal>_unit``, ``<signal>_zero`` and
-    ``<signal>_sign`` for any signal (the cart-pendulum's scripts write ``theta_unit="deg"``,
-    ``theta_zero="upright"``, ``t_unit="ms"``), as the ``--<signal>-unit`` options do.
+    ``<signal>_sign`` for any signal (e.g. ``<angle>_unit="deg"``, ``<angle>_zero="upright"``,
+    ``t_unit="ms"``), as the ``--<signal>-unit`` options do.
     ``allow_missing`` axes (besides those the experiment makes irrelevant) are filled with
     zeros, the input with ``u_value``.
     ``uniform`` puts the samples on a uniform grid (at ``rate`` Hz, else see
     :func:`pendc.sim.resample.regrid`) and ``plausible`` checks the values against the
     rig's limits (:mod:`pendc.sim.plausibility`); both are off by default, so a library
-    read is faithful (a simulation may drive the cart off the track), and on for the
+    read is faithful (a simulation may drive a body off its travel), and on for the
     identification commands.
     """
 

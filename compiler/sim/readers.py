@@ -126,7 +126,7 @@ def _positive(text) -> float | None:
 
 
 def convert_units(columns: dict, options: ReadOptions) -> None:
-    """Scale to the interface's units (in place: s, V, m, rad for the cart-pendulum); a periodic
+    """Scale to the interface's units (in place: s and the SI units the interface declares); a periodic
     position with its zero ``upright`` is shifted by half a period to the interface's zero."""
     sig = options.signals
     scale = {axis: unit_factor(axis, unit, sig) for axis, unit in options.units.items() if unit is not None}

@@ -4,9 +4,9 @@ Everything in :mod:`pendc.sim` and :mod:`pendc.ident` that would otherwise spell
 names (which columns a measurement file has, which states are positions a sensor reads,
 which state is whose rate, where each sits in the simulator's state vector, the encoder
 count of each position, which positions wrap) reads it here, off the model's
-:class:`~pendc.model.interface.PlantInterface`. For the SCT cart-pendulum the file columns
-are ``t``, the input ``u`` and the positions ``x`` and ``theta`` (rates ``dx`` and
-``dtheta`` optional); for another plant they are whatever its interface names.
+:class:`~pendc.model.interface.PlantInterface`. The file columns are
+``t``, the input and the positions its interface names (their rates ``d<position>``
+optional).
 """
 
 from __future__ import annotations

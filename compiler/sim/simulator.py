@@ -26,8 +26,8 @@ MAX_STEPS = 1e10   # about ten minutes of compiled stepping
 class SimResult:
     """Simulated trajectory at the input's sample times.
 
-    ``states`` maps each state name (for the cart-pendulum ``x``, ``dx``, ``theta``,
-    ``dtheta`` and any extra state such as ``F_m``) to an array the length of ``t``.
+    ``states`` maps each state name (each position, its rate ``d<position>`` and any extra
+    state such as a drive lag's) to an array the length of ``t``.
     ``outputs`` holds what the sensors read (each position plus any sensor offset of the
     model, quantised when asked); without sensor effects or quantisation it equals the
     states. ``signals`` names the plant's input, positions and rates (the default model's
@@ -49,7 +49,7 @@ class SimResult:
 
     def columns(self) -> dict:
         """Time, the input, the positions (as the sensors read them), then their rates: the
-        column order of the CLI's output file (``t, u, x, theta, dx, dtheta`` for the cart-pendulum)."""
+        column order of the CLI's output file (the interface's names)."""
         sig = signals_of(self.signals)
         return {"t": self.t, sig.input: self.u, **{p: self.measured(p) for p in sig.positions},
                 **{r: self.states[r] for r in sig.rates}}
@@ -60,11 +60,11 @@ class Simulator:
 
     >>> sim = Simulator(load_model(), dt=1e-6, method="euler")
     >>> res = sim(t, u)                       # starts at rest in the centre
-    >>> res = sim(t, u, x0=(0, 0, 0.1, 0))    # the reported states: (x, dx, theta, dtheta)
-    >>> res = sim(t, u, params={"b_x": 900})  # same compiled kernel, new values
+    >>> res = sim(t, u, x0=(0, 0, 0.1, 0))    # the reported states: each position followed by its rate
+    >>> res = sim(t, u, params={"b": 900})    # same compiled kernel, new values (any parameter)
 
     ``quantize=True`` rounds each position a sensor reads to its ×4 encoder counts (for
-    the cart-pendulum 2.5 um, 0.314 mrad), counted from the initial state as the real encoders do. ``x0`` is the true state;
+    each position the step of the sensor its plant file declares), counted from the initial state as the real encoders do. ``x0`` is the true state;
     :meth:`true_state` turns measured positions into it (subtracting sensor offsets).
     The model's experiment (:meth:`PlantModel.for_experiment`) is part of its equations.
     """
@@ -98,7 +98,7 @@ class Simulator:
         return out
 
     def true_state(self, measured: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
-        """The true reported state (e.g. ``(x, dx, theta, dtheta)``) whose sensors read ``measured``
+        """The true reported state (each position, then its rate) whose sensors read ``measured``
         (inverse of the output map)."""
         off = self.offset_values(self.param_vector if p is None else p)
         s = np.array(measured, dtype=np.float64)

@@ -1,4 +1,4 @@
-"""A file's named numeric columns before they are mapped onto pendc's (t, u, x, theta).
+"""A file's named numeric columns before they are mapped onto the plant interface's names.
 
 Both readers (CSV text, MATLAB .mat) produce a :class:`Table`; the mapping, units,
 plausibility checks and resampling (:mod:`pendc.sim.readers`) work on it without
