@@ -170,7 +170,7 @@ def cmd_plant_check(args) -> int:
     out.append("inputs:")
     out += [f"  {i.name} [{i.unit}] {i.meaning}; range {i.range.describe()}" for i in iface.inputs]
     out.append("sensors:")
-    out += [f"  {s.name}: {s.state}, {s.lines} lines, {s.counts_per_unit:g} counts per unit" for s in iface.sensors] \
+    out += [f"  {s.describe()}" for s in iface.sensors] \
         or ["  (none)"]
     out.append("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in model.parameter_values().items()))
     out.append("effects: " + (", ".join(model.effects) or "(none)") + "; catalogue: " + ", ".join(d.catalogue))

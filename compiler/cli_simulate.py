@@ -78,15 +78,12 @@ def cmd_simulate(args) -> int:
 
 
 def _quantize_measured(states: dict, iface) -> None:
-    """Replace every encoder-read state by what its ×4 decoder reports (counts from the first
-    sample times the encoder's resolution), as ``--quantize`` asks."""
-    import numpy as np
-
-    from .sim.encoders import counts
+    """Replace every sensed state by what its sensor reports (an encoder: counts from the first
+    sample times its resolution; a converter: its code's step), as ``--quantize`` asks."""
+    from .sim.encoders import sensor_reading
 
     for sensor in iface.sensors:
-        value = np.asarray(states[sensor.state], dtype=np.float64)
-        states[sensor.state] = value[0] + counts(value, sensor.resolution) * sensor.resolution
+        states[sensor.state] = sensor_reading(sensor, states[sensor.state])
 
 
 def _check_input_volts(data, name: str) -> None:

@@ -34,12 +34,16 @@ class Bus:
         self.ii = v["ii"]
         self.core = dut.u_regs.u_core
         names = v.get("register_names") or _register_names_from_report(self.report, self.regs)
-        ports = list(self.report["ports"])        # the input first, then the reported states
-        self.input_reg = names[ports[0]][0]
-        self.state_regs = [names[p][0][:-len("_LO")] for p in ports[1:]]
+        ports = list(self.report["ports"])        # the input first, the reported states, converter codes
         cp = v.get("core_ports")
+        self.input_reg = names[ports[0]][0]
+        states = cp.states if cp is not None else ports[1:]
+        self.state_regs = [names[p][0][:-len("_LO")] for p in states]
         self.count_regs = [names[e.name][0] for e in cp.encoders] if cp is not None else []
         self.channels = len(cp.channels) if cp is not None else 0
+        # each converter's code register and its port's fraction bits (the golden row holds the port)
+        self.code_regs = ([(names[a.name][0], self.report["ports"][a.port]["frac"]) for a in cp.adcs]
+                          if cp is not None else [])
 
     def addr(self, name: str) -> int:
         return self.regs[name]["offset"]
@@ -63,10 +67,12 @@ class Bus:
         await Timer(n * self.period, unit="ns")
 
     async def state(self) -> tuple:
-        """The reported states and the encoder lines read through the registers, like golden rows."""
+        """The reported states, the encoder lines and the converter codes read through the
+        registers, like golden rows (a code register holds the code; the row, the port's integer)."""
         vals = [await self.read64(r) for r in self.state_regs]
         enc = await self.read("ENC") if self.channels else 0
-        return tuple(vals) + tuple((enc >> i) & 1 for i in range(self.channels))
+        codes = [(await self.read(r)) << frac for r, frac in self.code_regs]
+        return tuple(vals) + tuple((enc >> i) & 1 for i in range(self.channels)) + tuple(codes)
 
     async def counts(self) -> tuple:
         """Every encoder's count register (signed), in the plant interface's order."""

@@ -111,8 +111,8 @@ def core_ports_of(build):
 def tb_top_source(ports: dict, core) -> str:
     """The cocotb toplevel of the core tests: the core plus the testbench's own x4 decoders.
 
-    ``ports``: report.json's "ports"; ``core``: the core's names (:func:`core_ports_of`). One
-    decoder per encoder, its count on ``cnt_<encoder>``. The decoders count every edge of A and
+    ``ports``: report.json's "ports"; ``core``: the core's names (:func:`core_ports_of`). The
+    converters' code ports are passed through as they are. One decoder per encoder, its count on ``cnt_<encoder>``. The decoders count every edge of A and
     B (up when A leads); their counts include a change of the lines in the current cycle, so at
     a step boundary they already count the state just written. ``enc_err`` is sticky on a
     change of both lines of an encoder at once (not a quadrature step)."""
@@ -126,6 +126,7 @@ def tb_top_source(ports: dict, core) -> str:
     ]
     lines += [f"    output wire {verilog_decl(ports[p])} {p}," for p in core.states]
     lines += [f"    output wire {p}," for p in core.channels]
+    lines += [f"    output wire {verilog_decl(ports[p])} {p}," for p in core.codes]
     lines += ["    output wire overflow,"]
     lines += [f"    output wire signed [31:0] cnt_{e.name}," for e in core.encoders]
     lines += ["    output wire enc_err", ");"]

@@ -41,7 +41,8 @@ def core_ports():
 
 
 def ports() -> tuple:
-    """The core's output ports in golden-row order: the states, then the encoder channels."""
+    """The core's output ports in golden-row order: the states, the encoder channels, then the
+    converters' code ports."""
     return core_ports().outputs
 
 
@@ -88,6 +89,7 @@ class CoreBench:
         self.u_width = v["ports"][cp.input]["width"]
         self.state_h = [getattr(dut, p) for p in cp.states]
         self.enc_h = [getattr(dut, p) for p in cp.channels]
+        self.code_h = [getattr(dut, p) for p in cp.codes]
         self.count_h = [getattr(dut, f"cnt_{e.name}") for e in cp.encoders]
         self.clock = None
 
@@ -114,8 +116,9 @@ class CoreBench:
         d.rst.value = 0
 
     def sample(self) -> tuple:
-        """States and channel levels now, in golden-row order."""
-        return tuple(h.value.to_signed() for h in self.state_h) + tuple(int(h.value) for h in self.enc_h)
+        """States, channel levels and converter codes now, in golden-row order."""
+        return (tuple(h.value.to_signed() for h in self.state_h) + tuple(int(h.value) for h in self.enc_h)
+                + tuple(h.value.to_signed() for h in self.code_h))
 
     def counts(self) -> tuple:
         """The testbench decoders' x4 counts now, one per encoder."""

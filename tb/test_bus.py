@@ -58,6 +58,8 @@ def _expected_reset(b: Bus) -> dict:
     if b.channels:
         exp["ENC"] = sum(row0[n_states + i] << i for i in range(b.channels))
     exp.update({r: 0 for r in b.count_regs})
+    first_code = n_states + b.channels          # a converter's code register holds its reset code
+    exp.update({r: row0[first_code + i] >> frac for i, (r, frac) in enumerate(b.code_regs)})
     for i, r in enumerate(b.state_regs):
         exp[f"{r}_LO"] = row0[i] & 0xFFFFFFFF
         exp[f"{r}_HI"] = 0                  # snapshot register: 0 until a LO read latches it

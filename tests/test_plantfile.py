@@ -66,6 +66,10 @@ def _without(text: str, line: str) -> str:
     return text.replace(line, "", 1)
 
 
+# a sampled converter added to the example (it reads the cart's rate: any state may be read)
+_ADC = '\n[sensors.adc_v]\nkind = "adc"\nstate = "dx"\nbits = 12\nrange = [-5.0, 5.0]\n'
+
+
 def _hostile():
     t = example()
     return [
@@ -100,6 +104,14 @@ def _hostile():
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
         ("sensor band zero", t.replace("band = 1e-4", "band = 0.0"), r"sensors\.enc_x\.band: must be positive"),
+        ("sensor of an unknown kind", t + _ADC.replace('"adc"', '"sar"'), r"sensors\.adc_v\.kind: unknown sensor kind 'sar'"),
+        ("converter without bits", t + _ADC.replace("bits = 12\n", ""), r"sensors\.adc_v\.bits: is missing"),
+        ("converter of too many bits", t + _ADC.replace("bits = 12", "bits = 40"), r"sensors\.adc_v\.bits: must be at most 24"),
+        ("converter of zero bits", t + _ADC.replace("bits = 12", "bits = 0"), r"sensors\.adc_v\.bits: must be a positive whole"),
+        ("converter range reversed", t + _ADC.replace("[-5.0, 5.0]", "[5.0, -5.0]"),
+         r"sensors\.adc_v\.range: must be \[low, high\] with low < high"),
+        ("converter with an encoder's key", t + _ADC + "band = 1e-4\n", r"sensors\.adc_v: unknown key 'band'"),
+        ("converter of an unknown state", t + _ADC.replace('"dx"', '"q"'), r"sensors\.adc_v\.state: names unknown state 'q'"),
         ("unknown effect kind", t.replace('kind = "viscous"', 'kind = "magic"'), "unknown effect kind 'magic'"),
         ("effect role missing", _without(t, 'coefficient = "b"\n'), r"catalogue\.damping\.coefficient: an effect of kind 'viscous' needs"),
         ("effect on nothing", t.replace('on = "theta"', 'on = "phi"'), r"catalogue\.damping\.on: 'phi' is not a coordinate"),

@@ -13,10 +13,12 @@ from .wrapper import BUSES, render_wrapper
 
 
 def port_formats(graph: Graph) -> dict:
-    """The core's data ports (the plant's input and reported states) and their formats."""
+    """The core's data ports (the plant's input, reported states and converter codes) and their formats."""
     iface = require_interface(graph)
     ports = {iface.input.name: graph[iface.input.name].qformat}
     ports.update({p: graph.output(p).qformat for p in iface.outputs})
+    ports.update({s.code_port: graph.output(s.code_port).qformat for s in iface.sensors
+                  if s.is_adc and s.code_port in dict(graph.outputs)})
     return {p: {"signed": f.signed, "width": f.width, "frac": f.frac} for p, f in ports.items()}
 
 

@@ -24,7 +24,7 @@ string and the templates only loop and print.
 from __future__ import annotations
 
 from . import verilog_text as vtext
-from .arith import extend
+from .arith import bits, extend
 from .emit import GENERATOR, _env
 
 BUSES = ("raptor", "axi-lite")
@@ -111,6 +111,27 @@ def _check_ports(ports: dict, interface) -> None:
             raise ValueError(f"port {p} is {ports[p]['width']} bits; LO/HI register pairs hold at most 64")
     if len(_channels(interface)) > 32:
         raise ValueError(f"{len(_channels(interface))} encoder lines do not fit the 32-bit ENC register")
+    for sensor in _converters(interface):
+        code_bits(sensor, ports)
+
+
+def _converters(interface) -> list:
+    """The plant's sampled converters (ADC sensors), in sensor order."""
+    return [s for s in interface.sensors if s.is_adc]
+
+
+def code_bits(sensor, ports: dict) -> tuple:
+    """``(hi, lo)``: the bits of converter ``sensor``'s code port that hold its code (the port
+    holds the integer code in its Q-format, whose fraction bits are zero); ValueError when the
+    port is missing or its format cannot hold every code."""
+    f = ports.get(sensor.code_port)
+    if f is None:
+        raise ValueError(f"port formats missing for {sensor.code_port}")
+    lo, hi = f["frac"], f["frac"] + sensor.bits - 1
+    if lo < 0 or hi >= f["width"] - (1 if f["signed"] else 0):
+        raise ValueError(f"port {sensor.code_port} ({f['width']} bits, {f['frac']} fraction bits) cannot hold "
+                         f"a {sensor.bits}-bit code")
+    return hi, lo
 
 
 def status_words(status_nodes) -> list:
@@ -160,6 +181,13 @@ def register_map(ports: dict, status_nodes=(), interface=None) -> list[dict]:
     ]
     for sensor in interface.sensors:
         unit = interface.state(sensor.state).unit
+        if sensor.is_adc:
+            regs.append((names[sensor.name][0], "ro", sensor.bits,
+                         f"{sensor.body} converter ({sensor.state}), unsigned {sensor.bits}-bit code of the state "
+                         f"after the last step: floor((value - lo) * 2^{sensor.bits} / (hi - lo)) clamped to "
+                         f"0..{sensor.codes - 1}, range [{sensor.lo:g}, {sensor.hi:g}] {unit} "
+                         f"({_amount(sensor.resolution, unit)} per code)"))
+            continue
         regs.append((names[sensor.name][0], "ro", COUNT_BITS,
                      f"{sensor.body} encoder ({sensor.state}), signed {COUNT_BITS}-bit x4 quadrature count since "
                      f"the last (soft) reset ({_amount(sensor.resolution, unit)} per count, up when A leads)"))
@@ -250,8 +278,18 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
         "ENC": ("{" + (f"{pad}'d0, " if pad else "") + ", ".join(reversed(channels)) + "}") if channels else "32'd0",
         "STEP_COUNT_LO": "step_count[31:0]", "STEP_COUNT_HI": "step_count_hi",
     }
-    decoders = []
+    decoders, codes = [], []
+    for sensor in _converters(interface):
+        f = ports[sensor.code_port]
+        hi, lo = code_bits(sensor, ports)
+        sign, rng = _decl(f["width"], f["signed"])
+        wire = sensor.code_port
+        pad = 32 - sensor.bits
+        values[names[sensor.name][0]] = ("{" + (f"{pad}'d0, " if pad else "") + bits(wire, f["width"], hi, lo) + "}")
+        codes.append({"name": wire, "signed": sign, "range": rng, "port": sensor.code_port})
     for sensor in interface.sensors:
+        if sensor.is_adc:
+            continue
         count = f"{sensor.name}_count"
         values[names[sensor.name][0]] = count
         a, b = sensor.channels
@@ -275,6 +313,7 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
     conns = [".clk(clk)", ".rst(core_rst)", ".step(core_step)", ".ready(core_ready)", f".{inp}(core_input)"]
     conns += [f".{p}(st_{p})" for p in interface.outputs]
     conns += [f".{p}({p})" for p in channels if p in core]
+    conns += [f".{c['port']}({c['name']})" for c in codes if c["port"] in core]
     if status_nodes:
         from .emit import status_nodes as core_status_nodes
         if list(status_nodes) != core_status_nodes(view):
@@ -293,7 +332,7 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
         "states": states, "reads": reads, "snaps": snaps,
         "core_conns": [{"text": c, "sep": "," if i < len(conns) - 1 else ""} for i, c in enumerate(conns)],
         "enc_ties": [p for p in channels if p not in core],
-        "encoders": channels, "decoders": decoders,
+        "encoders": channels, "decoders": decoders, "codes": codes,
         "status_msb": len(status_nodes) - 1,
     }
 

@@ -2,7 +2,8 @@
 
 The HIL plants (:mod:`pendc.hil.rtl_plant`, :mod:`pendc.hil.rtl_cpp`), the golden plant and the
 cocotb testbench (``tb/``) all talk to the same module: ``clk``, ``rst``, ``step``, ``ready``,
-the plant's one input, its reported states, two channel lines per encoder and ``overflow``.
+the plant's one input, its reported states, two channel lines per encoder, one code port per
+sampled converter (ADC) and ``overflow``.
 :class:`CorePorts` reads those names from the plant interface carried on the graph
 (:func:`pendc.model.interface.require_interface`), so no harness spells a state of a plant;
 :func:`core_instance` is the Verilog that declares and instantiates the core, shared by every
@@ -37,6 +38,30 @@ class EncoderPorts:
 
 
 @dataclass(frozen=True)
+class AdcPorts:
+    """One sampled converter (ADC) of the core: its name, the state it reads, its code port,
+    bits and range ``lo`` .. ``hi`` in the state's unit (the code of the state after the last
+    step: :meth:`pendc.model.interface.SensorSpec.code`)."""
+
+    name: str
+    state: str
+    port: str
+    bits: int
+    lo: float
+    hi: float
+    unit: str = ""
+
+    @property
+    def resolution(self) -> float:
+        """One LSB, in the state's unit."""
+        return (self.hi - self.lo) / (1 << self.bits)
+
+    def reading(self, code) -> float:
+        """The state a code stands for (the middle of its step)."""
+        return self.lo + (float(code) + 0.5) * self.resolution
+
+
+@dataclass(frozen=True)
 class CorePorts:
     """Module and data-port names of a generated core, in the core's port order."""
 
@@ -44,13 +69,17 @@ class CorePorts:
     input: str
     states: tuple
     encoders: tuple
+    adcs: tuple = ()
 
     @classmethod
     def of_interface(cls, iface) -> "CorePorts":
         """The ports of the core built from plant interface ``iface``."""
         encoders = tuple(EncoderPorts(s.name, s.state, *s.channels, s.resolution, iface.state(s.state).unit,
-                                      iface.state(s.state).periodic) for s in iface.sensors)
-        return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders)
+                                      iface.state(s.state).periodic) for s in iface.sensors if not s.is_adc)
+        adcs = tuple(AdcPorts(s.name, s.state, s.code_port, s.bits, s.lo, s.hi, iface.state(s.state).unit)
+                     for s in iface.sensors if s.is_adc)
+        return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders,
+                   adcs=adcs)
 
     @classmethod
     def of_graph(cls, graph) -> "CorePorts":
@@ -69,13 +98,22 @@ class CorePorts:
         return tuple(c for e in self.encoders for c in e.channels)
 
     @property
+    def codes(self) -> tuple:
+        """Every converter's code port, in sensor order."""
+        return tuple(a.port for a in self.adcs)
+
+    @property
     def outputs(self) -> tuple:
-        """States then channels: the order of a golden row and of the graph's outputs."""
-        return self.states + self.channels
+        """States, channels, then codes: the order of a golden row and of the graph's outputs."""
+        return self.states + self.channels + self.codes
 
     def encoder_of(self, state: str) -> EncoderPorts | None:
         """The encoder that reads ``state``, or None."""
         return next((e for e in self.encoders if e.state == state), None)
+
+    def adc_of(self, state: str) -> AdcPorts | None:
+        """The converter that reads ``state``, or None."""
+        return next((a for a in self.adcs if a.state == state), None)
 
 
 def _decl(fmt: dict) -> str:
@@ -93,7 +131,7 @@ def core_instance(ports: CorePorts, formats: dict, input_reg: bool = True, inden
         w = formats[ports.input]["width"]
         lines.append(f"reg {_decl(formats[ports.input])} {ports.input} = {w}'sd0;")
     lines.append("wire ready, overflow;")
-    lines += [f"wire {_decl(formats[p])} {p};" for p in ports.states]
+    lines += [f"wire {_decl(formats[p])} {p};" for p in ports.states + ports.codes]
     if ports.channels:
         lines.append(f"wire {', '.join(ports.channels)};")
     lines.append(instance_line(ports))

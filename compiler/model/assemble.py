@@ -17,7 +17,7 @@ from .dimensions import check_dimensions
 from .effect_kinds import DRIVE, INPUT, MOVING, SHAPERS, STICKING, target_kind
 from .equations import Equations
 from .expressions import parse_expression
-from .interface import PlantInterface, QuantitySpec, SensorSpec, StateSpec, input_spec
+from .interface import PlantInterface, QuantitySpec, StateSpec, input_spec
 from .mechanics import derive
 
 DEFAULT_TURNS = 256      # whole periods either way a periodic register holds when the file does not say
@@ -279,7 +279,7 @@ def build_interface(model) -> PlantInterface:
 
     def position(c, body, quantity, output=True):
         period = periods.get(c.name)
-        budget = c.budget if c.budget is not None else (sensor[c.name].band / 4 if c.name in sensor else None)
+        budget = c.budget if c.budget is not None else (sensor[c.name].budget if c.name in sensor else None)
         return StateSpec(c.name, c.unit, c.meaning, body, quantity, period=period,
                          turns=(c.turns or DEFAULT_TURNS) if period is not None else None, budget=budget,
                          output=output)
@@ -307,8 +307,7 @@ def build_interface(model) -> PlantInterface:
     return PlantInterface(
         name=d.name, core=d.core, states=tuple(states),
         inputs=tuple(input_spec((i.name, i.unit, i.meaning), model.input_range or (i.lo, i.hi), i.neutral) for i in d.inputs),
-        sensors=tuple(SensorSpec(s.name, s.state, d.body_of(s.state), s.band, s.lines, s.bands_per_rev)
-                      for s in d.sensors),
+        sensors=tuple(s.spec(d.body_of(s.state)) for s in d.sensors),
         quantities=tuple(QuantitySpec(n, u, m) for n, u, m in quantities if n not in names))
 
 

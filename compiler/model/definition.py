@@ -134,15 +134,34 @@ class InputDecl:
 
 @dataclass(frozen=True)
 class SensorDecl:
-    """A quadrature encoder reading a position: ``band`` is the motion of one light or dark
-    band, ``lines`` and ``bands_per_rev`` the disk's."""
+    """A sensor reading a state. A quadrature encoder (``kind`` ``"quadrature_encoder"``):
+    ``band`` is the motion of one light or dark band, ``lines`` and ``bands_per_rev`` the
+    disk's. A sampled converter (``kind`` ``"adc"``): ``bits`` and the range ``lo`` .. ``hi``
+    it spans (see :class:`~pendc.model.interface.SensorSpec`)."""
 
     name: str
     state: str
     kind: str
-    band: float
-    lines: int
-    bands_per_rev: int
+    band: float = 0.0
+    lines: int = 0
+    bands_per_rev: int = 0
+    bits: int = 0
+    lo: float = 0.0
+    hi: float = 0.0
+
+    @property
+    def budget(self) -> float:
+        """The default error budget of the state it reads: half a count (an encoder's ×4 count
+        is half a band), half an LSB (a converter)."""
+        if self.kind == "adc":
+            return (self.hi - self.lo) / (1 << self.bits) / 2
+        return self.band / 4
+
+    def spec(self, body: str):
+        """The plant interface's :class:`~pendc.model.interface.SensorSpec` of this sensor."""
+        from .interface import SensorSpec
+        return SensorSpec(self.name, self.state, body, self.band, self.lines, self.bands_per_rev, self.kind,
+                          self.bits, self.lo, self.hi)
 
 
 @dataclass(frozen=True)

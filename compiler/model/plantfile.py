@@ -23,6 +23,7 @@ from .definition import (BodyDecl, CoordinateDecl, EffectDecl, ExperimentDecl, I
 from .effect_kinds import KINDS, acts_on, check_effect, implied_requirements
 from .equations import DEFAULT_EXPERIMENT
 from .expressions import free_names
+from .interface import ADC, ENCODER, MAX_ADC_BITS
 from .table_reader import TableReader, check_identifier, read_param, read_period, read_vector
 
 PHYSICS = ("constants", "coordinates", "states", "mechanics", "bodies", "inputs", "intermediates", "quantities",
@@ -59,7 +60,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     catalogue = _catalogue(top)
     position_names = [c.name for c in coordinates] + [s.name for s in states]
     rates = [f"d{c.name}" for c in coordinates]
-    sensors = _sensors(top, position_names + [s.name for s in states])
+    sensors = _sensors(top, position_names + [s.name for s in states], rates)
     experiments = _experiments(top, position_names, [b.name for b in bodies])
     notes = replace(_notes(top, catalogue), constraints=_constraints(top, catalogue, constants))
     physics = {k: doc[k] for k in PHYSICS if k in doc} | {
@@ -257,7 +258,14 @@ def _catalogue(top: TableReader) -> dict:
     return out
 
 
-def _sensors(top: TableReader, states) -> tuple:
+# the keys of a sensor of each kind (the default kind is the quadrature encoder)
+SENSOR_KEYS = {ENCODER: ("kind", "state", "band", "lines", "bands_per_rev"), ADC: ("kind", "state", "bits", "range")}
+
+
+def _sensors(top: TableReader, states, rates=()) -> tuple:
+    """``[sensors.NAME]``: encoders read positions (``states``), converters any state
+    (``states`` or ``rates``)."""
+    states, rates = list(states), [r for r in rates if r not in states]
     r = top.sub("sensors")
     out = []
     if r is None:
@@ -265,17 +273,26 @@ def _sensors(top: TableReader, states) -> tuple:
     for name in r.table:
         check_identifier(r, name, "sensor")
         s = r.sub(name)
-        s.only(("kind", "state", "band", "lines", "bands_per_rev"))
-        kind = s.string("kind", "quadrature_encoder")
-        if kind != "quadrature_encoder":
-            s.fail(f"unknown sensor kind '{kind}' (known: quadrature_encoder)", "kind")
+        kind = s.string("kind", ENCODER)
+        if kind not in SENSOR_KEYS:
+            s.fail(f"unknown sensor kind '{kind}' (known: {', '.join(SENSOR_KEYS)})", "kind")
+        s.only(SENSOR_KEYS[kind])
         state = s.string("state", required=True)
+        if kind == ADC:
+            if state not in states + rates:
+                s.fail(f"names unknown state '{state}' (known: {', '.join(states + rates)})", "state")
+            bits = s.integer("bits", required=True)
+            if bits > MAX_ADC_BITS:
+                s.fail(f"must be at most {MAX_ADC_BITS}, got {bits}", "bits")
+            lo, hi = s.pair("range", required=True)
+            out.append(SensorDecl(name, state, kind, bits=bits, lo=lo, hi=hi))
+            continue
         if state not in states:
             s.fail(f"names unknown position '{state}' (known: {', '.join(states)})", "state")
         out.append(SensorDecl(name, state, kind, s.number("band", required=True, positive=True),
                               s.integer("lines", required=True), s.integer("bands_per_rev", required=True)))
     if len({s.state for s in out}) != len(out):
-        r.fail("two sensors read the same position")
+        r.fail("two sensors read the same state")
     return tuple(out)
 
 

@@ -39,6 +39,7 @@ from ..model.plant import PlantModel
 from .fold_constants import live_nodes
 from .lower_encoders import lower_encoder
 from .lower_expr import ExpressionLowerer
+from .lower_sensors import lower_adc
 from .lower_sums import push_sums_into_muxes
 
 READ_AHEAD_KEY = "read_ahead"   # graph info: (register, state, period) of each table read a step ahead
@@ -50,7 +51,8 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     """The untyped IR graph of one model step of ``dt`` seconds (forward Euler, IV.4-IV.7).
 
     Outputs: the states the plant interface reports and, with ``encoders``, the two channel
-    levels of each of its encoders. The interface rides along in the graph's ``info``.
+    levels of each of its encoders, then the code of each of its converters (ADCs,
+    :mod:`pendc.passes.lower_sensors`). The interface rides along in the graph's ``info``.
 
     Two arithmetic choices shorten the critical chain of a step (docs/hardware.md, "What blocks
     100 ns per step"); both change the arithmetic, so the golden model, which follows the graph:
@@ -136,9 +138,16 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     nodes = regs + low.nodes
     if encoders:
         for sensor in iface.sensors:
+            if sensor.is_adc:
+                continue
             enc_nodes, levels = lower_encoder(sensor.name, increments[sensor.state], sensor.band, sensor.body)
             nodes += enc_nodes
             outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
+        for sensor in iface.sensors:       # the converters' codes after the channels
+            if sensor.is_adc:
+                adc_nodes, code = lower_adc(sensor, nxt[sensor.state], iface.state(sensor.state).label)
+                nodes += adc_nodes
+                outputs.append((sensor.code_port, code))
     if sum_into_mux:
         nodes = push_sums_into_muxes(nodes)
     if fold_dt or lookahead or sum_into_mux:   # the derivatives' own nodes (``ddx``), the tables' old

@@ -1,4 +1,5 @@
-"""Quantisation of float trajectories to ×4 encoder counts, for any encoder a plant declares.
+"""Quantisation of float trajectories to ×4 encoder counts, for any encoder a plant declares,
+and to the codes of its sampled converters (ADCs: absolute, clipped to their range).
 
 Which encoder reads which position, and how far one count moves it, is the plant
 interface's (:class:`~pendc.model.interface.SensorSpec`: ``resolution``, one count after ×4
@@ -13,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PendcError
+from ..model.interface import ConverterStep, converter_code, converter_reading
 from .signals import signals_of
 
 
@@ -23,9 +25,28 @@ def counts(value: np.ndarray, resolution: float) -> np.ndarray:
 
 
 def quantize(value, resolution: float) -> np.ndarray:
-    """A position as a ×4 decoder with counts of ``resolution`` reports it (from its first sample)."""
+    """A position as a ×4 decoder with counts of ``resolution`` reports it (from its first sample);
+    with a converter's step (:class:`~pendc.model.interface.ConverterStep`, the ``resolution`` of
+    an ADC sensor) the state as the converter reads it: absolute, clipped to its range, the middle
+    of its code's step (:func:`convert`)."""
+    if isinstance(resolution, ConverterStep):
+        return convert(value, resolution)
     value = np.asarray(value, dtype=np.float64)
     return value[0] + counts(value, resolution) * resolution
+
+
+def convert(value, step: ConverterStep) -> np.ndarray:
+    """``value`` as a ``step.bits``-bit converter over ``[step.lo, step.hi]`` reads it: its code
+    ``clamp(floor((value - lo) * 2**bits / (hi - lo)), 0, 2**bits - 1)``, reported as the middle of
+    the code's step, ``lo + (code + 1/2) * LSB`` (quantised to its LSB, clipped to its range)."""
+    code = converter_code(np.asarray(value, dtype=np.float64), step.lo, step.hi, step.bits)
+    return np.asarray(converter_reading(code, step.lo, step.hi, step.bits), dtype=np.float64)
+
+
+def sensor_reading(sensor, values) -> np.ndarray:
+    """``values`` of the state ``sensor`` (a :class:`~pendc.model.interface.SensorSpec`) reads, as
+    it reports them: an encoder's ×4 counts from the first sample, a converter's code."""
+    return quantize(values, sensor.resolution)
 
 
 def encoder_resolution(plant, position: str) -> float:
@@ -40,6 +61,7 @@ def encoder_resolution(plant, position: str) -> float:
 
 
 def encoder_reading(plant, position: str, values) -> np.ndarray:
-    """``values`` of ``position`` as the plant's encoder of it reports them (×4 counts of its
-    resolution, counted from the first sample). ``plant`` as for :func:`encoder_resolution`."""
+    """``values`` of ``position`` as the plant's sensor of it reports them (an encoder's ×4 counts of
+    its resolution, counted from the first sample; a converter's code, :func:`convert`). ``plant``
+    as for :func:`encoder_resolution`."""
     return quantize(values, encoder_resolution(plant, position))
