@@ -36,7 +36,7 @@ test: setup
 # The main job on the shipped default model, then the identification story (docs/identification.md).
 demo: setup
 	mkdir -p demo_out
-	$(BIN)/pendc derive
+	$(PY) data/sct_thesis/derive.py
 	$(BIN)/pendc stimulus chirp_low -o demo_out/chirp.csv
 	$(BIN)/pendc simulate --input demo_out/chirp.csv -o demo_out/chirp_sim.csv
 	$(BIN)/pendc simulate --fixed --input demo_out/chirp.csv -o demo_out/chirp_fixed.csv

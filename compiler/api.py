@@ -7,16 +7,18 @@ file path or a :class:`~pendc.model.plant.PlantModel`, data as file paths or
 result objects the commands print. A notebook session::
 
     import pendc
-    thesis = "models/sct_thesis_final.toml"
-    report = pendc.compare(thesis, "data/hidden_spring.csv")
+    rig = "my_rig.toml"                                          # a plant file and its values
+    report = pendc.compare(rig, "run1.csv")
     print(report)                                                # the text report, headline first
-    d = pendc.diagnose(thesis, "data/hidden_spring.csv")
-    d.candidates[0].effect                                       # 'cart_spring'
-    new = pendc.fit(thesis, "data/hidden_spring.csv", add=["cart_spring"], output="with_spring.toml")
-    pendc.compare([thesis, "with_spring.toml"], "data/hidden_spring_validation.csv").write_html("compare.html")
+    d = pendc.diagnose(rig, "run1.csv")
+    d.candidates[0].effect                                       # the catalogue effect that explains most
+    new = pendc.fit(rig, "run1.csv", add=[d.candidates[0].effect], output="refit.toml")
+    pendc.compare([rig, "refit.toml"], "run2.csv").write_html("compare.html")
 
-Files are read with :class:`~pendc.sim.readers.ReadOptions` given as keyword arguments
-(``columns={"theta": "Theta1"}``, ``theta_unit="deg"``, ``experiment="cart_held"``...),
+(docs/identification.md runs this on the shipped plants' data.) Files are read with
+:class:`~pendc.sim.readers.ReadOptions` given as keyword arguments (``columns={"angle":
+"Theta1"}`` renames a column to the plant's state, ``<state>_unit="deg"``, ``experiment=``
+one of the plant file's ``[experiments]``...),
 exactly as the command line's reading options, resampled onto a uniform grid as the
 commands do. The heavy modules (scipy, the identification package) are imported on the
 first call, so ``import pendc`` stays light.
@@ -120,11 +122,11 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
             labels=None, **reading) -> CompareReport:
     """How well does ``model`` reproduce ``data``, where and why not (``pendc compare``).
 
-    ``model``: a model file path or PlantModel (None: the thesis' final model), or a
+    ``model``: a model file path or PlantModel (None: the default model), or a
     list of them to put side by side (a table of every figure per model with the change
     from the first; ``labels`` names them). ``data``: a file path or Measurement, or a
     list of them (a report per file). ``horizon``: seconds between restarts of the
-    horizon fit. ``outputs``: ``("theta",)`` to compare theta only (default: every output
+    horizon fit. ``outputs``: a tuple of state names to compare only those (default: every output
     the data move; ``report.notes`` says what was left out). ``**reading``: :class:`~pendc.sim.readers.ReadOptions` fields for paths.
     The headline (``report.headline``) is the free-run fit where a free run is meaningful
     on the data, else the horizon fit, and says why.
@@ -152,9 +154,9 @@ def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, s
              effects=None, **reading):
     """Which catalogue effect is missing from ``model``, judged on ``data`` (``pendc diagnose``).
 
-    ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
+    ``model``: a model file path or PlantModel (None: the default model); ``data``: a
     path or Measurement, or a list of them (each simulated under its own experiment).
-    ``outputs``: ``("theta",)`` to judge on theta only; ``workers`` > 1 tests candidates in
+    ``outputs``: a tuple of state names to judge on those only; ``workers`` > 1 tests candidates in
     parallel processes; ``effects`` (``"a,b"`` or a list) tests only those catalogue effects.
     Returns a :class:`~pendc.ident.diagnose.Diagnosis`: ``candidates`` best first (``effect``,
     ``params``, ``score``, ``evidence``), ``unexplained``, ``at_noise_level``, ``correlations``,
@@ -212,7 +214,7 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
         max_evaluations: int = 200, **reading) -> FitReport:
     """Add effects, fit parameters and (if ``output`` is given) write the new model (``pendc fit``).
 
-    ``model``: a model file path or PlantModel (None: the thesis' final model); ``data``: a
+    ``model``: a model file path or PlantModel (None: the default model); ``data``: a
     path or Measurement, or a list of them; ``add``: effects to add (their parameters are
     fitted; an effect the model has already is fitted from its current values), ``free``: more parameters (any plant constant or effect parameter), as lists or
     comma-separated strings; ``validate``: data to report the figures on (default: ``data``).

@@ -71,17 +71,6 @@ def _emit_json(obj) -> None:
     sys.stdout.write("\n")
 
 
-def cmd_derive(args) -> int:
-    from .model.provenance import derive_parameters, derived_to_json, format_derived_table
-
-    derived = derive_parameters()
-    if args.json:
-        _emit_json(derived_to_json(derived))
-    else:
-        sys.stdout.write(format_derived_table(derived))
-    return 0
-
-
 def write_output(output: str | None, text: str) -> None:
     """``text`` to standard output (no ``-o``, or ``-o -``) or, atomically, to the file ``output``."""
     from .atomic import write_atomic
@@ -200,10 +189,6 @@ def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     parser.add_argument("--version", action="version", version=f"pendc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-
-    p = sub.add_parser("derive", help="recompute the thesis' parameters from its raw measurements")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.set_defaults(func=cmd_derive)
 
     p = sub.add_parser("simulate", help="float simulation of a model on an input file")
     p.add_argument("--model", help=MODEL_HELP)

@@ -84,10 +84,10 @@ def effects_by_body() -> str:
     """The effect catalogue of every shipped plant, grouped by plant (the names ``--add`` and
     ``--effects`` take; parameters in brackets, free them with ``--free``). A plant file of
     one's own lists its own in ``[catalogue]``."""
-    from .model.modelfile import DEFAULT_MODEL, models_dir, shipped_plants
+    from .model.modelfile import default_model_path, shipped_plants
 
     default = next((name for name, model in shipped_plants().items()
-                    if model.source == str(models_dir() / DEFAULT_MODEL)), None)
+                    if model.source == str(default_model_path())), None)
     lines = ["effects (names for --add; parameters in brackets, free them with --free), by the model's plant",
              "(the [catalogue] of its plant file; the shipped plants'):"]
     for name, model in shipped_plants().items():

@@ -62,7 +62,7 @@ def cmd_hil(args) -> int:
     if args.out is not None:
         _check_out_folder(args.out)
     model = load_model(args.model)
-    meta = {"model": model.source if args.model else "models/sct_thesis_final.toml",
+    meta = {"model": model.source,
             "controller": "socket client" if args.serve else args.controller,
             "period_s": f"{args.period:g}"}
     address = _address(args.serve) if args.serve else None   # bad address: fail before any work
@@ -100,10 +100,17 @@ def cmd_hil(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .hil.animate import animate_run, read_run_input
+    from .hil.animate import animate_run, model_of_run, read_run_input
 
-    record = read_run_input(args.run)
-    animate_run(record, args.output, fps=args.fps)
+    model = None
+    if args.model is not None:
+        from .hil.core_ports import CorePorts
+        from .model.modelfile import load_model
+        model = load_model(args.model)
+        record = read_run_input(args.run, CorePorts.of_interface(model.interface))
+    else:
+        record = read_run_input(args.run)
+    animate_run(record, args.output, fps=args.fps, model=model if model is not None else model_of_run(record))
     print(f"wrote {args.output}")
     return 0
 
@@ -128,9 +135,12 @@ def add_parsers(sub) -> None:
                    help="--serve: seconds to wait for the client to connect and for each answer (default 10)")
     p.set_defaults(func=cmd_hil)
 
-    p = sub.add_parser("animate", help="virtual pendulum from a run.csv: self-contained HTML, GIF or MP4")
-    p.add_argument("run", help="run.csv of pendc hil (or any CSV with the time, the input and two measured "
-                               "positions, the translation first: {plant:columns}; '-': standard input)")
+    p = sub.add_parser("animate", help="any plant's run drawn as its plant file's [drawing]: self-contained "
+                                       "HTML, GIF or MP4")
+    p.add_argument("run", help="run.csv of pendc hil (or any CSV with the time, the input and the model's measured "
+                               "positions: {plant:columns}; '-': standard input)")
+    p.add_argument("--model", help="the model whose [drawing] draws the run (default: the one the run's header "
+                                   "names, else the default model)")
     p.add_argument("-o", "--output", required=True, help="pendulum.html, .gif or .mp4")
     p.add_argument("--fps", type=int, default=25, help="GIF/MP4 frames per second (default 25)")
     p.set_defaults(func=cmd_animate)

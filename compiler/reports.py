@@ -11,6 +11,7 @@ import numpy as np
 
 from .ir.nodes import Kind
 from .passes.pipeline import BuildResult
+from .model.reference_formats import FIX
 from .passes.qformats import thesis_format
 
 DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0)
@@ -22,13 +23,12 @@ def _unit(meaning: str) -> str:
 
 
 def qformat_report(build: BuildResult) -> dict:
-    """Per node: meaning, simulated max, thesis max/format where it printed one, chosen format,
-    LSB in physical units and max |error| against float on the check stimuli."""
-    from .model.interface import graph_interface
-    from .model.thesis_formats import thesis_formats
-
+    """Per node: meaning, simulated max, a published design's max/format where the plant file
+    gives one (``[reference_formats]``), chosen format, LSB in physical units and max |error|
+    against float on the check stimuli."""
     g = build.graph
-    thesis = thesis_formats(graph_interface(g))   # spec §5, for the plant the thesis built
+    definition = build.model.definition
+    reference = definition.reference_formats
     errors = build.error.node_errors if build.error else {}
     nodes = []
     for n in g.nodes:
@@ -39,16 +39,17 @@ def qformat_report(build: BuildResult) -> dict:
             "max": build.ranges.max_abs.get(n.name), "format": str(n.qformat),
             "lsb": n.qformat.lsb, "unit": _unit(n.meaning), "error_vs_float": errors.get(n.name),
         }
-        if n.name in thesis:
-            row["thesis"] = thesis[n.name]
+        if n.name in reference:
+            row["reference"] = reference[n.name]
         nodes.append(row)
-    rule_check = {name: {"thesis_max": t["max"], "thesis_format": t["format"],
-                         "rule_gives": str(thesis_format(t["max"], 32))}
-                  for name, t in thesis.items() if "max" in t}
+    rule_check = {name: {"reference_max": t["max"], "reference_format": t["format"],
+                         "rule_gives": str(thesis_format(t["max"], int(FIX.match(t["format"]).group(1))))}
+                  for name, t in reference.items() if "max" in t}
     return {
         "rules": "constants >= 32 bits; i = ceil(log2(max|v|)) + 1 (signed); fraction = width - i; "
                  f"margin {build.options.margin_bits} bit(s) above the simulated maximum",
-        "thesis_rule_check": rule_check,
+        "reference_source": definition.reference_source,
+        "reference_rule_check": rule_check,
         "training": list(build.ranges.sources),
         "error_budget": build.error.to_json() if build.error else None,
         "nodes": nodes,
@@ -57,21 +58,23 @@ def qformat_report(build: BuildResult) -> dict:
 
 def format_qformat_report(report: dict) -> str:
     lines = ["Q-format assignment (" + report["rules"] + ")", ""]
-    lines.append("Thesis rule with the thesis' maxima:")
-    if not report["thesis_rule_check"]:
-        lines.append("  (none: the thesis published no formats for this plant)")
-    for name, r in report["thesis_rule_check"].items():
-        ok = "ok" if r["rule_gives"] == r["thesis_format"] else "DIFFERS"
-        lines.append(f"  {name:8s} max {r['thesis_max']:>8g} -> {r['rule_gives']} (thesis {r['thesis_format']}) {ok}")
+    source = report.get("reference_source") or "a published design"
+    lines.append(f"The sizing rule on the published maxima ({source}):")
+    if not report["reference_rule_check"]:
+        lines.append("  (none: the plant file gives no published formats with maxima, [reference_formats])")
+    for name, r in report["reference_rule_check"].items():
+        ok = "ok" if r["rule_gives"] == r["reference_format"] else "DIFFERS"
+        lines.append(f"  {name:8s} max {r['reference_max']:>8g} -> {r['rule_gives']} "
+                     f"(published {r['reference_format']}) {ok}")
     lines.append("")
-    header = f"{'node':28s} {'kind':5s} {'sim. max':>11s} {'thesis':>19s} {'format':>9s} {'LSB':>10s} {'unit':8s} {'err vs float':>12s}  meaning"
+    header = f"{'node':28s} {'kind':5s} {'sim. max':>11s} {'published':>19s} {'format':>9s} {'LSB':>10s} {'unit':8s} {'err vs float':>12s}  meaning"
     lines += [header, "-" * len(header)]
     for r in report["nodes"]:
-        th = r.get("thesis", {})
-        thesis = (f"{th.get('max', ''):>8} {th.get('format', '')}" if th else "").strip()
+        th = r.get("reference", {})
+        published = (f"{th.get('max', ''):>8} {th.get('format', '')}" if th else "").strip()
         err = "" if r["error_vs_float"] is None else f"{r['error_vs_float']:.3g}"
         mx = "" if r["max"] is None else f"{r['max']:.5g}"
-        lines.append(f"{r['name']:28s} {r['kind']:5s} {mx:>11s} {thesis:>19s} {r['format']:>9s} "
+        lines.append(f"{r['name']:28s} {r['kind']:5s} {mx:>11s} {published:>19s} {r['format']:>9s} "
                      f"{r['lsb']:>10.3g} {r['unit']:8s} {err:>12s}  {r['meaning']}")
     eb = report["error_budget"]
     if eb:

@@ -15,25 +15,6 @@ def run(capsys, *argv):
     return rc, out, err
 
 
-def test_derive_json(capsys):
-    rc, out, _ = run(capsys, "derive", "--json")
-    assert rc == 0
-    d = json.loads(out)["derived"]
-    assert set(d) == {"L", "I", "alpha", "M", "M_mfr_1096", "mu_s", "mu_s_left", "mu_s_right",
-                      "mu_c_pairwise", "b_x_pairwise", "mu_c_lstsq", "b_x_lstsq"}
-    assert d["M"]["value"] == pytest.approx(103.205, rel=5e-5)
-    assert d["M_mfr_1096"]["value"] == pytest.approx(103.787, rel=5e-5)
-    assert d["mu_c_pairwise"]["value"] == pytest.approx(0.0263, rel=5e-3)
-    assert d["b_x_pairwise"]["value"] == pytest.approx(139.6, rel=5e-3)
-    for entry in d.values():
-        assert set(entry) >= {"value", "thesis", "rel_diff", "note"}
-
-
-def test_derive_table(capsys):
-    rc, out, _ = run(capsys, "derive")
-    assert rc == 0 and "mu_c_pairwise" in out
-
-
 def test_stimulus_then_simulate(tmp_path, capsys):
     stim = tmp_path / "in.csv"
     out = tmp_path / "out.csv"

@@ -29,7 +29,7 @@ def cases():
 
 def test_the_walk_sees_every_subcommand():
     paths = {path for path, _, _ in actions(build_parser()) if path}
-    assert {"derive", "simulate", "build", "report", "stimulus", "hil", "animate", "compare", "diagnose",
+    assert {"simulate", "build", "report", "stimulus", "hil", "animate", "compare", "diagnose",
             "fit"} <= {path[0] for path in paths}
     assert {("report", "qformat"), ("report", "resources"), ("report", "synth")} <= paths
 

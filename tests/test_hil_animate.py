@@ -1,5 +1,6 @@
-"""`pendc animate`: the HTML page opened in headless Chromium draws the cart and the pendulum
-where the run says and moves them between frames; GIF through Pillow; bad input."""
+"""`pendc animate`: the HTML page opened in headless Chromium draws the plant file's [drawing]
+(points and lines) where the run says and moves it between frames, for the default plant and
+for a plant file of one's own; GIF through Pillow; bad input."""
 
 import math
 import os
@@ -13,8 +14,10 @@ from pendc.cli import main
 from pendc.hil.loop import HilRun
 from pendc.hil.records import read_run, run_csv_text
 
-W, TRACK, ROD, PIVOT_Y = 640, 0.75, 0.22, 230
-SCALE = (W - 40) / TRACK
+from plants import DEFAULT
+from test_plantfile import example
+
+ROD = 2 * DEFAULT.parameter_values()["L"]        # the default plant's drawing: pivot to the bob's centre
 
 
 def chromium_path():
@@ -53,38 +56,44 @@ def synthetic_run(tmp_path):
 
 def drawn(page, k):
     page.evaluate(f"window.pendcShow({k})")
-    get = page.get_attribute
-    return {"cart": float(get("#cart", "x")) + 30, "pivot": float(get("#pivot", "cx")),
-            "bob": (float(get("#bob", "cx")), float(get("#bob", "cy"))),
-            "rod_end": (float(get("#rod", "x2")), float(get("#rod", "y2"))),
-            "clock": page.inner_text("#clock"), "frame": page.evaluate("window.pendc.frame")}
+    points = page.evaluate("window.pendc.points")
+    for name, (x, y) in points.items():          # the page's circles are where window.pendc says
+        assert float(page.get_attribute(f"#pt-{name}", "cx")) == pytest.approx(x, abs=0.01)
+        assert float(page.get_attribute(f"#pt-{name}", "cy")) == pytest.approx(y, abs=0.01)
+    return {**points, "clock": page.inner_text("#clock"), "frame": page.evaluate("window.pendc.frame"),
+            "line": [float(page.get_attribute("#line-pivot-bob", a)) for a in ("x1", "y1", "x2", "y2")]}
 
 
-def test_html_draws_and_moves_cart_and_pendulum(browser, tmp_path, capsys):
+def open_page(browser, path):
+    page = browser.new_page(viewport={"width": 1120, "height": 640})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(path.as_uri())
+    return page, errors
+
+
+def test_html_draws_and_moves_the_plant(browser, tmp_path, capsys):
     src = synthetic_run(tmp_path)
     out = tmp_path / "pendulum.html"
     assert main(["animate", str(src), "-o", str(out)]) == 0
     text = out.read_text()
     assert "http://" not in text.replace("http://www.w3.org/2000/svg", "") and "https://" not in text
-    page = browser.new_page(viewport={"width": 1120, "height": 560})
-    errors = []
-    page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(out.as_uri())
+    page, errors = open_page(browser, out)
     n = int(page.get_attribute("#slider", "max")) + 1
     assert n == 201          # 2 s at 100 frames per second, both ends
     first, last = drawn(page, 0), drawn(page, n - 1)
-    # frame 0: centre, hanging: the bob straight below the pivot
-    assert first["cart"] == pytest.approx(W / 2, abs=0.01) and first["pivot"] == pytest.approx(W / 2, abs=0.01)
-    assert first["bob"] == pytest.approx((W / 2, PIVOT_Y + SCALE * ROD), abs=0.01)
-    # last frame: 10 cm to the LEFT (+x), upright: the bob straight above the pivot
-    assert last["cart"] == pytest.approx(W / 2 - SCALE * 0.1, abs=0.01)
-    assert last["bob"] == pytest.approx((W / 2 - SCALE * 0.1, PIVOT_Y - SCALE * ROD), abs=0.01)
-    assert last["rod_end"] == pytest.approx(last["bob"], abs=0.01) and last["clock"] == "t = 2.000 s"
-    page.evaluate("window.pendcShow(0)")
+    # frame 0: hanging, the bob straight below the pivot (screen y grows downwards)
+    (px0, py0), (bx0, by0) = first["pivot"], first["bob"]
+    assert bx0 == pytest.approx(px0, abs=0.01) and by0 > py0
+    scale = (by0 - py0) / ROD                     # pixels per metre, one for the whole run
+    # last frame: the cart 10 cm to the LEFT (+x is drawn to the left), upright: bob straight above
+    (px1, py1), (bx1, by1) = last["pivot"], last["bob"]
+    assert px1 == pytest.approx(px0 - 0.1 * scale, abs=0.05) and py1 == pytest.approx(py0, abs=0.01)
+    assert bx1 == pytest.approx(px1, abs=0.05) and by1 == pytest.approx(py1 - ROD * scale, abs=0.05)
+    assert last["line"] == pytest.approx([px1, py1, bx1, by1], abs=0.01) and last["clock"] == "t = 2.000 s"
     shot0 = page.screenshot(path=str(tmp_path / "frame0.png"))
     page.evaluate(f"window.pendcShow({n // 2})")
-    shot1 = page.screenshot(path=str(tmp_path / "frame1.png"))
-    assert shot0 != shot1
+    assert page.screenshot(path=str(tmp_path / "frame1.png")) != shot0
     # play moves the frame forward by itself
     page.evaluate("window.pendcShow(0)")
     page.click("#play")
@@ -93,6 +102,36 @@ def test_html_draws_and_moves_cart_and_pendulum(browser, tmp_path, capsys):
     page.click("#play")
     assert not errors
     page.close()
+
+
+def test_html_draws_a_plant_file_of_ones_own(browser, tmp_path, capsys):
+    """The docs' example cart (its drawing added): the bob swings out by L sin(theta)."""
+    plant = tmp_path / "my_cart.toml"
+    plant.write_text(example() + '\n[drawing]\npoints = { hub = ["x", 0], bob = ["x + L*sin(theta)", '
+                     '"-L*cos(theta)"] }\nlines = [["hub", "bob"]]\n', encoding="utf-8")
+    t = np.arange(0, 1.001, 0.01)
+    run = HilRun(t=t, u=np.zeros_like(t), positions=(("x", 0.2 * t), ("theta", 0.5 * math.pi * t)),
+                 mode=("",) * t.size, plant="float", wall_s=0.0, seconds=1.0, input_name="F",
+                 units=(("x", "m"), ("theta", "rad")), angle="theta")
+    src = tmp_path / "run.csv"
+    src.write_text(run_csv_text(run, {"model": str(plant)}))
+    out = tmp_path / "cart.html"
+    assert main(["animate", str(src), "-o", str(out)]) == 0          # the model the header names
+    page, errors = open_page(browser, out)
+    (hx0, hy0), (bx0, by0) = page.evaluate("window.pendcShow(0) || window.pendc.points['hub']"), \
+        page.evaluate("window.pendc.points['bob']")
+    scale = (by0 - hy0) / 0.3                                           # L = 0.3 m
+    page.evaluate("window.pendcShow(100)")
+    (hx1, hy1), (bx1, by1) = page.evaluate("window.pendc.points['hub']"), page.evaluate("window.pendc.points['bob']")
+    assert hx1 - hx0 == pytest.approx(0.2 * scale, abs=0.05)            # +x to the right in this file
+    assert (bx1 - hx1, by1 - hy1) == pytest.approx((0.3 * scale, 0.0), abs=0.05)   # swung out horizontally
+    assert not errors
+    page.close()
+    capsys.readouterr()
+    plain = tmp_path / "plain.toml"
+    plain.write_text(example(), encoding="utf-8")
+    assert main(["animate", str(src), "--model", str(plain), "-o", str(tmp_path / "p.html")]) == 2
+    assert "declares no [drawing]" in capsys.readouterr().err
 
 
 def test_gif(tmp_path):

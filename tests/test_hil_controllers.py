@@ -76,11 +76,11 @@ def test_lqr_gain_equals_riccati_iteration_and_stabilises():
 
 def test_dac_clamps_and_quantises_to_12_bits():
     lsb = 10.0 / 4095
-    assert dac(-3.0) == 0.0 and dac(12.0) == 10.0
-    v = dac(5.2646)
+    assert dac(-3.0, (0.0, 10.0)) == 0.0 and dac(12.0, (0.0, 10.0)) == 10.0
+    v = dac(5.2646, (0.0, 10.0))
     assert abs(v - 5.2646) <= lsb / 2 and round(v / lsb) * lsb == pytest.approx(v, abs=1e-12)
     with pytest.raises(PendcError, match="answered"):
-        dac(float("nan"))
+        dac(float("nan"), (0.0, 10.0))
 
 
 def test_angles_and_measurements():

@@ -1,13 +1,20 @@
-"""Table 3 parameters recomputed from raw thesis data (spec plant.md section 3)."""
+"""Table 3 parameters recomputed from raw thesis data (spec plant.md section 3): the SCT
+plant's own record in data/sct_thesis/, run as its script and imported from there."""
 
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
-from pendc.model import thesis_data as td
-from pendc.model.provenance import (
+HERE = Path(__file__).resolve().parents[1] / "data" / "sct_thesis"
+sys.path.insert(0, str(HERE))
+
+import thesis_data as td  # noqa: E402
+from provenance import (  # noqa: E402
     Derived,
     derive_parameters,
     derived_to_json,
@@ -128,3 +135,18 @@ def test_table_deterministic_and_complete(d):
         assert any(line.split()[0] == name for line in lines[2:]), name
     flagged_rows = [line for line in lines[2:] if " ! " in line]
     assert len(flagged_rows) == sum(x.flagged for x in d.values())
+
+
+def test_the_script_prints_the_table_and_the_json():
+    table = subprocess.run([sys.executable, str(HERE / "derive.py")], capture_output=True, text=True, check=True)
+    assert "mu_c_pairwise" in table.stdout
+    out = subprocess.run([sys.executable, str(HERE / "derive.py"), "--json"], capture_output=True, text=True,
+                         check=True)
+    d = json.loads(out.stdout)["derived"]
+    assert set(d) == set(NAMES)
+    assert d["M"]["value"] == pytest.approx(103.205, rel=5e-5)
+    assert d["M_mfr_1096"]["value"] == pytest.approx(103.787, rel=5e-5)
+    assert d["mu_c_pairwise"]["value"] == pytest.approx(0.0263, rel=5e-3)
+    assert d["b_x_pairwise"]["value"] == pytest.approx(139.6, rel=5e-3)
+    bad = subprocess.run([sys.executable, str(HERE / "derive.py"), "--bogus"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "unrecognized arguments" in bad.stderr

@@ -1,9 +1,11 @@
-"""`pendc animate RUN.csv -o pendulum.html|.gif|.mp4`: the virtual pendulum of a run.
+"""`pendc animate RUN.csv -o run.html|.gif|.mp4 [--model M.toml]`: any plant's run, drawn.
 
-HTML is one self-contained file (inline SVG and JavaScript, see :mod:`.animate_html`);
-GIF goes through matplotlib's PillowWriter (Pillow comes with matplotlib); MP4 needs an
-``ffmpeg`` on PATH. The geometry follows the plant spec: x positive to the left, the bob
-at (x - l sin theta, -l cos theta), the track 750 mm long.
+The picture is the plant file's ``[drawing]`` (points as expressions of its coordinates,
+lines joining them; :mod:`.drawing` lays them out per frame), beside the traces of every
+recorded position and the input. HTML is one self-contained file (inline SVG and JavaScript,
+see :mod:`.animate_html`); GIF goes through matplotlib's PillowWriter (Pillow comes with
+matplotlib); MP4 needs an ``ffmpeg`` on PATH. The model is the one the run names in its
+header (``# model: ...``, as ``pendc hil`` writes it), else ``--model``, else the default.
 """
 
 from __future__ import annotations
@@ -22,75 +24,87 @@ import numpy as np
 from ..atomic import check_file_output, write_atomic
 from ..errors import PendcError
 from .animate_html import PAGE
+from .drawing import layout
 from .records import RunRecord, read_run, write_bytes_atomic
 
 HTML_RATE = 100.0    # frames per simulated second kept in the page
-TRACK = 0.75         # m
-ROD = 0.22           # m, pivot to bob centre as drawn
+SCENE = (640.0, 440.0)   # pixels of the page's drawing
 FORMATS = (".html", ".gif", ".mp4")
 STDIN = "-"
 STDIN_SOURCE = "<stdin>"
 
 
-def read_run_input(path) -> RunRecord:
-    """:func:`~pendc.hil.records.read_run`, with ``-`` for standard input (``<stdin>`` in errors)."""
+def read_run_input(path, ports=None) -> RunRecord:
+    """:func:`~pendc.hil.records.read_run` (``ports``: see there), with ``-`` for standard input
+    (``<stdin>`` in errors)."""
     if str(path) != STDIN:
         if Path(path).is_dir():
             raise PendcError(f"{path}: is a folder, not a run file")
-        return read_run(path)
+        return read_run(path, ports)
     data = sys.stdin.buffer.read()
     # read_run reads a path: give it one, and the user's name for it back in any error
     with tempfile.TemporaryDirectory(prefix="pendc-animate.") as folder:
         spool = Path(folder) / "stdin.csv"
         spool.write_bytes(data)
         try:
-            return read_run(spool)
+            return read_run(spool, ports)
         except PendcError as exc:
             raise PendcError(str(exc).replace(str(spool), STDIN_SOURCE)) from None
 
 
-def cart_and_angle(record: RunRecord) -> tuple[str, str]:
-    """The record's two measured positions, as the cart-pendulum drawing takes them: the
-    translation first, then the pendulum angle (the plant interface's encoder order)."""
-    if len(record.positions) != 2:
-        raise PendcError(f"the animation draws a cart and a pendulum: the run has {len(record.positions)} "
-                         f"measured positions ({', '.join(s for s, _ in record.positions)})")
-    return record.positions[0][0], record.positions[1][0]
-
-
 def resample(record: RunRecord, rate: float) -> dict:
     """The run at (at most) ``rate`` samples per second: nearest earlier sample, so modes stay labels.
-    Keys: t, cart, angle, input, mode."""
-    cart, angle = cart_and_angle(record)
+    Keys: t, input, mode, and ``positions`` (state -> samples, the record's order)."""
     t = record.t
     if t.size < 2:
         idx = np.arange(t.size)
     else:
         grid = np.arange(t[0], t[-1] + 0.5 / rate, 1.0 / rate)
         idx = np.unique(np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1))
-    return {"t": t[idx], "cart": record.column(cart)[idx], "angle": record.column(angle)[idx],
-            "input": record.u[idx], "mode": [record.mode[i] for i in idx]}
+    return {"t": t[idx], "input": record.u[idx], "mode": [record.mode[i] for i in idx],
+            "positions": {state: column[idx] for state, column in record.positions}}
 
 
-def html_page(record: RunRecord, title: str) -> str:
-    """The self-contained page for ``record``."""
+def _clean(values, digits):
+    return [round(float(v), digits) if math.isfinite(v) else None for v in values]
+
+
+def html_page(record: RunRecord, model, title: str) -> str:
+    """The self-contained page for ``record`` drawn as ``model``'s plant file draws it."""
     d = resample(record, HTML_RATE)
-
-    def clean(values, digits):
-        return [round(float(v), digits) if math.isfinite(v) else None for v in values]
-
-    cart, angle = cart_and_angle(record)
-    data = {"t": clean(d["t"], 4), "cart": clean(d["cart"], 6), "angle": clean(d["angle"], 5),
-            "input": clean(d["input"], 4), "mode": d["mode"],
-            "names": {"cart": cart, "angle": angle, "input": record.input_name},
-            "units": {"cart": "m", "angle": "rad"}}
+    drawn = layout(model, d["positions"], *SCENE)
+    units = dict(record.units) if getattr(record, "units", None) else {}
+    iface = model.interface
+    data = {"t": _clean(d["t"], 4), "mode": d["mode"],
+            "points": {name: [_clean(px, 2), _clean(py, 2)] for name, (px, py) in drawn.points.items()},
+            "lines": [list(line) for line in drawn.lines],
+            "traces": [{"name": state, "unit": units.get(state) or _unit_of(iface, state),
+                        "values": _clean(values, 6)} for state, values in d["positions"].items()]
+            + [{"name": record.input_name, "unit": iface.input.unit, "values": _clean(d["input"], 4)}],
+            "plant": iface.name}
     # JSON inside <script>: escape "</" so a mode label cannot close the element
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return PAGE.replace("__TITLE__", html.escape(title)).replace("__DATA__", payload)
 
 
-def animate_run(record: RunRecord, output, fps: int = 25) -> None:
-    """Write the animation of ``record`` to ``output`` (format from the extension)."""
+def _unit_of(iface, state: str) -> str:
+    return next((s.unit for s in iface.states if s.name == state), "")
+
+
+def model_of_run(record: RunRecord, model_path=None):
+    """The model to draw ``record`` with: ``model_path`` if given, else the model the run's header
+    names (when that file exists), else the default model."""
+    from ..model.modelfile import load_model
+
+    if model_path is not None:
+        return load_model(model_path)
+    named = record.meta.get("model")
+    return load_model(named if named and Path(named).is_file() else None)
+
+
+def animate_run(record: RunRecord, output, fps: int = 25, model=None) -> None:
+    """Write the animation of ``record`` to ``output`` (format from the extension), drawn as the
+    plant file of ``model`` (a PlantModel; None: :func:`model_of_run`) draws it."""
     if str(output) == "-":
         raise PendcError("animate: -o names a file (.html, .gif or .mp4), not standard output")
     if Path(output).is_dir():
@@ -102,49 +116,46 @@ def animate_run(record: RunRecord, output, fps: int = 25) -> None:
         raise PendcError(f"{output}: unknown animation format '{suffix}' (use .html, .gif or .mp4)")
     if not 1 <= fps <= 100:
         raise PendcError(f"--fps must be in 1..100, got {fps}")
+    model = model if model is not None else model_of_run(record)
     if suffix == ".html":
-        write_atomic(output, html_page(record, output.stem))
+        write_atomic(output, html_page(record, model, output.stem))
         return
     if suffix == ".mp4" and shutil.which("ffmpeg") is None:
         raise PendcError("writing .mp4 needs ffmpeg on PATH; write .html or .gif instead")
-    _write_movie(record, output, fps, suffix)
+    _write_movie(record, model, output, fps, suffix)
 
 
-def _write_movie(record: RunRecord, output: Path, fps: int, suffix: str) -> None:
+def _write_movie(record: RunRecord, model, output: Path, fps: int, suffix: str) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
 
     d = resample(record, fps)
+    width, height = SCENE
+    drawn = layout(model, d["positions"], width, height)
     fig, (ax, axt) = plt.subplots(1, 2, figsize=(9, 3.6), gridspec_kw={"width_ratios": [1.4, 1]})
-    ax.set_xlim(TRACK / 2 + 0.05, -TRACK / 2 - 0.05)   # +x to the left, as on the rig
-    ax.set_ylim(-0.3, 0.3)
+    ax.set_xlim(0, width)
+    ax.set_ylim(height, 0)          # pixels: down is positive, as laid out
     ax.set_aspect("equal")
-    ax.set_xlabel("x (m), positive to the left")
-    ax.plot([-TRACK / 2, TRACK / 2], [0, 0], color="0.3", lw=3)
-    cart = plt.Rectangle((0, -0.02), 0.08, 0.04, color="tab:blue")
-    ax.add_patch(cart)
-    (rod,) = ax.plot([], [], color="black", lw=3)
-    (bob,) = ax.plot([], [], "o", color="chocolate", ms=12)
-    stamp = ax.text(TRACK / 2, 0.26, "", fontsize=9)
-    cart_name, angle_name = cart_and_angle(record)
-    axt.plot(d["t"], d["angle"], lw=0.8, label=f"{angle_name} (rad)")
-    axt.plot(d["t"], np.asarray(d["cart"]) * 10, lw=0.8, label=f"10 {cart_name} (m)")
+    ax.set_axis_off()
+    joins = [ax.plot([], [], color="black", lw=3)[0] for _ in drawn.lines]
+    (dots,) = ax.plot([], [], "o", color="chocolate", ms=8)
+    stamp = ax.text(8, 20, "", fontsize=9)
+    for state, values in d["positions"].items():
+        axt.plot(d["t"], values, lw=0.8, label=state)
     cursor = axt.axvline(d["t"][0], color="tab:red", lw=0.8)
     axt.legend(loc="upper left", fontsize=8)
     axt.set_xlabel("t (s)")
     fig.tight_layout()
 
     def frame(k):
-        x, th = d["cart"][k], d["angle"][k]
-        cart.set_x(x - 0.04)
-        bx, by = x - ROD * math.sin(th), -ROD * math.cos(th)
-        rod.set_data([x, bx], [0, by])
-        bob.set_data([bx], [by])
+        for join, (a, b) in zip(joins, drawn.lines):
+            join.set_data([drawn.points[a][0][k], drawn.points[b][0][k]], [drawn.points[a][1][k], drawn.points[b][1][k]])
+        dots.set_data([p[0][k] for p in drawn.points.values()], [p[1][k] for p in drawn.points.values()])
         stamp.set_text(f"t = {d['t'][k]:.2f} s  {d['mode'][k]}")
         cursor.set_xdata([d["t"][k], d["t"][k]])
-        return cart, rod, bob, stamp, cursor
+        return (*joins, dots, stamp, cursor)
 
     anim = FuncAnimation(fig, frame, frames=len(d["t"]), blit=False)
     writer = PillowWriter(fps=fps) if suffix == ".gif" else FFMpegWriter(fps=fps)

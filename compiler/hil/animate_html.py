@@ -1,14 +1,14 @@
-"""The self-contained HTML page of the virtual pendulum (inline SVG and JavaScript, no network).
+"""The self-contained HTML page of a run (inline SVG and JavaScript, no network).
 
-The page draws, from the run's samples, the cart on its 750 mm track and the pendulum in
-the plant's conventions (x positive to the left, theta from hanging), a time slider, a
-play/pause button and the traces of the angle, the cart position and the input (named in
-the page's data as the run names them) with a cursor. ``window.pendc`` exposes
-the current frame and the drawn positions so that a browser test can check them.
+The page draws, per frame, the points and lines :mod:`pendc.hil.drawing` laid out from the
+plant file's ``[drawing]`` (already in pixels: the script does no geometry), a time slider,
+a play/pause button and a trace per recorded position and the input, with a cursor.
+``window.pendc`` exposes the current frame and each drawn point's place so that a browser
+test can check them.
 """
 
 PAGE = """<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>pendc: virtual pendulum</title>
+<html lang="en"><head><meta charset="utf-8"><title>pendc: __TITLE__</title>
 <style>
 body { font-family: sans-serif; margin: 16px; color: #222; }
 #wrap { display: flex; flex-wrap: wrap; gap: 16px; align-items: flex-start; }
@@ -17,7 +17,7 @@ body { font-family: sans-serif; margin: 16px; color: #222; }
 .trace { fill: none; stroke-width: 1.2; }
 .label { font-size: 11px; fill: #555; }
 </style></head><body>
-<h3>pendc virtual pendulum: __TITLE__</h3>
+<h3>pendc: __TITLE__</h3>
 <div id="controls">
   <button id="play" type="button">Play</button>
   <input id="slider" type="range" min="0" max="0" step="1" value="0" aria-label="time">
@@ -26,16 +26,9 @@ body { font-family: sans-serif; margin: 16px; color: #222; }
   <option>2</option></select></label>
 </div>
 <div id="wrap">
-<svg id="scene" width="640" height="440" viewBox="0 0 640 440" role="img" aria-label="cart and pendulum">
+<svg id="scene" width="640" height="440" viewBox="0 0 640 440" role="img" aria-label="the plant">
   <rect x="0" y="0" width="640" height="440" fill="#f7f7f4"/>
-  <line id="track" x1="20" y1="236" x2="620" y2="236" stroke="#444" stroke-width="4"/>
-  <rect x="14" y="212" width="6" height="36" fill="#b22"/><rect x="620" y="212" width="6" height="36" fill="#b22"/>
-  <text class="label" x="20" y="266">+x (left) | track 750 mm</text>
-  <text class="label" x="560" y="266">-x (right)</text>
-  <rect id="cart" x="0" y="216" width="60" height="28" rx="4" fill="#3a6ea5"/>
-  <line id="rod" x1="0" y1="0" x2="0" y2="0" stroke="#222" stroke-width="5" stroke-linecap="round"/>
-  <circle id="bob" cx="0" cy="0" r="13" fill="#d2691e"/>
-  <circle id="pivot" cx="0" cy="0" r="4" fill="#fff" stroke="#222"/>
+  <g id="joins"></g><g id="dots"></g>
   <text id="modeText" class="label" x="20" y="30"></text>
 </svg>
 <svg id="traces" width="420" height="440" viewBox="0 0 420 440" role="img" aria-label="traces"></svg>
@@ -43,28 +36,36 @@ body { font-family: sans-serif; margin: 16px; color: #222; }
 <script>
 "use strict";
 const D = __DATA__;
-const N = D.t.length, W = 640, TRACK = 0.75, SCALE = (W - 40) / TRACK, CX = W / 2, PY = 230;
-const ROD = 0.22, scene = {};   // pivot to bob centre (m), drawn to the track's scale
-["cart", "rod", "bob", "pivot", "modeText"].forEach(id => scene[id] = document.getElementById(id));
+const N = D.t.length, svgNS = "http://www.w3.org/2000/svg";
 const slider = document.getElementById("slider"), clock = document.getElementById("clock");
 const play = document.getElementById("play"), speed = document.getElementById("speed");
+const modeText = document.getElementById("modeText");
 slider.max = String(N - 1);
-const state = { frame: 0, playing: false, cartX: 0, bobX: 0, bobY: 0 };
+const state = { frame: 0, playing: false, points: {} };
 window.pendc = state;
+function make(tag, parent, attrs) {
+  const e = document.createElementNS(svgNS, tag);
+  Object.entries(attrs).forEach(([a, b]) => e.setAttribute(a, b));
+  document.getElementById(parent).appendChild(e);
+  return e;
+}
+const joins = D.lines.map(([a, b]) => [a, b, make("line", "joins", {id: "line-" + a + "-" + b, stroke: "#222",
+  "stroke-width": 5, "stroke-linecap": "round"})]);
+const dots = Object.keys(D.points).map(name => [name, make("circle", "dots", {id: "pt-" + name, r: 7,
+  fill: "#d2691e", stroke: "#222"})]);
 
 function draw(k) {
   state.frame = k;
-  const x = D.cart[k], th = D.angle[k];
-  const px = CX - SCALE * x;                       // +x is to the left
-  const bx = px + SCALE * ROD * Math.sin(th);      // bob at (x - l sin th, -l cos th), +x left
-  const by = PY + SCALE * ROD * Math.cos(th);
-  scene.cart.setAttribute("x", (px - 30).toFixed(2));
-  scene.rod.setAttribute("x1", px.toFixed(2)); scene.rod.setAttribute("y1", PY);
-  scene.rod.setAttribute("x2", bx.toFixed(2)); scene.rod.setAttribute("y2", by.toFixed(2));
-  scene.bob.setAttribute("cx", bx.toFixed(2)); scene.bob.setAttribute("cy", by.toFixed(2));
-  scene.pivot.setAttribute("cx", px.toFixed(2)); scene.pivot.setAttribute("cy", PY);
-  scene.modeText.textContent = D.mode[k] ? "controller: " + D.mode[k] : "";
-  state.cartX = px; state.bobX = bx; state.bobY = by;
+  dots.forEach(([name, dot]) => {
+    const x = D.points[name][0][k], y = D.points[name][1][k];
+    dot.setAttribute("cx", x); dot.setAttribute("cy", y);
+    state.points[name] = [x, y];
+  });
+  joins.forEach(([a, b, line]) => {
+    line.setAttribute("x1", D.points[a][0][k]); line.setAttribute("y1", D.points[a][1][k]);
+    line.setAttribute("x2", D.points[b][0][k]); line.setAttribute("y2", D.points[b][1][k]);
+  });
+  modeText.textContent = D.mode[k] ? "controller: " + D.mode[k] : "";
   slider.value = String(k);
   clock.textContent = "t = " + D.t[k].toFixed(3) + " s";
   cursors.forEach(c => { const cx = tx(D.t[k]).toFixed(2); c.setAttribute("x1", cx); c.setAttribute("x2", cx); });
@@ -72,13 +73,13 @@ function draw(k) {
 
 const T0 = D.t[0], T1 = D.t[N - 1] > D.t[0] ? D.t[N - 1] : D.t[0] + 1;
 function tx(t) { return 50 + (t - T0) / (T1 - T0) * 360; }
-const svgNS = "http://www.w3.org/2000/svg", traces = document.getElementById("traces"), cursors = [];
+const traces = document.getElementById("traces"), cursors = [];
 function panel(name, values, top, colour) {
   const finite = values.filter(v => Number.isFinite(v));
   if (!finite.length) return;
   let lo = Math.min(...finite), hi = Math.max(...finite);
   if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
-  const h = 124, y = v => top + h - (v - lo) / (hi - lo) * h;
+  const h = H, y = v => top + h - (v - lo) / (hi - lo) * h;
   let d = "";
   values.forEach((v, i) => { if (Number.isFinite(v)) d += (d ? "L" : "M") + tx(D.t[i]).toFixed(1) + "," + y(v).toFixed(1); });
   const p = document.createElementNS(svgNS, "path");
@@ -96,9 +97,11 @@ function panel(name, values, top, colour) {
   Object.entries({y1: top, y2: top + h, stroke: "#b22", "stroke-width": 1}).forEach(([a, b]) => c.setAttribute(a, b));
   traces.appendChild(c); cursors.push(c);
 }
-panel(D.names.angle + " (" + D.units.angle + ")", D.angle, 8, "#1f77b4");
-panel(D.names.cart + " (" + D.units.cart + ")", D.cart, 152, "#222");
-panel(D.names.input + " (V)", D.input, 296, "#2ca02c");
+const H = 124, GAP = 20, colours = ["#1f77b4", "#222", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"];
+traces.setAttribute("height", D.traces.length * (H + GAP) + 8);
+traces.setAttribute("viewBox", "0 0 420 " + (D.traces.length * (H + GAP) + 8));
+D.traces.forEach((tr, i) => panel(tr.name + (tr.unit ? " (" + tr.unit + ")" : ""), tr.values, 8 + i * (H + GAP),
+  colours[i % colours.length]));
 
 let last = null;
 function tick(now) {

@@ -5,16 +5,16 @@ only what the rig's controller sees, a :class:`Measurement` (time and the ×4 en
 counts, also converted to positions). An optional ``mode`` attribute (a short word)
 is logged per period. Velocities come from a filtered difference of the positions.
 
-The controllers here drive any plant that is one pendulum on one driven coordinate (the SCT
-cart-pendulum, the Furuta pendulum's rotary arm): they address its states by role
+The controllers here drive any plant that is one pendulum on one driven coordinate (a
+cart-pendulum, a Furuta pendulum's rotary arm): they address its states by role
 (:mod:`pendc.hil.pendulum_roles`: the actuated coordinate, the pendulum angle, counted from
 hanging down, upright half a turn away), and every gain in volts comes from the model's own
 linearisation (:mod:`pendc.hil.linearize`). The swing-up is pendulum physics: the energy of
 the pendulum swinging about its pivot with the actuated coordinate held, per unit of its
 inertia, and the push on the pivot that changes it.
 
-Conventions are each plant's (the SCT rig: x positive to the left, the angle clockwise
-positive, u > V_off pushes the cart to +x); nothing here depends on them.
+Conventions (which way is positive, which input pushes which way) are each plant file's;
+nothing here depends on them.
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from .linearize import DiscreteLqr, UprightLinearModel, design_lqr, linearise_at
 from .numeric_model import NumericModel
 from .pendulum_roles import PendulumRoles, pendulum_roles
 
-U_MIN, U_MAX = 0.0, 10.0       # V, the SCT driver's input range: the loop's DAC for a controller declaring none
 FRICTION_SMOOTHING = 0.05     # V, width of the smoothed sign in the friction compensation
 VELOCITY_TAU = 0.004           # s, time constant of the velocity filter
 # LQR weights: 1/(acceptable excursion)^2 for the actuated position, its rate, the angle from
@@ -39,10 +38,10 @@ LQR_R = 1 / 1.0**2
 # supervisor: switch to balance within CATCH_ANGLE (rad) of the upright below CATCH_RATE (rad/s),
 # back to swinging beyond DROP_ANGLE
 CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
-# swing-up, in units of gravity's pull as the pendulum feels a push of its pivot (on the SCT
-# cart, g = 9.80665 m/s^2 of cart acceleration): the peak push, 5 m/s^2 on the SCT cart, and
-# the push per unit of missing energy (as a fraction of the upright's), the 100 m/s^2 per J
-# the swing-up was tuned with on the SCT pendulum, whose m g L is m L = 0.581 kg x 0.138867 m times g
+# swing-up, in units of gravity's pull as the pendulum feels a push of its pivot (on a cart,
+# g = 9.80665 m/s^2 of cart acceleration): the peak push, 5 m/s^2 on a cart, and the push per
+# unit of missing energy (as a fraction of the upright's), 100 m/s^2 per J on a pendulum whose
+# m L is 0.581 kg x 0.138867 m (the values the swing-up was first tuned with)
 SWING_PIVOT_ACCEL = 5.0 / 9.80665
 SWING_GAIN = 100 * 0.581 * 0.138867
 
@@ -122,13 +121,15 @@ class PendulumConstants:
     the upright, the pendulum's physics with the actuated coordinate held (``omega0_sq``, the
     square of its natural frequency, rad²/s²) and ``coupling``, the pendulum's angular
     acceleration per unit acceleration of the actuated coordinate when hanging (it goes with
-    the cosine of the angle), and the input's range (volts, low and high)."""
+    the cosine of the angle), the input's range (volts, low and high) and the model's own
+    equations (``numeric``) for :meth:`input_for`."""
 
     roles: PendulumRoles
     lin: UprightLinearModel
     omega0_sq: float
     coupling: float
     input_range: tuple
+    numeric: NumericModel | None = None
 
     @property
     def actuated(self) -> str:
@@ -139,6 +140,23 @@ class PendulumConstants:
     def angle(self) -> str:
         """The measured pendulum angle."""
         return self.roles.pendulum.position
+
+    def input_for(self, accel: float, position: float, rate: float, angle: float, angle_rate: float) -> float:
+        """The input that gives the actuated coordinate the acceleration ``accel`` in this state,
+        by the model's own nonlinear equations (the pendulum's reaction, the drive's back-EMF,
+        friction, as the file declares them; states the controller does not see at zero). The
+        acceleration is affine in the input for every drive law the catalogue offers, so two
+        evaluations give it; without ``numeric`` the linearisation at the hanging rest does."""
+        if self.numeric is None:
+            return self.lin.u0 + (accel - self.lin.A[1, 1] * rate) / self.lin.B[1, 0]
+        r = self.roles
+        x = np.zeros(len(self.numeric.names))
+        x[[r.actuated.index, r.actuated.rate_index, r.pendulum.index, r.pendulum.rate_index]] = \
+            position, rate, angle, angle_rate
+        u0 = self.lin.u0
+        a0 = self.numeric.derivatives(x, u0)[r.actuated.rate_index]
+        per_unit = self.numeric.derivatives(x, u0 + 1.0)[r.actuated.rate_index] - a0
+        return u0 + (accel - a0) / per_unit
 
     def upright_error(self, angle: float) -> float:
         """The pendulum's angle from the upright, in (-period/2, period/2]."""
@@ -152,7 +170,7 @@ class PendulumConstants:
         hanging = linearise_at_rest(numeric, roles, 0.0)
         return cls(roles=roles, lin=linearise_at_rest(numeric, roles, roles.upright),
                    omega0_sq=held_pendulum_stiffness(hanging), coupling=float(hanging.B[3, 0] / hanging.B[1, 0]),
-                   input_range=(model.interface.input.lo, model.interface.input.hi))
+                   input_range=(model.interface.input.lo, model.interface.input.hi), numeric=numeric)
 
 
 def held_pendulum_stiffness(hanging: UprightLinearModel) -> float:
@@ -190,9 +208,9 @@ class EnergySwingUp(_VelocityObserver):
     w cos a), saturated at ``accel_max``, plus a spring and damper that keep the actuated
     coordinate near 0. Both are in the actuated coordinate's unit/s² (defaults
     ``SWING_GAIN`` and ``SWING_PIVOT_ACCEL`` times gravity as the pivot feels it,
-    omega0² / |coupling|: 79.1 and 5 m/s² on the SCT cart). The acceleration is turned into
-    volts by inverting the model's linear response of the actuated coordinate
-    (a = A[1,1] v + B[1] (u - u0)), so the gains mean the same on any drive."""
+    omega0² / |coupling|). The acceleration is turned into the input by the model's own
+    equations (:meth:`PendulumConstants.input_for`: the pendulum's reaction on a light rotary
+    arm matters as much as the drive), so the gains mean the same on any drive."""
 
     mode = "swing"
 
@@ -222,8 +240,7 @@ class EnergySwingUp(_VelocityObserver):
         missing = 1.0 - self.energy(angle, angle_rate) / self.c.omega0_sq
         pump = max(-self.accel_max, min(self.accel_max, self.gain * missing * direction))
         accel = pump - self.centre_k * position - self.centre_d * actuated_rate
-        a11, b1 = self.c.lin.A[1, 1], self.c.lin.B[1, 0]
-        return self.c.lin.u0 + (accel - a11 * actuated_rate) / b1
+        return self.c.input_for(accel, position, actuated_rate, angle, angle_rate)
 
     def step(self, meas: Measurement) -> float:
         """One control period."""

@@ -16,14 +16,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PendcError
-from .controllers import U_MAX, U_MIN, Measurement, wrap_upright
+from .controllers import Measurement, wrap_upright
 
 DAC_BITS = 12
 UPRIGHT_TOLERANCE = 0.05   # rad: "upright" for the summary and the scenarios
 
 
-def dac(volts: float, bits: int = DAC_BITS, span: tuple = (U_MIN, U_MAX)) -> float:
-    """Clamp to ``span`` (default the SCT rig's 0-10 V) and quantise to the nearest code of a
+def dac(volts: float, span: tuple, bits: int = DAC_BITS) -> float:
+    """Clamp to ``span`` (the input's low and high) and quantise to the nearest code of a
     ``bits``-bit DAC over it."""
     if not math.isfinite(volts):
         raise PendcError(f"the controller answered {volts!r} volts")
@@ -123,7 +123,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
 
     ``answer(measurement) -> volts`` replaces ``controller.step`` (the socket server
     uses it); ``progress(fraction)`` is called now and then. The DAC spans the controller's
-    ``input_range`` (volts, low and high) if it declares one, else the SCT rig's 0-10 V. A :class:`PendcError` from
+    ``input_range`` (low and high) if it declares one, else the plant model's input range. A :class:`PendcError` from
     the plant or the controller ends the run: the result keeps the rows so far and
     says why in ``stopped``.
     """
@@ -132,7 +132,11 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     n_sub = steps_per_period(plant.dt, period)
     n_rows = int(round(seconds / period)) + 1
     step = answer if answer is not None else controller.step
-    span = tuple(getattr(controller, "input_range", (U_MIN, U_MAX)))
+    span = getattr(controller, "input_range", None)
+    if span is None:
+        inp = plant.model.interface.input
+        span = (inp.lo, inp.hi)
+    span = tuple(span)
     ports = plant.ports
     t = np.empty(n_rows)
     u = np.empty(n_rows)

@@ -1,10 +1,10 @@
 """The model-mismatch scenario's figure and table for docs/hil.md.
 
-    .venv/bin/python -m pendc.hil.mismatch_report [docs/hil_mismatch.png] [--plant float|golden]
+    .venv/bin/python -m pendc.hil.mismatch_report DESIGN.toml TRUTH.toml [out.png] [--plant float|golden]
 
 Runs :func:`pendc.hil.scenarios.model_mismatch` (the builtin controller designed on the
-Table 3 model, run against the Table 3 model itself and against the Table 14 plant, beside
-the design on Table 14), writes the figure and prints a Markdown table of the results.
+DESIGN model, run against DESIGN itself and against the TRUTH plant, beside the design on
+TRUTH), writes the figure and prints a Markdown table of the results.
 """
 
 from __future__ import annotations
@@ -82,10 +82,12 @@ def table(results: dict) -> str:
 def main(argv=None) -> int:
     """Run the scenario, write the figure, print the table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("output", nargs="?", default="docs/hil_mismatch.png")
+    ap.add_argument("design", help="the model the controller is designed on")
+    ap.add_argument("truth", help="the model standing in for the real plant")
+    ap.add_argument("output", nargs="?", default="hil_mismatch.png", help="figure (PNG)")
     ap.add_argument("--plant", default="float", choices=("float", "golden"))
     args = ap.parse_args(argv)
-    design, truth = load_model("models/sct_thesis_initial.toml"), load_model("models/sct_thesis_final.toml")
+    design, truth = load_model(args.design), load_model(args.truth)
     results = model_mismatch(lambda m: make_plant(args.plant, m), design, truth, plant_name=args.plant)
     write_bytes_atomic(Path(args.output), figure_png(results))
     print(table(results))

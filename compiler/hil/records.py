@@ -150,12 +150,8 @@ class RunRecord:
 def read_run(path, ports=None) -> RunRecord:
     """Read a run.csv (or any CSV with t and the measured positions; the input and mode optional).
     ``ports`` (:class:`~pendc.hil.core_ports.CorePorts`) names the input and the positions
-    (default: the default model's plant interface)."""
-    if ports is None:
-        from ..model.modelfile import load_model
-        from .core_ports import CorePorts
-        ports = CorePorts.of_interface(load_model().interface)
-    measured = [e.state for e in ports.encoders]
+    (default: the plant interface of the model the header names, ``# model: PATH`` as ``pendc
+    hil`` writes it, when that file exists; else the default model's)."""
     path = Path(path)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -169,6 +165,12 @@ def read_run(path, ports=None) -> RunRecord:
         k += 1
     if k == len(lines):
         raise PendcError(f"{path}: no header row")
+    if ports is None:
+        from ..model.modelfile import load_model
+        from .core_ports import CorePorts
+        named = meta.get("model")
+        ports = CorePorts.of_interface(load_model(named if named and Path(named).is_file() else None).interface)
+    measured = [e.state for e in ports.encoders]
     names = [n.strip() for n in lines[k].split(",")]
     for need in (TIME, *measured):
         if need not in names:

@@ -242,6 +242,8 @@ class PlantDefinition:
     operating_points: dict = field(default_factory=dict)
     drawing: dict = field(default_factory=dict)
     source: str = ""
+    reference_formats: dict = field(default_factory=dict)   # node -> {"format", "max"}: a published design's
+    reference_source: str = ""         # where those formats are printed
     key: str = ""                      # canonical JSON of the physics tables
     physics: dict = field(default_factory=dict, compare=False, hash=False)
 

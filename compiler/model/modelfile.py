@@ -26,7 +26,7 @@ TOP_LEVEL = ("extends", "plant", "effects", "input", "fit", "meta", "hardware") 
 MAX_EXTENDS = 8      # a chain of files extending each other longer than this is a mistake (or a loop)
 
 
-DEFAULT_MODEL = "sct_thesis_final.toml"     # the shipped model `pendc` reads without --model
+DEFAULT_MARKER = "DEFAULT"   # models/DEFAULT: one line, the file name of the model read without --model
 
 
 def models_dir() -> Path:
@@ -35,14 +35,22 @@ def models_dir() -> Path:
     from importlib import resources
 
     shipped = Path(str(resources.files("pendc"))) / "models"
-    if (shipped / DEFAULT_MODEL).is_file():
+    if (shipped / DEFAULT_MARKER).is_file():
         return shipped
     return Path(__file__).resolve().parents[2] / "models"
 
 
 def default_model_path() -> Path:
-    """The shipped default model (:data:`DEFAULT_MODEL`, in :func:`models_dir`)."""
-    return models_dir() / DEFAULT_MODEL
+    """The shipped default model: the file ``models/DEFAULT`` names (which plant is the default
+    is the models folder's business, not the compiler's)."""
+    folder = models_dir()
+    try:
+        name = (folder / DEFAULT_MARKER).read_text(encoding="utf-8").strip()
+    except OSError as exc:
+        raise PendcError(f"{folder / DEFAULT_MARKER}: cannot read the default model's name ({exc.strerror})") from None
+    if not name or "/" in name or "\\" in name or not (folder / name).is_file():
+        raise PendcError(f"{folder / DEFAULT_MARKER}: '{name}' is not a model file in {folder}")
+    return folder / name
 
 
 STDIN = "-"    # the path that means standard input, as for every file pendc reads

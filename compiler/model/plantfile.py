@@ -24,10 +24,11 @@ from .effect_kinds import KINDS, acts_on, check_effect, implied_requirements
 from .equations import DEFAULT_EXPERIMENT
 from .expressions import free_names
 from .interface import ADC, ENCODER, MAX_ADC_BITS
+from .reference_formats import read_reference_formats
 from .table_reader import TableReader, check_identifier, read_param, read_period, read_vector
 
 PHYSICS = ("constants", "coordinates", "states", "mechanics", "bodies", "inputs", "intermediates", "quantities",
-           "sensors", "catalogue", "experiments", "identification", "operating_points", "drawing")
+           "sensors", "catalogue", "experiments", "identification", "operating_points", "drawing", "reference_formats")
 PLANT_META = ("name", "core", "summary", "source")
 
 
@@ -63,6 +64,9 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     sensors = _sensors(top, position_names + [s.name for s in states], rates)
     experiments = _experiments(top, position_names, [b.name for b in bodies])
     notes = replace(_notes(top, catalogue), constraints=_constraints(top, catalogue, constants))
+    nodes = set(position_names) | set(rates) | {f"dd{c.name}" for c in coordinates} | {n for n, *_ in intermediates} \
+        | {q[0] for q in quantities or ()}
+    reference, reference_source = read_reference_formats(top, nodes)
     physics = {k: doc[k] for k in PHYSICS if k in doc} | {
         "plant": {k: v for k, v in doc["plant"].items() if k in PLANT_META}}
     definition = PlantDefinition(
@@ -71,7 +75,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
         potential=potential, determinant=determinant, intermediates=intermediates, quantities=quantities,
         catalogue=catalogue, experiments=experiments, sensors=sensors, notes=notes,
         operating_points=_operating_points(top, position_names + rates), drawing=_drawing(top),
-        source=plant.string("source", ""),
+        source=plant.string("source", ""), reference_formats=reference, reference_source=reference_source,
         key=json.dumps(physics, sort_keys=True, default=repr), physics=physics)
     _check_names(definition, doc, source)
     for effect in catalogue.values():

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import thesis_data as td
+import thesis_data as td
 
 # Relative difference above which an entry is flagged even when the spec does
 # not name a discrepancy: Table 3 figures are printed to ~4-6 significant
