@@ -109,7 +109,7 @@ class GoldenModel:
 
         A node leaving its range raises :class:`OverflowStop`; with ``on_overflow="mark"`` the run
         completes and :meth:`GoldenRun.marked_rows` tells which sample rows come after the flag.
-        ``initial`` (the reported states in the interface's order: x, dx, theta, dtheta) starts the state registers there instead of at reset
+        ``initial`` (the reported states in the interface's order, each position then its rate) starts the state registers there instead of at reset
         (the encoder FSMs start as at power-on)."""
         if on_overflow not in OVERFLOW_CHOICES:
             raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")

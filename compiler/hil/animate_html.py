@@ -90,7 +90,8 @@ function panel(name, values, top, colour) {
   traces.appendChild(box);
   [[name, 2, top + 10], [hi.toPrecision(3), 2, top + 22], [lo.toPrecision(3), 2, top + h]].forEach(([s, lx, ly]) => {
     const t = document.createElementNS(svgNS, "text");
-    t.setAttribute("x", lx); t.setAttribute("y", ly); t.setAttribute("class", "label"); t.textContent = s;
+    Object.entries({x: lx, y: ly, class: "label"}).forEach(([a, b]) => t.setAttribute(a, b));
+    t.textContent = s;
     traces.appendChild(t);
   });
   const c = document.createElementNS(svgNS, "line");

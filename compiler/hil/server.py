@@ -12,9 +12,8 @@ Protocol (ASCII lines ending in ``\\n``; see docs/hil.md):
     server: END complete                        after the last period, then the server closes
             END stopped <reason>                on a timeout, a malformed answer or a plant error
 
-Counts are the ×4 encoder counts since reset (signs as the plant interface's states: for the
-cart-pendulum x positive to the left, theta from hanging, clockwise positive). The answer is
-clamped to 0-10 V and quantised by the 12-bit DAC.
+Counts are the ×4 encoder counts since reset (signs as the plant interface's states, as its plant
+file declares them). The answer is clamped to the input's range and quantised by the 12-bit DAC.
 Every wait is bounded by the timeout; the server accepts one client and stops by itself.
 """
 

@@ -2,7 +2,7 @@
 
 A plant file's ``[catalogue.NAME]`` names a ``kind`` and what it acts ``on`` (a coordinate, an
 input, or a drive effect), and gives the kind's *roles* as expressions of the file's
-parameters (``coefficient = "b_x"``, ``scale = "F_N"``). :mod:`pendc.model.assemble` puts the
+parameters (``coefficient = "b"``, ``scale = "F_normal"``). :mod:`pendc.model.assemble` puts the
 kinds into the equations in one fixed order of stages::
 
     input delay -> input shaping (dead zone, saturation on an input) -> drive laws
@@ -77,7 +77,7 @@ def _k(name, required, optional, on, help, names=()):
 COORD, INPUT, DRIVE = "coordinate", "input", "drive"
 KINDS = {k.name: k for k in (
     _k("drive", ["force"], ["input", "name"], [COORD],
-       {"force": "the generalized force the input produces, e.g. alpha*(u - V_off)",
+       {"force": "the generalized force the input produces, e.g. k*(u - u_0)",
         "input": "the input it reads (default: the plant's only input)",
         "name": "the name the equations bind the force to"}, names=("input", "name")),
     _k("delay", ["time"], [], [INPUT], {"time": "the transport delay in seconds"}),

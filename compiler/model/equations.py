@@ -16,7 +16,7 @@ class Equations:
     ``assignments`` are ``(symbol, expr)`` pairs in evaluation order; each expr uses
     states, the input, parameters and earlier assignments. ``derivatives[i]`` is
     d/dt of ``states[i]``; the first four states are the rigid body's two coordinates, each
-    followed by its rate (x, dx, theta, dtheta for the cart-pendulum). ``input`` is the voltage
+    followed by its rate (q, dq for each coordinate q). ``input`` is the voltage
     as the plant sees it (after any transport delay ``delay``, which the simulator applies).
     ``velocity_bound`` clamps |states[1]| after every integration step. ``initial`` gives the
     initial value of each extra state (beyond the first four) from the input and parameters.
@@ -37,10 +37,10 @@ class Equations:
     delay: sp.Expr | None = None
     sensor_offsets: tuple = ()
     experiment: str = DEFAULT_EXPERIMENT
-    measured: tuple = ("x", "theta")
+    measured: tuple = ()
 
     def outputs(self) -> tuple:
-        """Names of the positions a run of this experiment measures (for the cart: x, theta or both)."""
+        """Names of the positions a run of this experiment measures (those its plant file's experiment does not hold)."""
         return self.measured
 
     def inline(self, expr: sp.Expr) -> sp.Expr:

@@ -12,12 +12,12 @@ Rewrites, applied in graph order until nothing changes:
   a fractional constant depend on the Q-format it gets later; not if the value is
   not finite or the interpreter flags an out-of-domain LUT input);
 * a REGISTER fed by a CONST equal to its reset value is that CONST;
-* ``x + 0``, ``0 + x``, ``x - 0`` are ``x``; ``0 - x`` is ``-x``;
+* ``a + 0``, ``0 + a``, ``a - 0`` are ``a``; ``0 - a`` is ``-a``;
 * a GAIN by 1 is its input, by 0 the constant 0, by -1 a NEG; a GAIN of a GAIN that
   nothing else reads is one GAIN by the product (a shared inner GAIN stays: merging
   would save no multiplier and would round differently from the value it shares, e.g.
   the encoder increment must see exactly the integrator's increment);
-  ``--x`` is ``x``; a MUL by a CONST is a GAIN;
+  ``--a`` is ``a``; a MUL by a CONST is a GAIN;
 * a MUX with a CONST select is the chosen input; a MUX whose data inputs are all the
   same node is that node.
 

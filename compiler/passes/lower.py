@@ -5,9 +5,9 @@ register per state, ``s[n+1] = s[n] + dt * s'[n]``, the cart velocity clamped af
 integration. Everything else follows from the structure of the equations:
 
 * Sums are split into terms; in each term the factors that are smooth functions of a
-  single variable (``cos(theta)``, ``1/k(theta)``, the Stribeck exponential of
+  single variable (``cos(q)``, ``1/k(q)``, the Stribeck exponential of
   ``|dx|``) are gathered, and terms with the same remaining factors are summed into
-  one table: ``ddx = F_cart*T1(theta) + dtheta**2*T2(theta) + T3(theta) + tau*T4(theta)``.
+  one table: ``ddp = F*T1(q) + dq**2*T2(q) + T3(q) + tau*T4(q)``.
   No divider is ever emitted and each table is the exact coefficient, not a product of
   rounded tables.
 * Non-smooth operations are structural: ``Abs`` and multiply-by-``sign`` become
@@ -58,7 +58,7 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     100 ns per step"); both change the arithmetic, so the golden model, which follows the graph:
 
     * ``fold_dt``: the increment ``dt * s'`` is lowered as one sum of terms, so ``dt`` lands in
-      the tables and gains of the derivative (``dx_inc = F_cart*(dt T1)(theta) + ...``) and no
+      the tables and gains of the derivative (``dp_inc = F*(dt T1)(q) + ...``) and no
       separate ``derivative x dt`` product sits between the sums and the integrator;
     * ``turns_phase``: ``period x turns``, subtracted from a periodic state for its tables'
       address, is a register loaded a step ahead (:meth:`ExpressionLowerer._whole_turns_register`), so
@@ -67,7 +67,7 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
       (:meth:`ExpressionLowerer.term_depth`), so the friction loop's ``F_cart`` term passes one adder
       to the increment, not three;
     * ``narrow_abs``: ``|a|`` is taken of a cast of ``a`` (its own format, from its range): a
-      wide state (``dx``, 56 bits) is rounded once, before the negation, instead of by the
+      wide state (a rate, 56 bits) is rounded once, before the negation, instead of by the
       negation, the select and the table address each;
     * ``lookahead`` (needs ``turns_phase``): every periodic table is a register loaded with its
       read for the next step (addressed by the next phase in turns: this step's phase, its
@@ -85,7 +85,8 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
     eq = model.equations
     iface = model.interface
     if eq.delay is not None:
-        raise PendcError("effect 'input_delay' has no hardware form yet (it needs a delay-line memory)")
+        name = next((n for n in model.effects if model.catalogue[n].kind == "delay"), "delay")
+        raise PendcError(f"effect '{name}' (an input delay) has no hardware form yet (it needs a delay-line memory)")
     values = {s: sp.Float(v) for s, v in zip(eq.params, model.parameter_vector())}
     port = iface.input
     variables = {eq.input: port.name, **{s: s.name for s in eq.states}}
