@@ -67,20 +67,6 @@ def decode_x4(a, b) -> tuple[np.ndarray, int]:
 # ---------------------------------------------------------------- the HDL
 
 
-def _from_state(graph, state: dict):
-    """A copy of ``graph`` whose registers and FSMs reset to ``state`` (node -> integer value,
-    FSMs as their Moore output word): the reference interpreter then starts there."""
-    from pendc.ir.nodes import Kind
-
-    def reset(n):
-        if n.name not in state:
-            return n
-        if n.kind is Kind.REGISTER:
-            return n.with_params(reset=float(int(state[n.name]) * n.qformat.lsb))
-        return n.with_params(reset=n.param("states")[list(n.param("outputs")).index(int(state[n.name]))])
-    return graph.map_nodes(reset)
-
-
 def _state_nodes(graph) -> list:
     from pendc.ir.nodes import Kind
     return [n for n in graph.nodes if n.kind in (Kind.REGISTER, Kind.FSM)]
@@ -106,10 +92,22 @@ def _ports(graph):
 def _interp_window(graph, state: dict | None, u: np.ndarray) -> tuple[np.ndarray, dict]:
     """Rows 0..len(u) (outputs at the start of each step) from ``state`` with inputs ``u``."""
     from pendc.ir.interpret import FixedInterpreter
-    g = graph if state is None else _from_state(graph, state)
+    from pendc.ir.nodes import Kind
+
+    class Resumed(FixedInterpreter):
+        """Starts from ``state``'s integers as they are (a real reset value would round a register
+        wider than a float's 53 bits)."""
+
+        def _reset_state(self):
+            st = super()._reset_state()
+            for name, v in (state or {}).items():
+                n = self.graph[name]
+                st[name] = int(v) if n.kind is Kind.REGISTER else list(n.params.outputs).index(int(v))
+            return st
+
     ints = [int(v) for v in u] + [int(u[-1])]
     ports = _ports(graph)
-    tr = FixedInterpreter(g).run({ports.input: ints}, every=1)
+    tr = Resumed(graph).run({ports.input: ints}, every=1)
     return np.stack([np.asarray(tr.outputs[p], dtype=np.int64) for p in ports.outputs], axis=1), dict(tr.overflows)
 
 
@@ -334,7 +332,8 @@ EDGE_STEPS = 1500      # steps from the deposited edge state to the overflow (th
 
 def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float) -> dict:
     """The overflow scenario from a deposited state: the first reported position that has a rate
-    starts EDGE_STEPS steps of travel below the top of its register's format, its rate at half
+    starts EDGE_STEPS steps of travel below the top of its register's format (or of the domain of a
+    table it addresses, :func:`_edge_of`), its rate at half
     its format's maximum, the input at full scale. Interpreter and compiled kernel must agree on
     the first overflow (step and nodes)."""
     from pendc.golden import GoldenStepper, register_integers
@@ -345,7 +344,7 @@ def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float
         return {"error": "the full push does not overflow and no reported position has a rate to push it out"}
     rate = rate_of[pos]
     v0 = 0.5 * graph[rate].qformat.max_value
-    start_real = {pos: graph[pos].qformat.max_value - v0 * EDGE_STEPS * dt, rate: v0}
+    start_real = {pos: _edge_of(graph, pos) - v0 * EDGE_STEPS * dt, rate: v0}
     start = {n: _reset_integer(graph, n) for n in state_names}
     start.update(register_integers(graph, start_real))
     u_win = np.full(EDGE_STEPS + 1000, q_full, dtype=np.int64)
@@ -364,6 +363,23 @@ def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float
                            f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
     return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
             "state": _rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
+
+
+def _edge_of(graph, pos: str) -> float:
+    """The largest value ``pos`` may take before a node overflows by it alone: the top of its
+    register's format, or lower, the top of the domain of a (non-periodic) table it addresses
+    (through casts): beyond that the table's read is out of range at once."""
+    from pendc.ir.nodes import Kind
+    edge = graph[pos].qformat.max_value
+    for n in graph.nodes:
+        if n.kind is not Kind.LUT or n.params.periodic or n.params.hi is None:
+            continue
+        src = n.inputs[0]
+        while graph[src].kind is Kind.CAST:
+            src = graph[src].inputs[0]
+        if src == pos:
+            edge = min(edge, float(n.params.hi))
+    return edge
 
 
 def _reset_integer(graph, name) -> int:

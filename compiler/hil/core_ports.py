@@ -107,6 +107,12 @@ class CorePorts:
         """States, channels, then codes: the order of a golden row and of the graph's outputs."""
         return self.states + self.channels + self.codes
 
+    @property
+    def measured(self) -> tuple:
+        """The states a sensor reads: the encoders', then the converters' (each once)."""
+        out = [e.state for e in self.encoders] + [a.state for a in self.adcs]
+        return tuple(dict.fromkeys(out))
+
     def encoder_of(self, state: str) -> EncoderPorts | None:
         """The encoder that reads ``state``, or None."""
         return next((e for e in self.encoders if e.state == state), None)

@@ -170,7 +170,7 @@ def read_run(path, ports=None) -> RunRecord:
         from .core_ports import CorePorts
         named = meta.get("model")
         ports = CorePorts.of_interface(load_model(named if named and Path(named).is_file() else None).interface)
-    measured = [e.state for e in ports.encoders]
+    measured = list(ports.measured)
     names = [n.strip() for n in lines[k].split(",")]
     for need in (TIME, *measured):
         if need not in names:
