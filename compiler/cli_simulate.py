@@ -40,8 +40,10 @@ def cmd_simulate(args) -> int:
         check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
     _check_x0(args.x0, model.interface)
-    data = read_measurements(args.input, required=(TIME, model.interface.input.name))
-    _check_input_volts(data, model.interface.input.name)
+    from .sim.read_options import ReadOptions
+    data = read_measurements(args.input, required=(TIME, model.interface.input.name),
+                             options=ReadOptions(plant=model))
+    _check_input_range(data, model.interface.input)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
     if args.fixed:
@@ -86,13 +88,15 @@ def _quantize_measured(states: dict, iface) -> None:
         states[sensor.state] = sensor_reading(sensor, states[sensor.state])
 
 
-def _check_input_volts(data, name: str) -> None:
-    """The input (column ``name``) beyond the rig's limit: millivolts (many rows) or an outlier (a
-    few), named by line, before a simulation of nonsense. Only the input: the other columns of a
-    file (a simulation's own output, say) are not read."""
+def _check_input_range(data, inp) -> None:
+    """The input (``inp``, an InputSpec) far beyond what its actuator takes (INPUT_MARGIN times its
+    full scale): a unit mistake such as millivolts (many rows) or an outlier (a few), named by
+    line, before a simulation of nonsense. Only the input: the other columns of a file (a
+    simulation's own output, say) are not read."""
     from .sim import plausibility
     from .sim.table import Table
 
     table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
-    plausibility.check_bounded(table, name, data.u, plausibility.U_LIMIT, "V", "the drive takes 0-10 V",
-                               ("millivolts", f"give {name} in volts"))
+    mistake = "millivolts" if inp.unit == "V" else f"another unit than {inp.unit}"
+    plausibility.check_bounded(table, inp.name, data.u, plausibility.INPUT_MARGIN * inp.full_scale, inp.unit,
+                               f"the input takes {inp.range.describe()}", (mistake, f"give {inp.name} in {inp.unit}"))

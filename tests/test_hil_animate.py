@@ -107,8 +107,8 @@ def test_html_draws_and_moves_the_plant(browser, tmp_path, capsys):
 def test_html_draws_a_plant_file_of_ones_own(browser, tmp_path, capsys):
     """The docs' example cart (its drawing added): the bob swings out by L sin(theta)."""
     plant = tmp_path / "my_cart.toml"
-    plant.write_text(example() + '\n[drawing]\npoints = { hub = ["x", 0], bob = ["x + L*sin(theta)", '
-                     '"-L*cos(theta)"] }\nlines = [["hub", "bob"]]\n', encoding="utf-8")
+    plant.write_text(example().replace('cart = ["x", 0]', 'hub = ["x", 0]').replace('[["cart", "bob"]]',
+                                                                                 '[["hub", "bob"]]'), encoding="utf-8")
     t = np.arange(0, 1.001, 0.01)
     run = HilRun(t=t, u=np.zeros_like(t), positions=(("x", 0.2 * t), ("theta", 0.5 * math.pi * t)),
                  mode=("",) * t.size, plant="float", wall_s=0.0, seconds=1.0, input_name="F",
@@ -129,7 +129,7 @@ def test_html_draws_a_plant_file_of_ones_own(browser, tmp_path, capsys):
     page.close()
     capsys.readouterr()
     plain = tmp_path / "plain.toml"
-    plain.write_text(example(), encoding="utf-8")
+    plain.write_text(example().split("[drawing]")[0], encoding="utf-8")
     assert main(["animate", str(src), "--model", str(plain), "-o", str(tmp_path / "p.html")]) == 2
     assert "declares no [drawing]" in capsys.readouterr().err
 
