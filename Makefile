@@ -52,9 +52,10 @@ demo: setup
 	@echo "demo done: hdl_out/ (default model), demo_out/ (simulations, reports, fitted model and its HDL)"
 
 SIM ?= both
-# make sim MODEL=path/to/model.toml: the regression on that model's HDL (built under sim_build/, not hdl_out/)
+# make sim MODEL=path/to/model.toml: the regression on that model's HDL (built under sim_build/, not hdl_out/);
+# TB_ARGS passes more options to tb/run.py (e.g. TB_ARGS="--suite core -k reset_state")
 sim: setup
-	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work $(abspath sim_build/$(basename $(notdir $(MODEL)))))
+	$(PY) tb/run.py --sim $(SIM) $(if $(MODEL),--model $(MODEL) --work $(abspath sim_build/$(basename $(notdir $(MODEL))))) $(TB_ARGS)
 
 # every benchmark (bench/bench_*.py) into bench/out/, merged with machine info into bench/out/bench.json;
 # prints the README's table. Synthesis needs pip install -e '.[synth]' (cached by design hash).

@@ -3,7 +3,7 @@
 First compiles the two graphs the benchmarks read (the default arithmetic and the step-time
 presets' short chain) into pendc's build cache, one process per core: a compile measures
 nothing and is single-threaded. Then runs bench_simulate, bench_golden, bench_diagnose,
-bench_verilator, bench_synth, bench_step_bound and bench_hil one after another (each its own
+bench_verilator, bench_synth, bench_step_bound, bench_hil and bench_cold_compile one after another (each its own
 process, its own JSON under bench/out/), so that no rate is measured beside other work, and
 merges them into ``bench/out/bench.json`` with the machine's CPU, core count, Python and tool
 versions and every stage's wall time, and prints a Markdown table of the headline figures.
@@ -25,7 +25,7 @@ from importlib import metadata
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PARTS = ("simulate", "golden", "diagnose", "verilator", "synth", "step_bound", "hil")
+PARTS = ("simulate", "golden", "diagnose", "verilator", "synth", "step_bound", "hil", "cold_compile")
 # the builds the parts compile: the default arithmetic (every part) and the short chain (the
 # fast preset in bench_synth and bench_step_bound)
 SHORT_CHAIN_PARTS = ("synth", "step_bound")
