@@ -53,8 +53,15 @@ class Mechanism:
 
 
 def canonical(expr, angles) -> sp.Expr:
-    """``expr`` expanded with sin(a)^2 written as 1 - cos(a)^2 for each of ``angles``."""
+    """``expr`` expanded with sin(a)^2 written as 1 - cos(a)^2 for each of ``angles``; a sine or
+    cosine of a sum of angles (a link's absolute angle in a chain, ``alpha + beta``) is first
+    written in the angles' own sines and cosines, so every factor is a function of one
+    coordinate (what the hardware tabulates) and the identities between them cancel."""
     expr = sp.expand(expr)
+    sums = {f: sp.expand_trig(f) for f in expr.atoms(sp.sin, sp.cos)
+            if isinstance(f.args[0], sp.Add) and sum(f.args[0].has(a) for a in angles) > 1}
+    if sums:
+        expr = sp.expand(expr.xreplace(sums))
     for a in angles:
         expr = sp.expand(expr.subs(sp.sin(a) ** 2, 1 - sp.cos(a) ** 2))
     return expr

@@ -282,11 +282,20 @@ class ExpressionLowerer:
             table_factors, rest = [], []
             for f in factors:
                 (table_factors if self.smooth_single(f) is not None else rest).append(f)
-            variables = {self.smooth_single(f) for f in table_factors}
+            for f in rest:
+                if len(f.free_symbols) > 1 and not f.is_polynomial(*f.free_symbols):
+                    raise PendcError(f"cannot lower {f}: a smooth function of several variables "
+                                     f"({', '.join(sorted(map(str, f.free_symbols)))}); tables take one")
+            variables = sorted({self.smooth_single(f) for f in table_factors}, key=sp.default_sort_key)
             if len(variables) > 1:
-                raise PendcError(f"cannot lower term {term}: smooth functions of several variables "
-                                 f"({', '.join(sorted(map(str, variables)))})")
-            key = (variables.pop() if variables else None, sp.Mul(*rest))
+                # a product of functions of several variables (cos(alpha)*sin(beta) in a chain of
+                # links): the first variable's factors join the summed table, every other
+                # variable's factors are one table of their own, a factor of the product
+                tabled = [f for f in table_factors if self.smooth_single(f) == variables[0]]
+                rest += [self.function_factor(sp.Mul(*[f for f in table_factors if self.smooth_single(f) == v]))
+                         for v in variables[1:]]
+                table_factors = tabled
+            key = (variables[0] if variables else None, sp.Mul(*rest))
             groups[key] = groups.get(key, sp.Integer(0)) + coeff * sp.Mul(*table_factors)
         # a constant coefficient is a function of any variable: fold it into the one table
         # that multiplies the same factors, so c*sgn(dx) + T(|dx|)*sgn(dx) is one table
@@ -316,6 +325,15 @@ class ExpressionLowerer:
             else:
                 acc = self.emit(Kind.SUB if negative else Kind.ADD, [acc, part], name_hint, m)
         return acc if acc is not None else self.const(0.0)
+
+    def function_factor(self, f):
+        """A placeholder symbol standing for ``f``, a smooth function of one variable that is a
+        factor of a product (lowered as its own table when the product is)."""
+        if f not in self.opaque_of:
+            d = sp.Dummy(f"fn_{self.smooth_single(f)}", real=True)
+            self.opaque_of[f] = d
+            self.placeholders[d] = f
+        return self.opaque_of[f]
 
     def expr_depth(self, e) -> int:
         """A rank of how late ``e``'s value is ready in a step: states and the input 0, an

@@ -36,6 +36,12 @@ def tabulate_luts(graph: Graph, ranges: Ranges, margin: float = 0.125, addr_bits
             reach = max(abs(seen_lo), abs(seen_hi), 1e-9) * (1.0 + margin)
             lo = 0.0 if seen_lo >= 0.0 else -reach
             hi = reach
+            if not _finite(p.expr, lo, lo + 2.0 * (hi - lo)):
+                # a function not finite at zero (1/det of a mass matrix whose determinant depends
+                # on several angles, addressed by the determinant): the seen range, widened by
+                # the margin of its span either way, if the function is finite there
+                span = max(seen_hi - seen_lo, 1e-9 * reach)
+                lo, hi = seen_lo - margin * span, seen_hi + margin * span
         # the grid fitted later to the input's LSBs may reach up to twice the span: the
         # output format must hold the function there too
         reach = hi if p.periodic else lo + 2.0 * (hi - lo)
@@ -80,3 +86,8 @@ def _read_ahead_reset(graph: Graph, node):
     if src.kind is not Kind.LUT or not src.param("periodic"):
         return node
     return node.with_params(reset=float(np.ldexp(src.param("table")[0], -src.qformat.frac)))
+
+
+def _finite(expr: str, lo: float, hi: float) -> bool:
+    with np.errstate(all="ignore"):
+        return bool(np.all(np.isfinite(lut_sem.evaluate(expr, np.linspace(lo, hi, 257)))))
