@@ -54,7 +54,7 @@ class Mechanism:
 
 def canonical(expr, angles) -> sp.Expr:
     """``expr`` expanded with sin(a)^2 written as 1 - cos(a)^2 for each of ``angles``; a sine or
-    cosine of a sum of angles (a link's absolute angle in a chain, ``alpha + beta``) is first
+    cosine of a sum of angles (a link's absolute angle in a chain, ``q1 + q2``) is first
     written in the angles' own sines and cosines, so every factor is a function of one
     coordinate (what the hardware tabulates) and the identities between them cancel."""
     expr = sp.expand(expr)

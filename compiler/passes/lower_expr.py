@@ -288,7 +288,7 @@ class ExpressionLowerer:
                                      f"({', '.join(sorted(map(str, f.free_symbols)))}); tables take one")
             variables = sorted({self.smooth_single(f) for f in table_factors}, key=sp.default_sort_key)
             if len(variables) > 1:
-                # a product of functions of several variables (cos(alpha)*sin(beta) in a chain of
+                # a product of functions of several variables (cos(q1)*sin(q2) in a chain of
                 # links): the first variable's factors join the summed table, every other
                 # variable's factors are one table of their own, a factor of the product
                 tabled = [f for f in table_factors if self.smooth_single(f) == variables[0]]
@@ -364,7 +364,7 @@ class ExpressionLowerer:
         return out
 
     def product(self, factors, hint, gain: float = 1.0, table: str | None = None) -> str:
-        """Multiply factors; variables first (so dtheta**2 is shared), then the table, then the
+        """Multiply factors; variables first (so a rate's square is shared), then the table, then the
         constant; sign factors become muxes, not multipliers."""
         signs = [f for f in factors if isinstance(self.placeholders.get(f), sp.sign)]
         plain = sorted((f for f in factors if f not in signs), key=sp.default_sort_key)
