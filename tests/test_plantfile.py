@@ -100,6 +100,12 @@ def _hostile():
         ("no input", t.replace("[inputs.F]", "[unused]").replace('unit = "N"\nmeaning = "force on the cart (N)"\n'
                                                                  "range = [-20.0, 20.0]\n", ""), "inputs"),
         ("input without range", _without(t, "range = [-20.0, 20.0]\n"), r"inputs\.F\.range: is missing"),
+        ("algebraic loop", t.replace("[sensors.enc_x]", '[intermediates]\nF_a = "F_b + F"\nF_b = "2*F_a"\n\n'
+                                     "[sensors.enc_x]").replace('force = "F"\n', 'force = "F_a"\n'),
+         r"intermediates\.F_a: algebraic loop F_a -> F_b -> F_a"),
+        ("intermediate out of order", t.replace("[sensors.enc_x]", '[intermediates]\nF_a = "F_b + F"\nF_b = "2*F"\n\n'
+                                                "[sensors.enc_x]").replace('force = "F"\n', 'force = "F_a"\n'),
+         r"intermediates\.F_a: uses 'F_b' before it is defined"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),

@@ -408,6 +408,37 @@ def _drawing(top: TableReader) -> dict:
     return {"points": pts, "lines": tuple(tuple(line) for line in lines)}
 
 
+def _check_intermediate_order(d: PlantDefinition, source: str) -> None:
+    """Intermediates are evaluated in file order: one that uses itself or a later one is either an
+    algebraic loop (named as its cycle) or out of order (one line saying which to move)."""
+    order = [n for n, *_ in d.intermediates]
+    uses = {n: free_names(text, f"{source}: intermediates.{n}") & set(order) for n, text, *_ in d.intermediates}
+    for i, name in enumerate(order):
+        ahead = sorted(uses[name] - set(order[:i]), key=order.index)
+        if not ahead:
+            continue
+        path = _cycle_from(name, uses)
+        if path:
+            raise PendcError(f"{source}: intermediates.{name}: algebraic loop {' -> '.join(path)} (an intermediate "
+                             "cannot depend on itself; solve the loop by hand or make one of them a state)")
+        raise PendcError(f"{source}: intermediates.{name}: uses '{ahead[0]}' before it is defined (intermediates "
+                         f"are evaluated in file order: move '{ahead[0]}' above '{name}')")
+
+
+def _cycle_from(start: str, uses: dict) -> list:
+    """A path start -> ... -> start through ``uses``, or [] (depth-first)."""
+    stack, seen = [(start, [start])], set()
+    while stack:
+        node, path = stack.pop()
+        for nxt in sorted(uses[node]):
+            if nxt == start:
+                return path + [start]
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append((nxt, path + [nxt]))
+    return []
+
+
 def _check_names(d: PlantDefinition, doc: dict, source: str) -> None:
     """Every expression uses only names the file declares (one line naming the first stray)."""
     known = set(d.constants) | {i.name for i in d.inputs} | {n for n, *_ in d.intermediates}
@@ -430,6 +461,7 @@ def _check_names(d: PlantDefinition, doc: dict, source: str) -> None:
                 raise PendcError(f"{where}: unknown symbol '{n}' (declare it in [constants], [intermediates], "
                                  f"an effect's params or as a coordinate, state or input)")
 
+    _check_intermediate_order(d, source)
     for name, text, _, _ in d.intermediates:
         check(text, f"{source}: intermediates.{name}")
     for s in d.states:
