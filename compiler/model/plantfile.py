@@ -17,13 +17,12 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-from ..errors import PendcError
 from .definition import (BodyDecl, CoordinateDecl, EffectDecl, ExperimentDecl, IdentificationNotes, InputDecl,
                          PlantDefinition, SensorDecl, StateDecl)
 from .effect_kinds import KINDS, acts_on, check_effect, implied_requirements
 from .equations import DEFAULT_EXPERIMENT
-from .expressions import free_names
 from .interface import ADC, ENCODER, MAX_ADC_BITS
+from .name_checks import check_names
 from .reference_formats import read_reference_formats
 from .table_reader import TableReader, check_identifier, read_param, read_period, read_vector
 
@@ -77,7 +76,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
         operating_points=_operating_points(top, position_names + rates), drawing=_drawing(top),
         source=plant.string("source", ""), reference_formats=reference, reference_source=reference_source,
         key=json.dumps(physics, sort_keys=True, default=repr), physics=physics)
-    _check_names(definition, doc, source)
+    check_names(definition, source)
     for effect in catalogue.values():
         check_effect(definition, effect, f"{source}: catalogue.{effect.name}")
     seen = {n: replace(e, acts_on=acts_on(definition, e), requires=e.requires + implied_requirements(definition, e))
@@ -406,83 +405,3 @@ def _drawing(top: TableReader) -> dict:
                                               for line in lines):
         r.fail("must be a list of [point, point] pairs naming drawing points", "lines")
     return {"points": pts, "lines": tuple(tuple(line) for line in lines)}
-
-
-def _check_intermediate_order(d: PlantDefinition, source: str) -> None:
-    """Intermediates are evaluated in file order: one that uses itself or a later one is either an
-    algebraic loop (named as its cycle) or out of order (one line saying which to move)."""
-    order = [n for n, *_ in d.intermediates]
-    uses = {n: free_names(text, f"{source}: intermediates.{n}") & set(order) for n, text, *_ in d.intermediates}
-    for i, name in enumerate(order):
-        ahead = sorted(uses[name] - set(order[:i]), key=order.index)
-        if not ahead:
-            continue
-        path = _cycle_from(name, uses)
-        if path:
-            raise PendcError(f"{source}: intermediates.{name}: algebraic loop {' -> '.join(path)} (an intermediate "
-                             "cannot depend on itself; solve the loop by hand or make one of them a state)")
-        raise PendcError(f"{source}: intermediates.{name}: uses '{ahead[0]}' before it is defined (intermediates "
-                         f"are evaluated in file order: move '{ahead[0]}' above '{name}')")
-
-
-def _cycle_from(start: str, uses: dict) -> list:
-    """A path start -> ... -> start through ``uses``, or [] (depth-first)."""
-    stack, seen = [(start, [start])], set()
-    while stack:
-        node, path = stack.pop()
-        for nxt in sorted(uses[node]):
-            if nxt == start:
-                return path + [start]
-            if nxt not in seen:
-                seen.add(nxt)
-                stack.append((nxt, path + [nxt]))
-    return []
-
-
-def _check_names(d: PlantDefinition, doc: dict, source: str) -> None:
-    """Every expression uses only names the file declares (one line naming the first stray)."""
-    known = set(d.constants) | {i.name for i in d.inputs} | {n for n, *_ in d.intermediates}
-    for c in d.coordinates:
-        known |= {c.name, f"d{c.name}", c.force}
-    for s in d.states:
-        known.add(s.name)
-        if s.force:
-            known.add(s.force)
-    for e in d.catalogue.values():
-        known |= {p.name for p in e.params}
-        for role, text in e.roles:
-            if role == "name" or role == "state":
-                known.add(text)
-    known |= {"t", "pi"}
-
-    def check(text, where):
-        for n in sorted(free_names(text, where)):
-            if n not in known:
-                raise PendcError(f"{where}: unknown symbol '{n}' (declare it in [constants], [intermediates], "
-                                 f"an effect's params or as a coordinate, state or input)")
-
-    _check_intermediate_order(d, source)
-    for name, text, _, _ in d.intermediates:
-        check(text, f"{source}: intermediates.{name}")
-    for s in d.states:
-        check(s.derivative, f"{source}: states.{s.name}.derivative")
-        check(s.initial, f"{source}: states.{s.name}.initial")
-    for b in d.bodies:
-        for key in ("mass", "inertia", "rotation"):
-            if getattr(b, key):
-                check(getattr(b, key), f"{source}: bodies.{b.name}.{key}")
-        for key in ("position", "start", "end"):
-            for i, text in enumerate(getattr(b, key)):
-                check(text, f"{source}: bodies.{b.name}.{key}[{i}]")
-    for i, text in enumerate(d.gravity):
-        check(text, f"{source}: mechanics.gravity[{i}]")
-    for key in ("kinetic", "potential"):
-        if getattr(d, key):
-            check(getattr(d, key), f"{source}: mechanics.{key}")
-    for e in d.catalogue.values():
-        for role, text in e.roles:
-            if role in KINDS[e.kind].expressions:
-                check(text, f"{source}: catalogue.{e.name}.{role}")
-    for name, pairs in d.operating_points.items():
-        for k, text in pairs:
-            check(text, f"{source}: operating_points.{name}.{k}")

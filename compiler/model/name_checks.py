@@ -1,0 +1,93 @@
+"""The names a plant file's expressions use: each one declared, intermediates in order.
+
+:mod:`pendc.model.plantfile` reads the tables; :func:`check_names` then walks every expression
+of the definition and fails with one line on the first name the file does not declare, and on
+an intermediate that uses itself (an algebraic loop, named as its cycle) or a later one.
+"""
+
+from __future__ import annotations
+
+from ..errors import PendcError
+from .definition import PlantDefinition
+from .effect_kinds import KINDS
+from .expressions import free_names
+
+
+def _check_intermediate_order(d: PlantDefinition, source: str) -> None:
+    """Intermediates are evaluated in file order: one that uses itself or a later one is either an
+    algebraic loop (named as its cycle) or out of order (one line saying which to move)."""
+    order = [n for n, *_ in d.intermediates]
+    uses = {n: free_names(text, f"{source}: intermediates.{n}") & set(order) for n, text, *_ in d.intermediates}
+    for i, name in enumerate(order):
+        ahead = sorted(uses[name] - set(order[:i]), key=order.index)
+        if not ahead:
+            continue
+        path = _cycle_from(name, uses)
+        if path:
+            raise PendcError(f"{source}: intermediates.{name}: algebraic loop {' -> '.join(path)} (an intermediate "
+                             "cannot depend on itself; solve the loop by hand or make one of them a state)")
+        raise PendcError(f"{source}: intermediates.{name}: uses '{ahead[0]}' before it is defined (intermediates "
+                         f"are evaluated in file order: move '{ahead[0]}' above '{name}')")
+
+
+def _cycle_from(start: str, uses: dict) -> list:
+    """A path start -> ... -> start through ``uses``, or [] (depth-first)."""
+    stack, seen = [(start, [start])], set()
+    while stack:
+        node, path = stack.pop()
+        for nxt in sorted(uses[node]):
+            if nxt == start:
+                return path + [start]
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append((nxt, path + [nxt]))
+    return []
+
+
+def check_names(d: PlantDefinition, source: str) -> None:
+    """Every expression uses only names the file declares (one line naming the first stray)."""
+    known = set(d.constants) | {i.name for i in d.inputs} | {n for n, *_ in d.intermediates}
+    for c in d.coordinates:
+        known |= {c.name, f"d{c.name}", c.force}
+    for s in d.states:
+        known.add(s.name)
+        if s.force:
+            known.add(s.force)
+    for e in d.catalogue.values():
+        known |= {p.name for p in e.params}
+        for role, text in e.roles:
+            if role == "name" or role == "state":
+                known.add(text)
+    known |= {"t", "pi"}
+
+    def check(text, where):
+        for n in sorted(free_names(text, where)):
+            if n not in known:
+                raise PendcError(f"{where}: unknown symbol '{n}' (declare it in [constants], [intermediates], "
+                                 f"an effect's params or as a coordinate, state or input)")
+
+    _check_intermediate_order(d, source)
+    for name, text, _, _ in d.intermediates:
+        check(text, f"{source}: intermediates.{name}")
+    for s in d.states:
+        check(s.derivative, f"{source}: states.{s.name}.derivative")
+        check(s.initial, f"{source}: states.{s.name}.initial")
+    for b in d.bodies:
+        for key in ("mass", "inertia", "rotation"):
+            if getattr(b, key):
+                check(getattr(b, key), f"{source}: bodies.{b.name}.{key}")
+        for key in ("position", "start", "end"):
+            for i, text in enumerate(getattr(b, key)):
+                check(text, f"{source}: bodies.{b.name}.{key}[{i}]")
+    for i, text in enumerate(d.gravity):
+        check(text, f"{source}: mechanics.gravity[{i}]")
+    for key in ("kinetic", "potential"):
+        if getattr(d, key):
+            check(getattr(d, key), f"{source}: mechanics.{key}")
+    for e in d.catalogue.values():
+        for role, text in e.roles:
+            if role in KINDS[e.kind].expressions:
+                check(text, f"{source}: catalogue.{e.name}.{role}")
+    for name, pairs in d.operating_points.items():
+        for k, text in pairs:
+            check(text, f"{source}: operating_points.{name}.{k}")
