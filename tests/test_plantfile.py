@@ -72,6 +72,7 @@ _ADC = '\n[sensors.adc_v]\nkind = "adc"\nstate = "dx"\nbits = 12\nrange = [-5.0,
 
 def _hostile():
     t = example()
+    m = (Path(__file__).parent / "plant_dc_motor.toml").read_text(encoding="utf-8")   # the state-equation form
     return [
         ("not TOML", "[plant\n", "not valid TOML"),
         ("unknown top-level table", t + "\n[physics]\nx = 1\n", "unknown top-level key"),
@@ -106,6 +107,13 @@ def _hostile():
         ("intermediate out of order", t.replace("[sensors.enc_x]", '[intermediates]\nF_a = "F_b + F"\nF_b = "2*F"\n\n'
                                                 "[sensors.enc_x]").replace('force = "F"\n', 'force = "F_a"\n'),
          r"intermediates\.F_a: uses 'F_b' before it is defined"),
+        ("state without a derivative", m.replace('derivative = "omega"\n', ""), r"states\.phi\.derivative: is missing"),
+        ("derivative of an unknown symbol", m.replace('derivative = "omega"', 'derivative = "omega2"'),
+         r"states\.phi\.derivative: unknown symbol 'omega2'"),
+        ("rate of an unknown state", m.replace('rate_of = "phi"', 'rate_of = "psi"'),
+         r"states\.omega\.rate_of: rate_of names unknown state 'psi'"),
+        ("state equation of the wrong unit", m.replace('derivative = "omega"', 'derivative = "omega*J"'),
+         r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s, expected 1/s"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
