@@ -1,17 +1,18 @@
 """An independent generator of measurement data for the plants added as files (issue 21): the
-Quanser BB01 ball and beam on the SRV02 servo (models/ball_beam.toml) and the SRV02 driving the
-Rotary Flexible Joint, a two-mass drive (models/two_mass_drive.toml).
+Quanser BB01 ball and beam on the SRV02 servo (models/ball_beam.toml), the SRV02 driving the
+Rotary Flexible Joint, a two-mass drive (models/two_mass_drive.toml), and the DBPEN-LIN double
+pendulum on the IP02 cart (models/double_pendulum_cart.toml).
 
 Nothing here comes from pendc (nothing is imported from it, nothing is derived with it): the
 equations of motion are written out below by hand from the physics and the published Quanser
 sources the plant files cite, integrated by scipy's ``solve_ivp`` (DOP853, rtol 1e-10, one call
 per zero-order-hold sample of the input), and the sensors are quantised here as the hardware
 reads them. The parameter VALUES are read from the plant files with ``tomllib`` (the numbers of
-``[plant]`` and ``[effects.*]``, and the sensors' lines, bits and range), so that a disagreement
+``[plant]`` and ``[effects.*]``, and the sensors' bands, bits and range), so that a disagreement
 with pendc is one of equations, not of figures; the equations are not read from the files.
 
-Both plants drift or are unstable open loop (the ball rolls off the beam; the servo is an
-integrator), so each run is made under a simple stabilising feedback that lives in this
+The plants drift or are unstable open loop (the ball rolls off the beam; the servo and the
+cart are integrators), so each run is made under a simple stabilising feedback that lives in this
 generator, sampled at the input's rate from the true state: the file records the commanded
 (held) voltage, which is all a simulation of the plant needs.
 
@@ -46,9 +47,20 @@ generator, sampled at the input's rate from the true state: the file records the
   Feedback: a PD of the servo angle to a reference that steps, the lab's "position control
   of the flexible joint" without the arm's feedback, so the arm rings on every step.
 
+* Double pendulum on a cart (Quanser setup_ip02_dbpen.m, config_ip02.m, config_sp.m): states x
+  (cart), alpha (bottom link from hanging down), beta (top link relative to the bottom one, the
+  hinge encoder's angle). The equations, by Lagrange in the links' absolute angles, are in
+  :func:`dbpen_rhs`: the cart with the rotor's inertia lumped in (the rotor turns K_g x / r_mp),
+  each link a mass at its centre with an inertia about it, the hinge a point mass at the bottom
+  link's tip; Quanser's cart force law; viscous damping at the cart, the pivot and the hinge (on
+  the relative rate, as the plant file assumes). Sensors: three encoders of 1024 lines, x4 (the
+  cart's counts the file's band / 2, 22.7485 um). Hidden: an offset ``alpha_off`` of the bottom
+  link's encoder. Feedback: a PD of the cart to a setpoint that steps within +-10 cm; the links
+  hang and swing under it.
+
 From Python::
 
-    from tests.independent_new_plants import run
+    from tests.independent_new_plants import run, write_csv
     r = run("ball_beam", seconds=8.0, seed=1, hidden={"b_x": 0.04})
     write_csv("bb.csv", r)
 
@@ -56,8 +68,8 @@ From the command line (repository root)::
 
     python tests/independent_new_plants.py ball_beam OUT.csv [--seconds 8] [--seed 1] [--hidden b_x=0.04]
 
-Columns written: ``t, u`` and the positions as the sensors read them (``theta, x`` or
-``theta, alpha``); ``# key: value`` lines say what made the file.
+Columns written: ``t, u`` and the positions as the sensors read them (``theta, x``,
+``theta, alpha`` or ``x, alpha, beta``); ``# key: value`` lines say what made the file.
 """
 
 from __future__ import annotations
@@ -90,24 +102,24 @@ def file_values(plant: str) -> dict:
 
 
 def file_sensors(plant: str) -> dict:
-    """``{state: ("encoder", counts per revolution) | ("adc", bits, lo, hi)}`` of the file."""
+    """``{state: ("encoder", count) | ("adc", bits, lo, hi)}`` of the file: an encoder's count is
+    half of its ``band`` (x4 decoding: two counts per light or dark band)."""
     doc = tomllib.loads((MODELS / f"{plant}.toml").read_text(encoding="utf-8"))
     out = {}
     for s in doc.get("sensors", {}).values():
         if s.get("kind", "quadrature_encoder") == "adc":
             out[s["state"]] = ("adc", int(s["bits"]), float(s["range"][0]), float(s["range"][1]))
         else:
-            out[s["state"]] = ("encoder", 4 * int(s["lines"]))
+            out[s["state"]] = ("encoder", float(s["band"]) / 2)
     return out
 
 
 # -- sensors, as the hardware reads them ---------------------------------------------------------
 
-def encoder(angle: np.ndarray, counts_per_rev: int) -> np.ndarray:
-    """A x4-decoded encoder's angle: whole counts moved since the first sample."""
-    step = 2 * math.pi / counts_per_rev
-    start = angle[0]
-    return start + np.floor((angle - start) / step + 1e-9) * step
+def encoder(position: np.ndarray, step: float) -> np.ndarray:
+    """A x4-decoded encoder's reading: whole counts (of ``step``) moved since the first sample."""
+    start = position[0]
+    return start + np.floor((position - start) / step + 1e-9) * step
 
 
 def adc(value: np.ndarray, bits: int, lo: float, hi: float) -> np.ndarray:
@@ -157,6 +169,55 @@ def two_mass_rhs(_t, y, u: float, p: dict, slip: float = 0.0):
     return (dtheta, ddtheta, dalpha, ddalpha)
 
 
+def cart_force(u: float, dx: float, p: dict) -> float:
+    """The IP02's motor force on the cart through its gearbox and pinion (QuanserCartPole.m)."""
+    return p["eta_g"] * p["K_g"] * p["k_t"] * (p["eta_m"] * u - p["K_g"] * p["k_m"] * dx / p["r_mp"]) / (p["R_m"] * p["r_mp"])
+
+
+def dbpen_rhs(_t, y, u: float, p: dict):
+    """y = (x, dx, alpha, dalpha, beta, dbeta): the double pendulum on a cart, by Lagrange in the
+    links' absolute angles th1 = alpha, th2 = alpha + beta (from hanging down)::
+
+        M  = M_c + J_m (K_g / r_mp)^2          (the rotor turns K_g x / r_mp: Quanser's lumped cart)
+        Mt = M + m_1 + M_h + m_2,  a1 = m_1 l_1 + (M_h + m_2) L_1,  a2 = m_2 l_2,  a12 = m_2 L_1 l_2
+        I1 = J_1 + m_1 l_1^2 + (M_h + m_2) L_1^2,  I2 = J_2 + m_2 l_2^2
+
+        Mt x'' + a1 c1 th1'' + a2 c2 th2'' - a1 s1 th1'^2 - a2 s2 th2'^2                = Q_x
+        a1 c1 x'' + I1 th1'' + a12 c12 th2'' + a12 s12 th2'^2 + g a1 s1                  = Q_th1
+        a2 c2 x'' + a12 c12 th1'' + I2 th2'' - a12 s12 th1'^2 + g a2 s2                  = Q_th2
+
+    (c12 = cos(th1 - th2), s12 = sin(th1 - th2)). The forces: Q_x = F_motor - B_eq x' on the cart,
+    -B_p1 alpha' at the pivot and -B_p2 beta' in the hinge (on the relative rate, as the plant
+    file assumes); by virtual work Q_th1 = Q_alpha - Q_beta, Q_th2 = Q_beta."""
+    x, dx, alpha, dalpha, beta, dbeta = y
+    th1, th2 = alpha, alpha + beta
+    w1, w2 = dalpha, dalpha + dbeta
+    M = p["M_c"] + p["J_m"] * (p["K_g"] / p["r_mp"]) ** 2
+    Mt = M + p["m_1"] + p["M_h"] + p["m_2"]
+    a1 = p["m_1"] * p["l_1"] + (p["M_h"] + p["m_2"]) * p["L_1"]
+    a2 = p["m_2"] * p["l_2"]
+    a12 = p["m_2"] * p["L_1"] * p["l_2"]
+    I1 = p["J_1"] + p["m_1"] * p["l_1"] ** 2 + (p["M_h"] + p["m_2"]) * p["L_1"] ** 2
+    I2 = p["J_2"] + p["m_2"] * p["l_2"] ** 2
+    s1, c1, s2, c2 = math.sin(th1), math.cos(th1), math.sin(th2), math.cos(th2)
+    s12, c12 = math.sin(th1 - th2), math.cos(th1 - th2)
+    q_x = cart_force(u, dx, p) - p["B_eq"] * dx
+    q_a, q_b = -p["B_p1"] * dalpha, -p["B_p2"] * dbeta
+    # the symmetric mass matrix [[A, B, C], [B, D, E], [C, E, F]] and the right side (r0, r1, r2)
+    A, B, C, D, E, F = Mt, a1 * c1, a2 * c2, I1, a12 * c12, I2
+    r0 = q_x + a1 * s1 * w1 ** 2 + a2 * s2 * w2 ** 2
+    r1 = q_a - q_b - a12 * s12 * w2 ** 2 - p["g"] * a1 * s1
+    r2 = q_b + a12 * s12 * w1 ** 2 - p["g"] * a2 * s2
+    # Cramer's rule with the cofactors of the symmetric matrix
+    k00, k01, k02 = D * F - E * E, C * E - B * F, B * E - C * D
+    k11, k12, k22 = A * F - C * C, B * C - A * E, A * D - B * B
+    det = A * k00 + B * k01 + C * k02
+    ddx = (k00 * r0 + k01 * r1 + k02 * r2) / det
+    dd1 = (k01 * r0 + k11 * r1 + k12 * r2) / det
+    dd2 = (k02 * r0 + k12 * r1 + k22 * r2) / det
+    return (dx, ddx, dalpha, dd1, dbeta, dd2 - dd1)
+
+
 # -- the feedback inside the generator and its references -----------------------------------------
 
 def _steps(rng, n: int, hold: tuple, level: tuple) -> np.ndarray:
@@ -194,6 +255,18 @@ def _two_mass_control(rng, n: int):
     def law(k, y):
         theta, dtheta, _, _ = y
         return kp * (ref[k] - theta) - kd * dtheta + dither[k]
+    return law
+
+
+def _dbpen_control(rng, n: int):
+    """The cart's setpoint steps within +-10 cm every 0.5-1.5 s (the links hang and swing under
+    it); PD of the cart position; +-0.5 V of random steps on top."""
+    ref = _steps(rng, n, (0.5, 1.5), (-0.1, 0.1))
+    dither = _steps(rng, n, (0.02, 0.1), (-0.5, 0.5))
+    kp, kd = 40.0, 0.5
+
+    def law(k, y):
+        return kp * (ref[k] - y[0]) - kd * y[1] + dither[k]
     return law
 
 
@@ -254,21 +327,24 @@ PLANTS = {
                       rates=("dtheta", "dx"), hidden=("b_x",)),
     "two_mass_drive": dict(rhs=two_mass_rhs, control=_two_mass_control, positions=("theta", "alpha"),
                            rates=("dtheta", "dalpha"), hidden=("B_l", "tau_l", "alpha_off")),
+    "double_pendulum_cart": dict(rhs=dbpen_rhs, control=_dbpen_control, positions=("x", "alpha", "beta"),
+                                 rates=("dx", "dalpha", "dbeta"), hidden=("alpha_off",)),
 }
 
 
-def replay(plant: str, t, u, params: dict | None = None, y0=(0.0, 0.0, 0.0, 0.0)) -> np.ndarray:
+def replay(plant: str, t, u, params: dict | None = None, y0=None) -> np.ndarray:
     """The true states at ``t`` under the given input (``u[k]`` held from ``t[k]`` to ``t[k+1]``),
-    open loop: rows (position 1, rate 1, position 2, rate 2)."""
+    open loop: columns (position 1, rate 1, position 2, rate 2, ...), from rest at 0 by default."""
     return _integrate(plant, np.asarray(t, float), params, y0, inputs=np.asarray(u, float))[0]
 
 
-def _integrate(plant, t, params, y0, inputs=None, law=None):
+def _integrate(plant, t, params, y0=None, inputs=None, law=None):
     spec = PLANTS[plant]
     p = {**file_values(plant), **(params or {})}
-    out = np.empty((len(t), 4))
+    width = 2 * len(spec["positions"])
+    out = np.empty((len(t), width))
     u = np.empty(len(t)) if inputs is None else inputs
-    y = np.array(y0, dtype=float)
+    y = np.zeros(width) if y0 is None else np.array(y0, dtype=float)
     out[0] = y
     for k in range(len(t)):
         if inputs is None:
@@ -289,11 +365,12 @@ def _integrate(plant, t, params, y0, inputs=None, law=None):
 
 def run(plant: str, seconds: float = 6.0, seed: int = 1, hidden: dict | None = None,
         quantize: bool = True) -> dict:
-    """A closed-loop run of ``seconds`` at 1 kHz from rest at the origin, with the ``hidden``
-    parameters (names in ``PLANTS[plant]["hidden"]``) added to the plant.
+    """A closed-loop run of ``seconds`` at 1 kHz from rest at the origin (the links hanging), with
+    the ``hidden`` parameters (names in ``PLANTS[plant]["hidden"]``) added to the plant.
 
     Returns ``t, u`` (the commanded, held voltage), the positions as the sensors read them
-    (exact with ``quantize=False``), and ``true_<state>`` for all four states."""
+    (exact with ``quantize=False``; ``alpha_off`` added to alpha's reading), ``true_<state>`` for
+    every state, ``plant`` and ``hidden``."""
     spec = PLANTS[plant]
     hidden = dict(hidden or {})
     unknown = set(hidden) - set(spec["hidden"])
@@ -301,25 +378,25 @@ def run(plant: str, seconds: float = 6.0, seed: int = 1, hidden: dict | None = N
         raise ValueError(f"{plant}: no hidden effect {sorted(unknown)} (known: {spec['hidden']})")
     t = np.arange(int(round(seconds * FS)) + 1) / FS
     law = spec["control"](np.random.default_rng(seed), len(t))
-    states, u = _integrate(plant, t, hidden, (0.0, 0.0, 0.0, 0.0), law=law)
-    p1, p2 = spec["positions"]
-    r1, r2 = spec["rates"]
-    true = {p1: states[:, 0], r1: states[:, 1], p2: states[:, 2], r2: states[:, 3]}
-    read = read_sensors(plant, true) if quantize else {p1: true[p1].copy(), p2: true[p2].copy()}
+    states, u = _integrate(plant, t, hidden, law=law)
+    true = {}
+    for i, (pos, rate) in enumerate(zip(spec["positions"], spec["rates"])):
+        true[pos], true[rate] = states[:, 2 * i], states[:, 2 * i + 1]
+    read = read_sensors(plant, true) if quantize else {q: true[q].copy() for q in spec["positions"]}
     if "alpha_off" in hidden:
         read["alpha"] = read["alpha"] + hidden["alpha_off"]
-    return {"t": t, "u": u, p1: read[p1], p2: read[p2], **{f"true_{k}": v for k, v in true.items()},
-            "plant": plant, "hidden": hidden}
+    return {"t": t, "u": u, **{q: read[q] for q in spec["positions"]},
+            **{f"true_{k}": v for k, v in true.items()}, "plant": plant, "hidden": hidden}
 
 
 def write_csv(path, r: dict) -> None:
     """The run as a measurement file (``# key: value`` lines, the header, one row per sample,
     floats as ``repr``), written atomically."""
-    p1, p2 = PLANTS[r["plant"]]["positions"]
+    names = ["t", "u", *PLANTS[r["plant"]]["positions"]]
     hidden = ", ".join(f"{k}={v}" for k, v in r["hidden"].items()) or "none"
     lines = ["# generator: tests/independent_new_plants.py (hand-written EOM, scipy solve_ivp DOP853)",
-             f"# plant: models/{r['plant']}.toml figures", f"# hidden: {hidden}", f"t,u,{p1},{p2}"]
-    lines += [",".join(repr(float(v)) for v in row) for row in zip(r["t"], r["u"], r[p1], r[p2])]
+             f"# plant: models/{r['plant']}.toml figures", f"# hidden: {hidden}", ",".join(names)]
+    lines += [",".join(repr(float(v)) for v in row) for row in zip(*(r[n] for n in names))]
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".independent_", suffix=".csv")
     with os.fdopen(fd, "w") as f:
