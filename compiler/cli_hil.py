@@ -52,7 +52,8 @@ def _check_out_folder(out: str) -> None:
 def cmd_hil(args) -> int:
     from .hil.controller_spec import make_controller
     from .hil.loop import run_closed_loop
-    from .hil.plant import make_plant
+    from .hil.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
+    from .hil.plant import make_plant, start_counts
     from .hil.records import write_run
     from .model.modelfile import load_model
 
@@ -66,18 +67,24 @@ def cmd_hil(args) -> int:
             "controller": "socket client" if args.serve else args.controller,
             "period_s": f"{args.period:g}"}
     address = _address(args.serve) if args.serve else None   # bad address: fail before any work
-    plant = make_plant(args.plant, model)
+    initial = start_state(model, args.start) if args.start else None
+    if initial is not None:
+        meta["start"] = args.start
+    plant = make_plant(args.plant, model, **({"initial": initial} if initial is not None else {}))
+    origin = start_counts(plant.ports, initial)
     progress = _progress(not args.json)
     if address is not None:
         from .hil.server import serve_loop
 
         run = serve_loop(plant, address, args.seconds, period=args.period, plant_name=args.plant,
-                         timeout=args.timeout, progress=progress,
+                         timeout=args.timeout, progress=progress, count_origin=origin,
                          announce=lambda text: print(text, file=sys.stderr, flush=True))
     else:
         controller = make_controller(args.controller, model, args.period)
         run = run_closed_loop(plant, controller, args.seconds, period=args.period, plant_name=args.plant,
-                              progress=progress)
+                              progress=progress, count_origin=origin)
+        if isinstance(controller, OperatingPointLqr):
+            run.extra.update(hold_summary(run, controller))
     summary = write_run(args.out, run, meta) if args.out else run.summary()
     if args.json:
         json.dump(summary, sys.stdout, indent=2)
@@ -85,12 +92,18 @@ def cmd_hil(args) -> int:
     else:
         up = summary["upright_at_s"]
         print(f"plant {summary['plant']}, {summary['rows']} periods in {summary['wall_s']:.2f} s wall")
-        print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
-              else "not upright at the end of the run")
+        held = summary.get("operating_point")
+        if run.angle is not None and held is None:
+            print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
+                  else "not upright at the end of the run")
         units = dict(run.units)
         spans = [f"max |{state}| = {float(abs(column).max()):.4f} {units.get(state, '')}".rstrip()
-                 for state, column in run.positions if state != run.angle and column.size]
+                 for state, column in run.positions if (state != run.angle or held is not None) and column.size]
         print(", ".join(spans + [f"{summary['switches']} controller switches"]))
+        if held is not None:
+            print(f"over the last 1 s, from operating point {held}: " + ", ".join(
+                f"max |{c.position} - {c.target:.4g}| = {summary[k]:.4g} {c.unit}".rstrip()
+                for c, k in zip(controller.coords, hold_keys(controller)) if summary.get(k) is not None))
         if args.out:
             print(f"wrote {args.out}/run.csv, summary.json, run.png")
     if run.stopped is not None:
@@ -119,12 +132,16 @@ def add_parsers(sub) -> None:
     """Register ``hil`` and ``animate`` on the top-level subparsers."""
     p = sub.add_parser("hil", help="closed loop: a controller against a stepping plant (float, golden, RTL)")
     p.add_argument("--controller",
-                   help="builtin (default: swing-up + LQR balance), swing-up, balance (any plant that is one "
-                        "pendulum on one driven coordinate), hold (any plant: PD on its first measured "
-                        "position), or package.module:Class")
+                   help="builtin (default: swing-up + LQR balance on a single pendulum, else lqr), swing-up, "
+                        "balance (any plant that is one pendulum on one driven coordinate), lqr (LQR about the plant "
+                        "file's first operating point; lqr:NAME about another), hold (any plant: PD on its first "
+                        "measured position), or package.module:Class")
     p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")
+    p.add_argument("--start", metavar="POINT",
+                   help="start the plant at the plant file's operating point POINT, its last measured position "
+                        "0.05 rad (1 cm) off (default: at rest at 0)")
     p.add_argument("--seconds", type=positive, default=12.0, help="simulated time (default 12)")
     p.add_argument("--period", type=positive, default=1e-3, help="control period in s (default 0.001)")
     p.add_argument("--out", help="folder for run.csv, summary.json and run.png")

@@ -1,9 +1,12 @@
-"""``--controller builtin|swing-up|balance|hold|package.module:Class``: find and build a controller.
+"""``--controller builtin|swing-up|balance|lqr[:POINT]|hold|package.module:Class``: find and build a controller.
 
-``builtin``, ``swing-up`` and ``balance`` drive any plant that is one pendulum on one driven
-coordinate (the cart-pendulum, the Furuta pendulum: :mod:`pendc.hil.pendulum_roles`); ``hold``
-(a PD hold of the first encoder-read position at its power-on value,
-:mod:`pendc.hil.position_hold`) drives any plant.
+``swing-up`` and ``balance`` drive any plant that is one pendulum on one driven coordinate
+(the cart-pendulum, the Furuta pendulum: :mod:`pendc.hil.pendulum_roles`); ``lqr`` is the
+LQR about the plant file's first operating point (``lqr:NAME``: about operating point NAME,
+:mod:`pendc.hil.operating_point_lqr`) and drives any plant that has one; ``builtin`` is the
+pendulum supervisor (swing up, then balance) on a single-pendulum plant and ``lqr`` on any
+other plant with an operating point; ``hold`` (a PD hold of the first measured position at
+its power-on value, :mod:`pendc.hil.position_hold`) drives any plant.
 
 A user's class plugs in with no change to pendc: it needs ``reset()`` and
 ``step(measurement) -> volts``; its constructor may take ``model`` (the
@@ -22,12 +25,16 @@ import sys
 from ..errors import PendcError
 from ..model.plant import PlantModel
 from .controllers import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+from .numeric_model import NumericModel
+from .operating_point_lqr import OperatingPointLqr, operating_point_names
+from .pendulum_roles import pendulum_roles
 from .position_hold import PositionHold
 
 BUILTIN_CONTROLLERS = {
-    "builtin": Supervisor,      # swing up, then balance
+    "builtin": Supervisor,      # single pendulum: swing up, then balance; other plants: lqr
     "swing-up": EnergySwingUp,  # energy pumping only (Fig. IV.22)
     "balance": LqrBalance,      # LQR only
+    "lqr": OperatingPointLqr,   # any plant: LQR about the file's first operating point (lqr:NAME: another)
     "hold": PositionHold,       # any plant: PD on the first measured position
 }
 
@@ -35,6 +42,20 @@ BUILTIN_CONTROLLERS = {
 def make_controller(spec: str, model: PlantModel, period: float = 1e-3, position_ref=0.0):
     """The controller that ``spec`` names, designed for ``model`` at ``period`` (``position_ref``:
     the balance's set point of the actuated position)."""
+    if spec == "lqr" or spec.startswith("lqr:"):
+        point = spec.partition(":")[2] or None
+        return OperatingPointLqr(model, period, point)
+    if spec == "builtin":
+        numeric = NumericModel.of(model)
+        try:
+            pendulum_roles(model, numeric)
+        except PendcError as exc:
+            if not operating_point_names(model):
+                raise PendcError(f"--controller builtin: plant '{model.interface.name}' is not one pendulum on one "
+                                 f"driven coordinate and declares no [operating_points] for an LQR; try "
+                                 f"--controller hold") from exc
+            return OperatingPointLqr(model, period, numeric=numeric)
+        return Supervisor(PendulumConstants.from_model(model, numeric), period, position_ref=position_ref)
     if spec in BUILTIN_CONTROLLERS:
         cls = BUILTIN_CONTROLLERS[spec]
         if cls is PositionHold:
@@ -65,7 +86,7 @@ def load_controller_class(spec: str):
     """Import ``package.module:Class`` (the current folder first on the import path)."""
     module_name, sep, class_name = spec.partition(":")
     if not sep or not module_name or not class_name.isidentifier():
-        raise PendcError(f"--controller must be {', '.join(BUILTIN_CONTROLLERS)} or package.module:Class, "
+        raise PendcError(f"--controller must be {', '.join(BUILTIN_CONTROLLERS)}, lqr:POINT or package.module:Class, "
                          f"got {spec!r}")
     cwd = os.getcwd()
     added = cwd not in sys.path

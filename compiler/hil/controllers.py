@@ -1,8 +1,8 @@
 """Reference controllers: energy swing-up, LQR balance and the supervisor that switches.
 
 A controller is any object with ``reset()`` and ``step(measurement) -> volts``; it sees
-only what the rig's controller sees, a :class:`Measurement` (time and the ×4 encoder
-counts, also converted to positions). An optional ``mode`` attribute (a short word)
+only what the rig's controller sees, a :class:`Measurement` (time, the ×4 encoder
+counts and the converters' codes, also converted to positions). An optional ``mode`` attribute (a short word)
 is logged per period. Velocities come from a filtered difference of the positions.
 
 The controllers here drive any plant that is one pendulum on one driven coordinate (a
@@ -48,41 +48,65 @@ SWING_GAIN = 100 * 0.581 * 0.138867
 
 @dataclass(frozen=True)
 class Measurement:
-    """What a controller gets each period: time and each encoder's ×4 count since reset.
+    """What a controller gets each period: time, each encoder's ×4 count since reset and each
+    sampled converter's (ADC's) code.
 
     ``counts`` are ``(encoder, count)`` pairs and ``encoders`` the encoders' descriptions
-    (:class:`~pendc.hil.core_ports.EncoderPorts`: the state each reads, its resolution), both
-    in the plant interface's order. :meth:`position` converts a count to its state's unit; an
-    encoder's name reads as its count and a measured state's name as its position
-    (``meas.<state>``), so a controller names the plant's states as its interface does."""
+    (:class:`~pendc.hil.core_ports.EncoderPorts`: the state each reads, its resolution);
+    ``codes`` are ``(converter, code)`` pairs and ``adcs`` the converters' descriptions
+    (:class:`~pendc.hil.core_ports.AdcPorts`), all in the plant interface's order.
+    :meth:`position` converts a count or a code to its state's unit; a sensor's name reads as
+    its count or code and a measured state's name as its position (``meas.<state>``), so a
+    controller names the plant's states as its interface does."""
 
     t: float
     counts: tuple
     encoders: tuple = ()
+    codes: tuple = ()
+    adcs: tuple = ()
 
     @classmethod
-    def of(cls, t: float, state, ports) -> "Measurement":
-        """The measurement of a plant state (:class:`~pendc.hil.plant.PlantState`) at time ``t``."""
-        return cls(t=t, counts=tuple((e.name, int(state.count(e.name))) for e in ports.encoders),
-                   encoders=ports.encoders)
+    def of(cls, t: float, state, ports, count_origin: dict | None = None) -> "Measurement":
+        """The measurement of a plant state (:class:`~pendc.hil.plant.PlantState`) at time ``t``;
+        ``count_origin`` ({encoder: count}) is added to the counts since reset (encoders homed
+        to their grid's zero when the plant starts elsewhere: :func:`pendc.hil.plant.start_counts`)."""
+        origin = count_origin or {}
+        adcs = tuple(getattr(ports, "adcs", ()))
+        return cls(t=t, counts=tuple((e.name, int(state.count(e.name)) + origin.get(e.name, 0))
+                                     for e in ports.encoders),
+                   encoders=ports.encoders, codes=tuple((a.name, int(state.code(a.name))) for a in adcs), adcs=adcs)
 
     def count(self, encoder: str) -> int:
         """The ×4 count since reset of the encoder called ``encoder``."""
         return dict(self.counts)[encoder]
 
+    def code(self, adc: str) -> int:
+        """The code of the converter called ``adc``."""
+        return dict(self.codes)[adc]
+
     def position(self, state: str) -> float:
-        """The measured position of ``state``: its encoder's count times the encoder's resolution."""
+        """The measured position of ``state``: its encoder's count times the encoder's resolution,
+        or what its converter's code stands for (:meth:`~pendc.hil.core_ports.AdcPorts.reading`)."""
         for e in self.encoders:
             if e.state == state:
                 return self.count(e.name) * e.resolution
-        raise KeyError(f"no encoder reads '{state}'")
+        for a in self.adcs:
+            if a.state == state:
+                return a.reading(self.code(a.name))
+        raise KeyError(f"no sensor reads '{state}'")
 
     def __getattr__(self, name: str):
-        # only reached when ordinary lookup fails: an encoder's count or a measured state's position
-        for e in self.__dict__.get("encoders", ()):
+        # only reached when ordinary lookup fails: a sensor's count or code, a measured state's position
+        d = self.__dict__
+        for e in d.get("encoders", ()):
             if e.name == name:
                 return self.count(name)
             if e.state == name:
+                return self.position(name)
+        for a in d.get("adcs", ()):
+            if a.name == name:
+                return self.code(name)
+            if a.state == name:
                 return self.position(name)
         raise AttributeError(f"the measurement has no '{name}'")
 
@@ -163,9 +187,10 @@ class PendulumConstants:
         return wrap_upright(angle, self.roles.pendulum.period)
 
     @classmethod
-    def from_model(cls, model: PlantModel) -> "PendulumConstants":
-        """Find the roles, linearise the model at the upright and at the hanging rest."""
-        numeric = NumericModel.of(model)
+    def from_model(cls, model: PlantModel, numeric: NumericModel | None = None) -> "PendulumConstants":
+        """Find the roles, linearise the model at the upright and at the hanging rest (``numeric``:
+        the model's equations if already made)."""
+        numeric = numeric or NumericModel.of(model)
         roles = pendulum_roles(model, numeric)
         hanging = linearise_at_rest(numeric, roles, 0.0)
         return cls(roles=roles, lin=linearise_at_rest(numeric, roles, roles.upright),

@@ -60,6 +60,12 @@ class AdcPorts:
         """The state a code stands for (the middle of its step)."""
         return self.lo + (float(code) + 0.5) * self.resolution
 
+    def code(self, value) -> int:
+        """The code of state ``value``, by the interface's rule
+        (:func:`pendc.model.interface.converter_code`: floor, clipped to the range)."""
+        from ..model.interface import converter_code
+        return int(converter_code(float(value), self.lo, self.hi, self.bits))
+
 
 @dataclass(frozen=True)
 class CorePorts:

@@ -2,7 +2,8 @@
 
 Bit-exact with the Verilog (the RTL plants must give the same integers). Encoder counts
 come from the core's own encoder FSM outputs through a ×4 decoder sampling every model
-step, as the bus wrapper's decoders count them.
+step, as the bus wrapper's decoders count them; each sampled converter's code is the core's
+code output after the last step.
 """
 
 from __future__ import annotations
@@ -60,7 +61,7 @@ class GoldenPlant:
             raise PendcError(str(exc)) from None
         self.stepper = GoldenStepper(graph)
         self._col = {p: self.stepper.ports.index(p) for p in self.ports.outputs}
-        self._lsb = {p: graph.output(p).qformat.lsb for p in self.ports.states}
+        self._lsb = {p: graph.output(p).qformat.lsb for p in self.ports.states + self.ports.codes}
         self._u_format = graph[self.ports.input].qformat
         self.initial = check_initial(self.ports, initial)
         self.reset()
@@ -93,6 +94,9 @@ class GoldenPlant:
 
     def reset(self) -> PlantState:
         start = {} if self.initial is None else dict(zip(self.ports.states, self.initial))
+        # a converter's code register holds the code of the state before the step: its reset value
+        # is the code of 0, so a run started elsewhere starts it at the code of the initial value
+        start.update({a.port: float(a.code(start[a.state])) for a in self.ports.adcs if a.state in start})
         self.stepper.reset(start)
         self._counts = [0] * len(self.ports.encoders)
         self._levels = None
@@ -110,7 +114,9 @@ class GoldenPlant:
     def _from_row(self, row) -> PlantState:
         return PlantState(t=self.stepper.k * self.dt,
                           states=tuple((p, int(row[self._col[p]]) * self._lsb[p]) for p in self.ports.states),
-                          counts=tuple((e.name, c) for e, c in zip(self.ports.encoders, self._counts)))
+                          counts=tuple((e.name, c) for e, c in zip(self.ports.encoders, self._counts)),
+                          codes=tuple((a.name, int(round(int(row[self._col[a.port]]) * self._lsb[a.port])))
+                                      for a in self.ports.adcs))
 
     def raw(self) -> dict:
         """The output ports' integers after the last step (what the RTL must show bit for bit)."""

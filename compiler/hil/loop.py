@@ -1,7 +1,8 @@
 """The lockstep loop: measure, ask the controller, hold its volts for one period, repeat.
 
-One row per control period: the time, the encoder-derived positions the controller saw
-(one per encoder of the plant interface, named by the state it reads), the volts it
+One row per control period: the time, the measured positions the controller saw
+(one per state an encoder or a sampled converter of the plant interface reads, named by that
+state: :attr:`~pendc.hil.core_ports.CorePorts.measured`), the volts it
 answered (after the 12-bit DAC) and its mode. A run ends early, with
 the rows so far and the reason, when the plant or the controller fails; the caller
 writes that partial record, it never silently continues.
@@ -39,7 +40,7 @@ class HilRun:
 
     ``u`` is the plant input the controller answered (the interface's input, named
     ``input_name``), ``positions`` the measured positions ``(state, column)`` in the interface's
-    encoder order (each also reads as ``run.<state>``), ``units`` their units and ``angle`` the
+    sensor order (encoders', then converters') (each also reads as ``run.<state>``), ``units`` their units and ``angle`` the
     measured periodic state whose upright the summary reports (None: no such state)."""
 
     t: np.ndarray
@@ -118,12 +119,15 @@ def steps_per_period(plant_dt: float, period: float) -> int:
 
 
 def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, plant_name: str = "",
-                    progress=None, answer=None) -> HilRun:
+                    progress=None, answer=None, count_origin: dict | None = None) -> HilRun:
     """Run ``controller`` against ``plant`` for ``seconds`` (one row per period).
 
     ``answer(measurement) -> volts`` replaces ``controller.step`` (the socket server
     uses it); ``progress(fraction)`` is called now and then. The DAC spans the controller's
-    ``input_range`` (low and high) if it declares one, else the plant model's input range. A :class:`PendcError` from
+    ``input_range`` (low and high) if it declares one, else the plant model's input range.
+    ``count_origin`` ({encoder: count}, :func:`pendc.hil.plant.start_counts`) is added to every
+    count since reset, so a plant started elsewhere than at 0 is measured from the grid's zero
+    (as a rig with homed encoders is). A :class:`PendcError` from
     the plant or the controller ends the run: the result keeps the rows so far and
     says why in ``stopped``.
     """
@@ -140,7 +144,8 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     ports = plant.ports
     t = np.empty(n_rows)
     u = np.empty(n_rows)
-    pos = np.empty((len(ports.encoders), n_rows))
+    measured = ports.measured
+    pos = np.empty((len(measured), n_rows))
     modes = []
     stopped = None
     start = time.perf_counter()
@@ -151,11 +156,11 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     report_every = max(1, n_rows // 100)
     try:
         for k in range(n_rows):
-            meas = Measurement.of(k * period, state, ports)
+            meas = Measurement.of(k * period, state, ports, count_origin)
             volts = dac(float(step(meas)), span=span)
             t[k], u[k] = meas.t, volts
-            for i, e in enumerate(ports.encoders):
-                pos[i, k] = meas.position(e.state)
+            for i, name in enumerate(measured):
+                pos[i, k] = meas.position(name)
             modes.append(str(getattr(controller, "mode", "user")) if controller is not None else "external")
             if progress is not None and k % report_every == 0:
                 progress(k / n_rows)
@@ -170,12 +175,18 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
         progress(1.0)
     rows = len(modes)
     return HilRun(t=t[:rows].copy(), u=u[:rows].copy(),
-                  positions=tuple((e.state, pos[i, :rows].copy()) for i, e in enumerate(ports.encoders)),
+                  positions=tuple((name, pos[i, :rows].copy()) for i, name in enumerate(measured)),
                   mode=tuple(modes), plant=plant_name, wall_s=time.perf_counter() - start,
                   seconds=float(seconds), stopped=stopped,
                   extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {},
-                  input_name=ports.input, units=tuple((e.state, e.unit) for e in ports.encoders),
+                  input_name=ports.input, units=tuple((name, sensor_unit(ports, name)) for name in measured),
                   angle=upright_angle(ports))
+
+
+def sensor_unit(ports, state: str) -> str:
+    """The unit of measured ``state`` (its encoder's, else its converter's)."""
+    sensor = ports.encoder_of(state) or ports.adc_of(state)
+    return sensor.unit if sensor is not None else ""
 
 
 def upright_angle(ports) -> str | None:

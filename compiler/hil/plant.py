@@ -28,25 +28,28 @@ MAX_STEPS_PER_CALL = 100_000_000   # 100 s at 1 us: a larger request is a caller
 
 @dataclass(frozen=True)
 class PlantState:
-    """The plant after a step: time since reset, its reported states in SI units and each
-    encoder's ×4 count since reset.
+    """The plant after a step: time since reset, its reported states in SI units, each
+    encoder's ×4 count since reset and each sampled converter's (ADC's) code.
 
-    ``states`` and ``counts`` are ``(name, value)`` pairs in the plant interface's order (its
-    reported states; its sensors). A state or an encoder also reads as an attribute under its
-    interface name (``state.<name>``), so code written for one plant reads naturally."""
+    ``states``, ``counts`` and ``codes`` are ``(name, value)`` pairs in the plant interface's
+    order (its reported states; its encoders; its converters). A state, an encoder or a
+    converter also reads as an attribute under its interface name (``state.<name>``), so code
+    written for one plant reads naturally."""
 
     t: float
     states: tuple
     counts: tuple
+    codes: tuple = ()
 
     def __getattr__(self, name: str):
         # only reached when ordinary lookup fails: the plant's own names
-        for key, value in (*self.__dict__.get("states", ()), *self.__dict__.get("counts", ())):
+        d = self.__dict__
+        for key, value in (*d.get("states", ()), *d.get("counts", ()), *d.get("codes", ())):
             if key == name:
                 return value
         raise AttributeError(f"the plant state has no '{name}' (states: "
-                             f"{', '.join(k for k, _ in self.__dict__.get('states', ()))}; encoders: "
-                             f"{', '.join(k for k, _ in self.__dict__.get('counts', ()))})")
+                             f"{', '.join(k for k, _ in d.get('states', ()))}; sensors: "
+                             f"{', '.join(k for k, _ in (*d.get('counts', ()), *d.get('codes', ())))})")
 
     def value(self, name: str) -> float:
         """The state called ``name`` (SI units)."""
@@ -56,10 +59,27 @@ class PlantState:
         """The ×4 count since reset of the encoder called ``encoder``."""
         return dict(self.counts)[encoder]
 
+    def code(self, adc: str) -> int:
+        """The code of the sampled converter called ``adc``."""
+        return dict(self.codes)[adc]
+
     @classmethod
     def at_rest(cls, ports, t: float = 0.0) -> "PlantState":
-        """Every state 0 and every count 0 (power-on) for a core with these ports."""
-        return cls(t, tuple((s, 0.0) for s in ports.states), tuple((e.name, 0) for e in ports.encoders))
+        """Every state 0 and every count 0 (power-on) for a core with these ports; each
+        converter's code is that of its state at 0."""
+        return cls(t, tuple((s, 0.0) for s in ports.states), tuple((e.name, 0) for e in ports.encoders),
+                   tuple((a.name, a.code(0.0)) for a in getattr(ports, "adcs", ())))
+
+
+def start_counts(ports, initial) -> dict:
+    """{encoder: count} of each encoder's absolute band grid at the reported state ``initial``
+    (one value per ``ports.states``, None: power-on, all 0): what a run adds to the counts
+    since reset so that its controller reads positions from the grid's zero, as a rig with
+    homed encoders does (:func:`pendc.hil.loop.run_closed_loop`'s ``count_origin``)."""
+    if initial is None:
+        return {e.name: 0 for e in ports.encoders}
+    values = dict(zip(ports.states, initial))
+    return {e.name: int(math.floor(values[e.state] / e.resolution)) for e in ports.encoders}
 
 
 @runtime_checkable
@@ -176,10 +196,14 @@ class FloatPlant:
 
     Extra states (a motor lag) carry over between steps; an input delay is applied from the
     history of inputs since reset (before reset the plant saw the first input). Encoder counts
-    are those of a ×4 decoder on the absolute band grid, counted from reset.
+    are those of a ×4 decoder on the absolute band grid, counted from reset; each converter's
+    code is the interface's rule applied to its state (:meth:`~pendc.hil.core_ports.AdcPorts.code`).
+    ``initial`` (one value per reported state, in the plant interface's order, as the golden
+    plant takes it) starts the mechanical states elsewhere than at rest at 0 (extra states such
+    as a motor lag start from the first input; the encoders count from there).
     """
 
-    def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler"):
+    def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler", initial: tuple | None = None):
         from ..codegen import load_source
         from ..sim.kernel import kernel_source
         from ..sim.simulator import Simulator
@@ -198,6 +222,14 @@ class FloatPlant:
             raise PendcError(f"the model has no state(s) {', '.join(missing)} its interface reports")
         self._index = {name: names.index(name) for name in self.ports.states}
         self._n_start = n_start = len(names) - len(eq.initial)    # the mechanical states; lags start from u
+        from .golden_plant import check_initial
+        self.initial = check_initial(self.ports, initial)
+        start = dict(zip(self.ports.states, self.initial or ()))
+        extra = [n for n, v in start.items() if v != 0.0 and names.index(n) >= n_start]
+        if extra:
+            raise PendcError(f"the float plant starts {', '.join(extra)} from the input, not from an initial value")
+        self._start = np.array([start.get(n, 0.0) for n in names[:n_start]], dtype=float)
+        self._origin = {e.name: start.get(e.state, 0.0) for e in self.ports.encoders}
         clamped = next((st.name for st in model.interface.states if st.velocity_bound is not None), None)
         source = kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
         self._module = load_source(source, "pendc_plant")
@@ -210,7 +242,16 @@ class FloatPlant:
         self._k = 0
         self._state = None            # all states; made at the first step, when u is known
         self._history = []            # (first step index, u) of each request, for an input delay
-        return PlantState.at_rest(self.ports)
+        if self.initial is None:
+            return PlantState.at_rest(self.ports)
+        return self._report(dict(zip(self.ports.states, self.initial)))
+
+    def _report(self, values: dict) -> PlantState:
+        """The plant state of reported ``values``: encoder counts since reset, converter codes."""
+        return PlantState(t=self._k * self.dt, states=tuple(values.items()),
+                          counts=tuple((e.name, encoder_counts(values[e.state], self._origin[e.name], e.resolution))
+                                       for e in self.ports.encoders),
+                          codes=tuple((a.name, a.code(values[a.state])) for a in self.ports.adcs))
 
     def _inputs(self, u: float, n: int) -> np.ndarray:
         """The input the plant sees at each of the next n steps (delayed if the model says so)."""
@@ -228,7 +269,7 @@ class FloatPlant:
     def step(self, u_volts: float, n_steps: int) -> PlantState:
         u, n = check_step_request(u_volts, n_steps)
         if self._state is None:
-            self._state = self._module.plant_start(np.zeros(self._n_start), u, self._params)
+            self._state = self._module.plant_start(self._start, u, self._params)
         self._history.append((self._k, u))
         new, ok = self._module.plant_advance(self._state, self._inputs(u, n), self._params, self.dt,
                                              self.method == "rk4")
@@ -236,19 +277,15 @@ class FloatPlant:
             raise PendcError(f"float plant diverged (non-finite state) before t = {(self._k + n) * self.dt:.6g} s")
         self._state = new
         self._k += n
-        values = {name: float(new[i]) for name, i in self._index.items()}
-        # the plant starts at rest at 0, so the encoders count from the grid's origin
-        return PlantState(t=self._k * self.dt, states=tuple(values.items()),
-                          counts=tuple((e.name, encoder_counts(values[e.state], 0.0, e.resolution))
-                                       for e in self.ports.encoders))
+        return self._report({name: float(new[i]) for name, i in self._index.items()})
 
 
 def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **options) -> Plant:
     """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
 
-    ``options`` go to the plant's constructor: ``method`` for float; ``build`` (reuse a compiled
-    build), ``on_overflow`` ("error" or "mark") and ``initial`` (the reported states, in order) for golden
-    and the RTL plants; ``bus`` and ``schedule`` (the build request; verilator defaults to the
+    ``options`` go to the plant's constructor: ``initial`` (the reported states, in order) for
+    every kind; ``method`` for float; ``build`` (reuse a compiled
+    build) and ``on_overflow`` ("error" or "mark") for golden and the RTL plants; ``bus`` and ``schedule`` (the build request; verilator defaults to the
     comb schedule, the fastest to simulate and bit-exact like every schedule) for the RTL plants;
     ``loadable`` for verilator (a harness whose registers ``load`` can write)."""
     if kind not in PLANT_KINDS:

@@ -75,6 +75,9 @@ class RtlPlant:
             self.ports = CorePorts.of_graph(graph)
         except ValueError as exc:
             raise PendcError(str(exc)) from None
+        if self.ports.adcs:   # the harnesses answer states, counts and channel levels, not codes
+            raise PendcError(f"the RTL plant does not read converter codes yet (plant '{model.interface.name}' has "
+                             f"{', '.join(a.name for a in self.ports.adcs)}): use --plant golden, bit-exact with it")
         self.initial = check_initial(self.ports, initial)
         self._deposit = deposit_registers(graph)
         self._state_names = [n.name for n in graph.nodes if n.kind in (Kind.REGISTER, Kind.FSM)]

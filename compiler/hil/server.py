@@ -104,12 +104,13 @@ class ClientLink:
 
 
 def serve_loop(plant, address: tuple[str, int], seconds: float, period: float = 1e-3, plant_name: str = "",
-               timeout: float = 10.0, progress=None, announce=None) -> HilRun:
+               timeout: float = 10.0, progress=None, announce=None, count_origin: dict | None = None) -> HilRun:
     """Listen on ``address`` (loopback), run the loop with the first client as the controller.
 
     ``announce(text)`` gets the line saying where the server listens (its real port if
     port 0 was asked for). A client that does not connect within ``timeout`` is an error;
-    a client that stops answering ends the run with the rows so far.
+    a client that stops answering ends the run with the rows so far. ``count_origin``: as
+    :func:`~pendc.hil.loop.run_closed_loop` takes it (a plant started elsewhere than at 0).
     """
     host, port = address
     if not ipaddress.ip_address(host).is_loopback:
@@ -136,6 +137,6 @@ def serve_loop(plant, address: tuple[str, int], seconds: float, period: float = 
     link.send(f"PENDC-HIL {PROTOCOL_VERSION} period={period:g} periods={n_rows} "
               + " ".join(f"{e.state}_count={e.resolution!r}" for e in plant.ports.encoders))
     run = run_closed_loop(plant, None, seconds, period=period, plant_name=plant_name, progress=progress,
-                          answer=link.answer)
+                          answer=link.answer, count_origin=count_origin)
     link.close(run)
     return run
