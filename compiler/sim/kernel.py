@@ -16,6 +16,11 @@ from ..codegen import NumbaPrinter, load_source
 from ..model.plant import Equations
 
 KERNEL_FORMAT = 7  # bump when the generated source changes shape
+# Equations printed longer than this (characters) share their common subexpressions: a chain of
+# links expands its mass matrix into polynomials that repeat the same products many times (the
+# double pendulum on a cart: 50 kB of source, 70 times slower than a single pendulum's). Below
+# it the equations print as written, so the shipped single-pendulum data stay byte-identical.
+CSE_ABOVE = 20_000
 
 
 def _tuple(items) -> str:
@@ -47,6 +52,17 @@ def _needed_assignments(eq: Equations, exprs) -> list:
     return keep[::-1]
 
 
+def _shared_body(eq: Equations, pr) -> tuple:
+    """The derivatives with every assignment inlined and their common subexpressions named once
+    (``_cse0``, ``_cse1``... in evaluation order): ``(body, return line)``."""
+    import sympy as sp
+
+    inlined = [eq.inline(d) for d in eq.derivatives]
+    shared, reduced = sp.cse(inlined, symbols=sp.numbered_symbols("_cse"))
+    body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in shared)
+    return body, f"    return {_tuple(pr.doprint(d) for d in reduced)}\n"
+
+
 def kernel_source(eq: Equations, clamped: str | None = None) -> str:
     """The Python source of the kernel module for ``eq`` (deterministic). ``clamped`` names
     the state ``eq.velocity_bound`` holds (see :func:`_clamped_index` without it)."""
@@ -62,8 +78,10 @@ def kernel_source(eq: Equations, clamped: str | None = None) -> str:
     alias = f"    {eq.input.name} = inp\n"
 
     body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in eq.assignments)
-    rhs = ("@njit(cache=True)\ndef rhs(S, inp, P):\n" + unpack_s + unpack_p + alias + body
-           + f"    return {_tuple(pr.doprint(d) for d in eq.derivatives)}\n")
+    result = f"    return {_tuple(pr.doprint(d) for d in eq.derivatives)}\n"
+    if len(body) + len(result) > CSE_ABOVE:
+        body, result = _shared_body(eq, pr)
+    rhs = "@njit(cache=True)\ndef rhs(S, inp, P):\n" + unpack_s + unpack_p + alias + body + result
 
     held = list(names)
     index = _clamped_index(eq, clamped)
