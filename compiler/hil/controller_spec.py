@@ -54,7 +54,12 @@ def make_controller(spec: str, model: PlantModel, period: float = 1e-3, position
                 raise PendcError(f"--controller builtin: plant '{model.interface.name}' is not one pendulum on one "
                                  f"driven coordinate and declares no [operating_points] for an LQR; try "
                                  f"--controller hold") from exc
-            return OperatingPointLqr(model, period, numeric=numeric)
+            try:
+                return OperatingPointLqr(model, period, numeric=numeric)
+            except PendcError as lqr_exc:
+                raise PendcError(f"--controller builtin: plant '{model.interface.name}' ({model.experiment} "
+                                 f"experiment) is not one pendulum on one driven coordinate, and {lqr_exc}; try "
+                                 f"--controller hold") from None
         return Supervisor(PendulumConstants.from_model(model, numeric), period, position_ref=position_ref)
     if spec in BUILTIN_CONTROLLERS:
         cls = BUILTIN_CONTROLLERS[spec]
