@@ -197,7 +197,7 @@ def test_dash_reads_the_run_for_animate_from_standard_input(monkeypatch, capsys,
     stdin_text(monkeypatch, "t,x,theta\n0,0,0\n0.01,0,0.1\n0.02,0,0.2\n")
     assert main(["animate", "-", "-o", str(tmp_path / "a.html")]) == 0
     page = (tmp_path / "a.html").read_text()
-    assert '"angle":[0.0,0.1,0.2]' in page and '"angle":"theta"' in page   # the read column, named
+    assert '{"name":"theta","unit":"rad","values":[0.0,0.1,0.2]}' in page   # the read column, named
 
 
 def test_a_bad_run_from_standard_input_is_named_stdin(monkeypatch, capsys, tmp_path):

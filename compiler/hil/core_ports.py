@@ -76,6 +76,7 @@ class CorePorts:
     states: tuple
     encoders: tuple
     adcs: tuple = ()
+    input_range: tuple = ()           # (low, high) the input's actuator takes, from the interface
 
     @classmethod
     def of_interface(cls, iface) -> "CorePorts":
@@ -85,7 +86,7 @@ class CorePorts:
         adcs = tuple(AdcPorts(s.name, s.state, s.code_port, s.bits, s.lo, s.hi, iface.state(s.state).unit)
                      for s in iface.sensors if s.is_adc)
         return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders,
-                   adcs=adcs)
+                   adcs=adcs, input_range=(iface.input.lo, iface.input.hi))
 
     @classmethod
     def of_graph(cls, graph) -> "CorePorts":

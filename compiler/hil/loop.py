@@ -124,7 +124,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
 
     ``answer(measurement) -> volts`` replaces ``controller.step`` (the socket server
     uses it); ``progress(fraction)`` is called now and then. The DAC spans the controller's
-    ``input_range`` (low and high) if it declares one, else the plant model's input range.
+    ``input_range`` (low and high) if it declares one, else the range of the plant's input (its ports').
     ``count_origin`` ({encoder: count}, :func:`pendc.hil.plant.start_counts`) is added to every
     count since reset, so a plant started elsewhere than at 0 is measured from the grid's zero
     (as a rig with homed encoders is). A :class:`PendcError` from
@@ -136,11 +136,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     n_sub = steps_per_period(plant.dt, period)
     n_rows = int(round(seconds / period)) + 1
     step = answer if answer is not None else controller.step
-    span = getattr(controller, "input_range", None)
-    if span is None:
-        inp = plant.model.interface.input
-        span = (inp.lo, inp.hi)
-    span = tuple(span)
+    span = tuple(getattr(controller, "input_range", None) or plant.ports.input_range)
     ports = plant.ports
     t = np.empty(n_rows)
     u = np.empty(n_rows)
