@@ -23,14 +23,19 @@ from collections import Counter
 SLOWEST_FIRST = (
     "test_sim.py",                  # 518 s at 457a1a7: Icarus on the default build, Verilator on the fast one (its compile)
     "test_rtl_full_scale.py",       # 151 s: the rig model: golden minute and spin, Verilator and Icarus windows
+    "test_hidden_new_plants.py",    # ~120 s (estimated from a loaded run): the new plants' hidden effects
     "test_diagnose_cases.py",       # 103 s: hidden-effect cases, first half
     "test_diagnose.py",             # 100 s: two effects in turn (14 s experiment), unexplained physics (12 s)
+    "test_new_plant_end_to_end.py", # ~90 s (estimated): a plant file's cold build, cocotb on both simulators
+    "test_hil_operating_point.py",  # ~90 s (estimated): the double pendulum's design, a golden ball-beam run
     "test_ident_experiments.py",    # 79 s: the independent generator's experiments
     "test_diagnose_more_cases.py",  # 79 s: hidden-effect cases, second half
     "test_emit.py",                 # 67 s: the Furuta's full build (cached for test_sim_second_plant and the HIL)
     "test_synth.py",                # 75 s: YoWASP's first run compiles yosys and nextpnr
     "test_sim_second_plant.py",     # 75 s: the Furuta's core on both simulators
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
+    "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
+    "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
     "test_cli_ident.py",            # 55 s
     "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus
     "test_error_budget.py",         # 45 s
