@@ -36,8 +36,8 @@ class NumericModel:
     def of(cls, model: PlantModel) -> "NumericModel":
         """Inline, substitute the parameter values, differentiate and lambdify ``model``'s equations."""
         eq = model.equations
-        values = dict(zip(eq.params, model.parameter_vector()))
-        rhs = [eq.inline(d).subs(values) for d in eq.derivatives]
+        values = {p: sp.Float(v) for p, v in zip(eq.params, model.parameter_vector())}
+        rhs = [eq.inline(d).xreplace(values) for d in eq.derivatives]
         variables = list(eq.states) + [eq.input]
         jac = [[_no_delta(sp.diff(f, v)) for v in variables] for f in rhs]
         return cls(names=tuple(s.name for s in eq.states), plant=model.interface.name,
