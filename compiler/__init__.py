@@ -14,7 +14,8 @@ The main objects, importable from here::
 from .api import compare, diagnose, fit
 from .errors import PendcError
 from .model.effect_kinds import KINDS
-from .model.modelfile import load_model, parse_model, save_model
+from .model.modelfile import load_model, parse_model
+from .model.model_writer import save_model
 from .model.plant import Equations, PlantModel
 from .sim import stimuli
 from .sim.simulator import SimResult, Simulator, simulate

@@ -265,7 +265,8 @@ def _write_fitted(source, result, names: list, data, before: dict, after: dict, 
     from pathlib import Path
 
     from .atomic import write_atomic
-    from .model.modelfile import data_fingerprint, default_model_path, dumps_fitted, dumps_model
+    from .model.modelfile import data_fingerprint, default_model_path
+    from .model.model_writer import dumps_fitted, dumps_model
 
     # a model given as an object may differ from the file it was read from (an effect removed
     # in memory): only a model given by its file is written over that file's text

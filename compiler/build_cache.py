@@ -25,7 +25,7 @@ except ImportError:     # no flock (Windows): concurrent misses compile twice, a
     fcntl = None
 
 from .codegen import cache_dir
-from .model.modelfile import dumps_model
+from .model.model_writer import dumps_model
 from .model.plant import PlantModel
 from .passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
 

@@ -173,7 +173,8 @@ def cmd_fit(args) -> int:
     from .ident.outputs import parse_outputs
     from .ident.shooting import horizon_figures
     from .atomic import write_atomic
-    from .model.modelfile import default_model_path, dumps_fitted
+    from .model.modelfile import default_model_path
+    from .model.model_writer import dumps_fitted
     from .sim.signals import signals_of
 
     model, datasets = load_model_and_data(args)

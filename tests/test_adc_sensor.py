@@ -14,7 +14,8 @@ from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
 from pendc.ir.nodes import Kind, make
 from pendc.ir.verify import verify
-from pendc.model.interface import ADC, ConverterStep, PlantInterface, SensorSpec, StateSpec, InputSpec
+from pendc.model.interface import PlantInterface, StateSpec, InputSpec
+from pendc.model.sensors import ADC, ConverterStep, SensorSpec
 from pendc.model.modelfile import parse_model
 from pendc.passes.lower_sensors import lower_adc
 from pendc.passes.qformats import assign_qformats

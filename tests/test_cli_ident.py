@@ -145,7 +145,7 @@ def test_held_cart_file_fits_on_theta_only_with_a_note(tmp_path, capsys):
 def MODEL_NO_DAMPING(tmp_path):
     path = tmp_path / "no_damping.toml"
     if not path.exists():
-        from pendc.model.modelfile import save_model
+        from pendc.model.model_writer import save_model
         save_model(load_model().without_effect("viscous_pendulum"), path)
     return path
 
@@ -157,7 +157,7 @@ def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, 
     path = tmp_path / "swing.csv"
     path.write_text(format_csv(free_swing(4.0, tau_c=0.004), meta={"experiment": "cart_held"}))
     model = tmp_path / "complete.toml"
-    from pendc.model.modelfile import save_model
+    from pendc.model.model_writer import save_model
     save_model(load_model().with_effect("coulomb_pendulum", {"tau_c": 0.004}), model)
     rc, text, err = run(capsys, "diagnose", path, "--model", model)
     assert rc == 0 and err == "", err

@@ -40,7 +40,7 @@ def test_demo_story_error_falls_in_the_first_lines(capsys, tmp_path, model, sens
     """make demo ends with `pendc compare VALIDATION --model thesis --model with_spring`: the
     first line must show the error falling. The fitted model is stood in for by the spring that
     made the data (fit recovers it within a few %), the run cut to 12 s to keep the test fast."""
-    from pendc.model.modelfile import save_model
+    from pendc.model.model_writer import save_model
     data = tmp_path / "validation.csv"
     data.write_text(format_csv({k: sensitive.columns[k] for k in ("t", "u", "x", "theta")}))
     with_spring = tmp_path / "with_spring.toml"
@@ -101,7 +101,7 @@ def test_docs_clamped_cart_story_error_falls(capsys, tmp_path, model, monkeypatc
     degrees from upright; the lab's model has no pivot damping, the fitted one has it and a new I.
     `pendc compare swing.mat --model lab --model fitted` must show the error falling first."""
     import scipy.io as sio
-    from pendc.model.modelfile import save_model
+    from pendc.model.model_writer import save_model
     from pendc.sim.encoders import encoder_reading
     from pendc.ident import report_html
     truth = model.with_params({"m": 0.581 * 1.05, "L": 0.138867 * 1.05, "I": 6.21034e-3 * 1.05,

@@ -12,7 +12,8 @@ import sympy as sp
 import pendc
 from pendc.errors import PendcError
 from plants import CATALOGUE, plant_named
-from pendc.model.modelfile import dumps_fitted, dumps_model, model_fingerprint, parse_model
+from pendc.model.modelfile import model_fingerprint, parse_model
+from pendc.model.model_writer import dumps_fitted, dumps_model
 from test_furuta import flow  # the model's equations as a plain function, one definition
 
 QUBE = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"

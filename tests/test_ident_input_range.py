@@ -13,7 +13,8 @@ from pendc.errors import PendcError
 from pendc.ident.datagen import dac_output, degrade_input, identification_experiment
 from pendc.ident.regimes import regime_partitions
 from pendc.model.interface import InputSpec
-from pendc.model.modelfile import dumps_model, model_fingerprint, parse_model
+from pendc.model.modelfile import model_fingerprint, parse_model
+from pendc.model.model_writer import dumps_model
 from pendc.sim.measurements import format_csv, parse_measurements
 from pendc.sim.readers import ReadOptions
 

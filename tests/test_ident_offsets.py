@@ -98,7 +98,7 @@ def test_diagnose_prints_the_tie_in_text_and_json(spring_tie, tmp_path, capsys, 
 
     from pendc.cli import main
     from pendc.ident import diagnose as diagnose_module
-    from pendc.model.modelfile import save_model
+    from pendc.model.model_writer import save_model
 
     columns, d = spring_tie
     path = tmp_path / "spring_runs.csv"

@@ -5,7 +5,8 @@ from pathlib import Path
 import pytest
 
 from pendc.errors import PendcError
-from pendc.model.modelfile import default_model_path, dumps_model, load_model, parse_model, save_model
+from pendc.model.modelfile import default_model_path, load_model, parse_model
+from pendc.model.model_writer import dumps_model, save_model
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -74,7 +75,8 @@ def test_save_into_missing_folder_writes_nothing(tmp_path):
 
 
 def test_fitted_file_keeps_comments_and_intervals_and_reads_back(tmp_path):
-    from pendc.model.modelfile import dumps_fitted, parse_model
+    from pendc.model.modelfile import parse_model
+    from pendc.model.model_writer import dumps_fitted
 
     source = "# our rig, measured 2024\n[plant]\ng = 9.81  # local g\nM = 100.0\nm = 0.5\nL = 0.1\nI = 0.005\n" \
              "\n[effects.drive]\nalpha = 250.0\nV_off = 5.0\n[fit]\nfree = ['alpha']\n"

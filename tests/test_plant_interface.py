@@ -14,8 +14,8 @@ import sympy as sp
 
 import pendc
 from pendc.errors import PendcError
-from pendc.model.interface import (PlantInterface, QuantitySpec, SensorSpec, StateSpec, graph_interface,
-                                   require_interface)
+from pendc.model.interface import PlantInterface, QuantitySpec, StateSpec, graph_interface, require_interface
+from pendc.model.sensors import SensorSpec
 from pendc.model.mechanics import period_of
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants

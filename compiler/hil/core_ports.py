@@ -41,7 +41,7 @@ class EncoderPorts:
 class AdcPorts:
     """One sampled converter (ADC) of the core: its name, the state it reads, its code port,
     bits and range ``lo`` .. ``hi`` in the state's unit (the code of the state after the last
-    step: :meth:`pendc.model.interface.SensorSpec.code`)."""
+    step: :meth:`pendc.model.sensors.SensorSpec.code`)."""
 
     name: str
     state: str
@@ -62,8 +62,8 @@ class AdcPorts:
 
     def code(self, value) -> int:
         """The code of state ``value``, by the interface's rule
-        (:func:`pendc.model.interface.converter_code`: floor, clipped to the range)."""
-        from ..model.interface import converter_code
+        (:func:`pendc.model.sensors.converter_code`: floor, clipped to the range)."""
+        from ..model.sensors import converter_code
         return int(converter_code(float(value), self.lo, self.hi, self.bits))
 
 

@@ -137,7 +137,7 @@ class SensorDecl:
     """A sensor reading a state. A quadrature encoder (``kind`` ``"quadrature_encoder"``):
     ``band`` is the motion of one light or dark band, ``lines`` and ``bands_per_rev`` the
     disk's. A sampled converter (``kind`` ``"adc"``): ``bits`` and the range ``lo`` .. ``hi``
-    it spans (see :class:`~pendc.model.interface.SensorSpec`)."""
+    it spans (see :class:`~pendc.model.sensors.SensorSpec`)."""
 
     name: str
     state: str
@@ -158,8 +158,8 @@ class SensorDecl:
         return self.band / 4
 
     def spec(self, body: str):
-        """The plant interface's :class:`~pendc.model.interface.SensorSpec` of this sensor."""
-        from .interface import SensorSpec
+        """The plant interface's :class:`~pendc.model.sensors.SensorSpec` of this sensor."""
+        from .sensors import SensorSpec
         return SensorSpec(self.name, self.state, body, self.band, self.lines, self.bands_per_rev, self.kind,
                           self.bits, self.lo, self.hi)
 

@@ -9,7 +9,7 @@ quarter period (A leads when the position grows).
 
 The disk increment is the integrator's own increment of the state the encoder reads,
 scaled to bands (the band width, in the state's unit, is the plant interface's
-:class:`~pendc.model.interface.SensorSpec`; for the thesis' cart, Δφ = (2π/k)·Δx, II.55), so the
+:class:`~pendc.model.sensors.SensorSpec`; for the thesis' cart, Δφ = (2π/k)·Δx, II.55), so the
 encoder sees exactly the motion the state registers see.
 """
 

@@ -3,7 +3,7 @@
 The converter reads the state's value after the step (the value the state register is
 loaded with), so its code register updates with the states at the end of the step and the
 code on the core's ``NAME_code`` port is always the code of the states on the other ports.
-The rule (:meth:`pendc.model.interface.SensorSpec.code`) is
+The rule (:meth:`pendc.model.sensors.SensorSpec.code`) is
 
     code = clamp(floor((s - lo) * 2**bits / (hi - lo)), 0, 2**bits - 1)
 
@@ -31,7 +31,7 @@ from ..ir.nodes import Kind, make
 
 
 def lower_adc(sensor, value: str, meaning: str) -> tuple[list, str]:
-    """Nodes of converter ``sensor`` (a :class:`~pendc.model.interface.SensorSpec` of kind
+    """Nodes of converter ``sensor`` (a :class:`~pendc.model.sensors.SensorSpec` of kind
     ``adc``) reading node ``value`` (the state's next value); returns the node list and the name
     of the code register (the core's ``sensor.code_port`` output)."""
     p, bits = sensor.name, sensor.bits

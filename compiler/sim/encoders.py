@@ -2,7 +2,7 @@
 and to the codes of its sampled converters (ADCs: absolute, clipped to their range).
 
 Which encoder reads which position, and how far one count moves it, is the plant
-interface's (:class:`~pendc.model.interface.SensorSpec`: ``resolution``, one count after ×4
+interface's (:class:`~pendc.model.sensors.SensorSpec`: ``resolution``, one count after ×4
 decoding); this module only counts. The quadrature channels switch on an absolute band grid
 (bands fixed to the mechanics, the grid origin at the position's zero), and a ×4 decoder
 counts every edge of A and B, so one count is half a band. The real encoders start counting
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PendcError
-from ..model.interface import ConverterStep, converter_code, converter_reading
+from ..model.sensors import ConverterStep, converter_code, converter_reading
 from .signals import signals_of
 
 
@@ -26,7 +26,7 @@ def counts(value: np.ndarray, resolution: float) -> np.ndarray:
 
 def quantize(value, resolution: float) -> np.ndarray:
     """A position as a ×4 decoder with counts of ``resolution`` reports it (from its first sample);
-    with a converter's step (:class:`~pendc.model.interface.ConverterStep`, the ``resolution`` of
+    with a converter's step (:class:`~pendc.model.sensors.ConverterStep`, the ``resolution`` of
     an ADC sensor) the state as the converter reads it: absolute, clipped to its range, the middle
     of its code's step (:func:`convert`)."""
     if isinstance(resolution, ConverterStep):
@@ -44,7 +44,7 @@ def convert(value, step: ConverterStep) -> np.ndarray:
 
 
 def sensor_reading(sensor, values) -> np.ndarray:
-    """``values`` of the state ``sensor`` (a :class:`~pendc.model.interface.SensorSpec`) reads, as
+    """``values`` of the state ``sensor`` (a :class:`~pendc.model.sensors.SensorSpec`) reads, as
     it reports them: an encoder's ×4 counts from the first sample, a converter's code."""
     return quantize(values, sensor.resolution)
 
