@@ -166,7 +166,7 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
 
     Returns (source, node indices of the states in ``st`` order). The transformation is checked
     line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
-    from .ir.compiled_source import kernel_source
+    from .ir.kernel_module import kernel_source
 
     source, _ = kernel_source(graph, "fixed")
     state_idx = [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
@@ -188,9 +188,11 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
         raise PendcError("internal error: the compiled kernel does not initialise the states it should")
     for j in range(loop, ret):
         lines[j] = re.sub(r"(ov\[\d+\] = )k$", r"\1k0 + k", lines[j])
+        # a split kernel's parts record their checks at the step number they are given
+        lines[j] = re.sub(r"^(\s+part\d+\(k, )k, ", r"\1k0 + k, ", lines[j])
     save = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
     lines[ret:ret] = save
-    return "\n".join(lines).replace("pendc.ir.compiled_source", "pendc.golden.resumable_source"), state_idx
+    return "\n".join(lines).replace("pendc.ir.kernel_module", "pendc.golden.resumable_source"), state_idx
 
 
 def register_integers(graph: Graph, registers: dict) -> dict:

@@ -8,7 +8,7 @@ import pytest
 from pendc import load_model
 from pendc.ir import lut as lut_sem
 from pendc.ir.compiled import CompiledGraph, quantize
-from pendc.ir.compiled_source import kernel_source
+from pendc.ir.kernel_module import kernel_source
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
 from pendc.ir.nodes import Kind, make

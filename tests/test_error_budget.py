@@ -209,7 +209,7 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
     """The float twin of rounds that differ in their operand CASTs is one kernel source, and it
     computes every node's value exactly as the graph with its CASTs does."""
     from pendc.ir.compiled import CompiledGraph
-    from pendc.ir.compiled_source import kernel_source
+    from pendc.ir.kernel_module import kernel_source
     from pendc.passes.ranges import per_step
     seconds = 0.01
     g = toy_graph()

@@ -61,7 +61,7 @@ def test_the_compiler_visitors_are_complete():
     assert incomplete == []
     # the interpreters, the kernel printers, the verifier's rules and the passes' rules all dispatch this way
     for name in ("pendc.ir.interpret.FixedInterpreter", "pendc.ir.interpret.FloatInterpreter",
-                 "pendc.ir.compiled_source._FixedGen", "pendc.ir.compiled_source._FloatGen",
+                 "pendc.ir.compiled_source._FixedGen", "pendc.ir.float_source.FloatGen",
                  "pendc.ir.verify._TypedRules", "pendc.passes.fold_constants._Rewrite"):
         assert name in complete
 
@@ -77,7 +77,7 @@ PRINTERS = [   # (file, line after which the method goes, the method): one per I
     ("ir/compiled_source.py", '        return self.rq(i, node, f"-v{self.idx[a]}", (-hi, -lo), self.g[a].qformat.frac)\n',
      "\n    def visit_abs(self, node, i):\n        a = node.inputs[0]\n        lo, hi = self.bounds(a)\n"
      '        return self.rq(i, node, f"abs(v{self.idx[a]})", (0, max(-lo, hi)), self.g[a].qformat.frac)\n'),
-    ("ir/compiled_source.py", '        return [f"v{i} = -{self._a(node)[0]}"]\n',
+    ("ir/float_source.py", '        return [f"v{i} = -{self._a(node)[0]}"]\n',
      '\n    def visit_abs(self, node, i):\n        return [f"v{i} = abs({self._a(node)[0]})"]\n'),
     ("ir/requant_source.py", "visit_mux = visit_cast = _own\n", "    visit_abs = _own\n"),
     ("ir/shared_source.py", '        return self.rq(i, node, f"-{self.v(a)}", self.frac(a))\n',
@@ -153,7 +153,7 @@ def test_adding_a_kind_lists_every_printer_that_lacks_it(with_abs):
     assert audit.returncode == 1, audit.stdout + audit.stderr[-2000:]
     lacking = {line.split(":")[0] for line in audit.stdout.splitlines() if line.endswith("define visit_abs")}
     assert {"pendc.ir.interpret.FixedInterpreter", "pendc.ir.interpret.FloatInterpreter",
-            "pendc.ir.compiled_source._FixedGen", "pendc.ir.compiled_source._FloatGen",
+            "pendc.ir.compiled_source._FixedGen", "pendc.ir.float_source.FloatGen",
             "pendc.ir.requant_source.Bounds", "pendc.ir.verify._TypedRules",
             "pendc.passes.fold_constants._Rewrite", "pendc.passes.qformats._KindFormat"} <= lacking
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..codegen import cache_dir, load_source  # noqa: F401  (cache_dir re-exported for callers)
 
-from .compiled_source import kernel_source
+from .kernel_module import kernel_source
 from .graph import Graph
 from .interpret import Trace
 from .nodes import Kind

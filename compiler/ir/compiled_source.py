@@ -1,17 +1,11 @@
-"""Python source of a graph's numba kernel (the code printer behind pendc.ir.compiled).
+"""The fixed-point step printer of a graph's numba kernel (:mod:`pendc.ir.kernel_module` prints
+the module around it; :mod:`pendc.ir.float_source` is the float64 printer).
 
-One straight-line step function per graph, every node a local variable ``v<i>`` (``i``
-its index in evaluation order), registers and FSM states in ``s<i>``, constants baked
-in. Fixed mode prints :func:`pendc.ir.qformat.requantize` inline with its constants;
-range checks are left out where the operands' formats prove they cannot fire (a
-node's value always lies in its own format, except raw integer INPUTs and LUTs whose
-table does not fit the output format). Float mode mirrors ``FloatInterpreter``; LUTs
-evaluate their expression printed as ``math`` calls.
-
-Kernel arguments: ``ins[j, k]`` (value of the j-th INPUT node at step k), ``steps``,
-``every``, ``tab`` (all LUT tables concatenated, fixed mode), ``sel`` (node indices
-to record), ``out[row, j]``, ``track`` and ``mx``/``mn`` (running max/min per node,
-both modes; float mode's caller starts them at -inf/+inf), ``ov`` (first overflow step per node, -1 if none).
+One straight-line step, every node a local variable ``v<i>`` (``i`` its index in evaluation
+order), registers and FSM states in ``s<i>``, constants baked in. Fixed mode prints
+:func:`pendc.ir.qformat.requantize` inline with its constants; range checks are left out where
+the operands' formats prove they cannot fire (a node's value always lies in its own format,
+except raw integer INPUTs and LUTs whose table does not fit the output format).
 """
 
 from __future__ import annotations
@@ -108,6 +102,11 @@ class _Gen(NodeVisitor, abstract=True):
         if name not in self._bounds:
             self._bounds[name] = self._bounder.visit(self.g[name], self, seen)
         return self._bounds[name]
+
+    def defined_by(self, i: int) -> list:
+        """The nodes whose values node ``i``'s lines compute (itself; a printer that prints several
+        nodes together says so)."""
+        return [i]
 
     # -- state -------------------------------------------------------------------------------
     def num(self, x) -> str:
@@ -277,119 +276,3 @@ class _FixedGen(_Gen):
         step = f"(tab[{off} + {nxt}] - {y0}) * {ff}"
         rnd = f"({step} + {_i(1 << (shift - 1))})" if node.rounding is Rounding.NEAREST else step
         return lines + [f"{y0} = tab[{off} + {jj}]", f"v{i} = {y0} + ({rnd} >> {shift})"]
-
-
-class _FloatGen(_Gen):
-    """float64 kernel mirroring ``FloatInterpreter``."""
-
-    def _a(self, node) -> list:
-        return [f"v{self.idx[x]}" for x in node.inputs]
-
-    def visit_gain(self, node, i):
-        return [f"v{i} = {self._a(node)[0]} * {_f(node.params.value)}"]
-
-    def visit_add(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = {a[0]} + {a[1]}"]
-
-    def visit_sub(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = {a[0]} - {a[1]}"]
-
-    def visit_mul(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = {a[0]} * {a[1]}"]
-
-    def visit_neg(self, node, i):
-        return [f"v{i} = -{self._a(node)[0]}"]
-
-    def visit_cast(self, node, i):
-        return [f"v{i} = {self._a(node)[0]}"]
-
-    def visit_compare(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = 1.0 * ({a[0]} {node.params.op.symbol} {a[1]})"]
-
-    def visit_mux(self, node, i):
-        a = self._a(node)
-        lines = [f"m{i} = int({a[0]})"]
-        for j in range(1, len(a)):
-            last = j == len(a) - 1
-            lines += ["else:" if last else f"{'if' if j == 1 else 'elif'} m{i} == {j - 1}:", f"    v{i} = {a[j]}"]
-        return lines
-
-    def visit_slice(self, node, i):
-        p, a = node.params, self._a(node)[0]
-        if p.sign_bit:
-            return [f"v{i} = 1.0 if {a} < 0 else 0.0"]
-        return [f"v{i} = float((int({a}) >> {min(p.lo, 63)}) & {_i((1 << p.width) - 1)})"]
-
-    def visit_lut(self, node, i):
-        p, x = node.params, f"x{i}"
-        lo, hi = p.lo, p.hi
-        lines = [f"{x} = {self._a(node)[0]}"]
-        if p.periodic:
-            lines.append(f"{x} = {_f(lo)} + ({x} - {_f(lo)}) % {_f(hi - lo)}")
-        elif lo is not None:
-            lines += [f"if not ({_f(lo)} <= {x} <= {_f(hi)}):", f"    if ov[{i}] < 0:", f"        ov[{i}] = k",
-                      f"    if {_f(lo)} > {x}:", f"        {x} = {_f(lo)}",
-                      f"    if {_f(hi)} < {x}:", f"        {x} = {_f(hi)}"]
-        return lines + [f"v{i} = float({lut_expr_source(p.expr, x)})"]
-
-
-def kernel_source(graph: Graph, mode: str, runtime_data: bool = False) -> tuple[str, dict]:
-    """(source of the kernel module, {LUT node name: offset into the table array}).
-
-    ``runtime_data=True`` is the form :class:`~pendc.ir.compiled.CompiledGraph` compiles: register
-    resets come from the argument ``rst`` (a graph differing only in a reset, like the spinning
-    training run, reuses the machine code) and ``out`` is indexed [column, row], so a column is
-    contiguous. The default keeps the shape :func:`pendc.golden.resumable_source` rewrites
-    (resets inline, ``out[row, column]``, no ``rst``)."""
-    if mode not in ("fixed", "float"):
-        raise ValueError(f"mode must be 'fixed' or 'float', got {mode!r}")
-    gen = (_FixedGen if mode == "fixed" else _FloatGen)(graph, runtime_data)
-    return assemble(gen, runtime_data), dict(gen.offsets)
-
-
-def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "") -> str:
-    """The kernel module printed by ``gen`` (its visits run here); ``data_args`` are extra kernel
-    arguments (after ``rst``) and ``note`` describes the form in the module docstring."""
-    graph = gen.g
-    nodes = graph.nodes
-    dtype = "np.int64" if gen.fixed else "np.float64"
-    body = []
-    const_idx = [i for i, n in enumerate(nodes) if n.kind is Kind.CONST]
-    for i, n in enumerate(nodes):
-        lines = gen.visit(n, i)
-        if lines:
-            body += [gen.comment(n)] + lines
-    head, update = gen.head, gen.update
-    body += gen.late
-    if gen.flags:   # one rarely taken branch per step records every check that fired
-        body += [f"if {' | '.join(f'b{i}' for i in gen.flags)}:"]
-        for i in gen.flags:
-            body += [f"    if b{i} & (ov[{i}] < 0):", f"        ov[{i}] = k"]
-    varying = [i for i in range(len(nodes)) if i not in const_idx]
-    if gen.fixed:
-        track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        if x > mx[i]:",
-                 "            mx[i] = x", "        if x < mn[i]:", "            mn[i] = x"]
-    else:
-        # signed extremes (a NaN sticks in both), so a LUT input's interval needs no recorded column
-        track = ["    for i in range(buf.shape[0]):", "        x = buf[i]",
-                 "        if x > mx[i] or x != x:", "            mx[i] = x",
-                 "        if x < mn[i] or x != x:", "            mn[i] = x"]
-    loop = (["for k in range(steps):"] + ["    " + s for s in body]
-            + ["    if track or c == 0:"] + [f"        buf[{i}] = v{i}" for i in varying]
-            + ["        if c == 0:", "            for j in range(sel.shape[0]):",
-               f"                out[{'j, row' if runtime_data else 'row, j'}] = buf[sel[j]]", "            row += 1", "        if track:"]
-            + ["        " + s for s in track]
-            + ["    c += 1", "    if c == every:", "        c = 0"] + ["    " + s for s in update])
-    lines = ([f"buf = np.zeros({len(nodes)}, {dtype})"] + head + ["c = 0", "row = 0"] + loop)
-    fmt_note = ("bit-accurate int64" if gen.fixed else "float64") + note
-    src = (f'"""Generated by pendc.ir.compiled_source (format {SOURCE_FORMAT}): graph {graph.name}, '
-           f'{fmt_note}."""\nimport math\n\nimport numpy as np\nfrom numba import njit\n\n\n'
-           '@njit(cache=True, error_model="numpy")\n'
-           f"def kernel(ins, steps, every, tab, {'rst, ' if runtime_data else ''}{data_args}"
-           "sel, out, track, mx, mn, ov):\n"
-           + "".join(f"    {s}\n" for s in lines) + "    return row\n")
-    return src

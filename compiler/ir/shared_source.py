@@ -30,7 +30,8 @@ from __future__ import annotations
 
 from . import fsm as fsm_sem
 from . import lut as lut_sem
-from .compiled_source import _FixedGen, _Gen, assemble
+from .compiled_source import _FixedGen, _Gen
+from .kernel_module import assemble
 from .graph import Graph
 from .qformat import Overflow, Rounding
 from .requant_source import I64_MAX, I64_MIN
@@ -215,7 +216,7 @@ def same_structure(a: Graph, b: Graph) -> bool:
 
 
 class _SharedGen:
-    """The printer :func:`pendc.ir.compiled_source.assemble` drives: baked nodes by the baked
+    """The printer :func:`pendc.ir.kernel_module.assemble` drives: baked nodes by the baked
     printer, the ``general`` ones by :class:`_DataGen`, into the same kernel."""
 
     fixed = True
@@ -235,6 +236,9 @@ class _SharedGen:
     def comment(self, node) -> str:
         return self._gen(node).comment(node)
 
+    def defined_by(self, i: int) -> list:
+        return [i]
+
     def visit(self, node, i):
         gen = self._gen(node)
         gen.tab_len = max(self.baked.tab_len, self.data.tab_len)
@@ -247,7 +251,7 @@ def shared_kernel_source(graph: Graph, like: Graph | None = None) -> tuple[str, 
     numbers from ``qp``. Without ``like``, or of another structure, every node is baked.
 
     The kernel takes ``rst`` and ``qp`` after ``tab`` and indexes ``out`` [column, row] (the
-    ``runtime_data`` form of :func:`pendc.ir.compiled_source.kernel_source`)."""
+    ``runtime_data`` form of :func:`pendc.ir.kernel_module.kernel_source`)."""
     general = set()
     if like is not None and same_structure(graph, like):
         mine, theirs = _baked_lines(graph), _baked_lines(like)

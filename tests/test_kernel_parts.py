@@ -1,0 +1,89 @@
+"""A step split into parts (pendc.ir.kernel_parts) computes the same bits as the one-function step.
+
+The split is forced on the hand graph of every node kind (test_compiled) by lowering the
+thresholds, so each part boundary falls between nodes of every kind, states and checks
+included; fixed and float kernels, the tracked extremes, the overflow steps and the resumable
+golden stepper (whose parts record overflow steps counted from its saved step) must all agree.
+"""
+
+import ast
+
+import numpy as np
+import pytest
+
+from pendc.golden import GoldenStepper
+from pendc.ir import kernel_module, kernel_parts
+from pendc.ir.compiled import CompiledGraph
+from pendc.ir.graph import Graph
+from pendc.ir.nodes import Kind, make
+from pendc.ir.qformat import QFormat
+from test_compiled import MODES, block, hand_graph, random_inputs
+
+
+def force_split(monkeypatch):
+    monkeypatch.setattr(kernel_module, "SPLIT_ABOVE", 40)
+    monkeypatch.setattr(kernel_parts, "PART_LINES", 25)
+
+
+def parts_of(source: str) -> list:
+    return [f.name for f in ast.parse(source).body if isinstance(f, ast.FunctionDef) and f.name.startswith("part")]
+
+
+def same(a, b):
+    assert a.outputs.keys() == b.outputs.keys()
+    for port in a.outputs:
+        assert np.array_equal(a.outputs[port], b.outputs[port], equal_nan=True), port
+    assert a.overflows == b.overflows
+    assert a.max_abs.keys() == b.max_abs.keys()
+    for k in a.max_abs:
+        assert a.max_abs[k] == b.max_abs[k] or (np.isnan(a.max_abs[k]) and np.isnan(b.max_abs[k])), k
+    assert a.extremes.keys() == b.extremes.keys()
+
+
+@pytest.mark.parametrize("mode", ["fixed", "float"])
+def test_split_step_is_bit_identical(mode, monkeypatch):
+    g = hand_graph("hand_parts")
+    inputs = random_inputs(2500, seed=3)
+    whole = CompiledGraph(g, mode)
+    assert parts_of(whole.source) == []
+    force_split(monkeypatch)
+    parted = CompiledGraph(g, mode)
+    assert len(parts_of(parted.source)) > 5
+    for every, track in ((1, True), (3, True), (7, False)):
+        same(parted.run(inputs, track_max=track, every=every), whole.run(inputs, track_max=track, every=every))
+    overflows = parted.run(inputs).overflows
+    assert any(k.startswith("fsm") for k in overflows) and any(k.startswith("lut_ci") for k in overflows)
+
+
+def one_input_graph(name: str) -> Graph:
+    """The hand graph's blocks on one input port (``w`` a wrapping cast of ``u``), as a golden
+    stepper needs."""
+    nodes = [make("u", Kind.INPUT, qformat=QFormat.parse("FIX16_8"), port="u"),
+             make("w", Kind.CAST, ["u"], qformat=QFormat.parse("FIX12_4"))]
+    for sfx, (rounding, overflow) in MODES.items():
+        nodes += block(sfx, rounding, overflow)
+    return Graph.build(name, nodes, [(x.name, x.name) for x in nodes if x.kind is not Kind.INPUT])
+
+
+def stepped(stepper: GoldenStepper, levels) -> tuple:
+    rows = [stepper.advance(int(u), 37) for u in levels]
+    return np.concatenate(rows), dict(stepper.overflows)
+
+
+def test_split_golden_stepper_resumes_with_the_same_integers_and_overflow_steps(monkeypatch):
+    g = one_input_graph("hand_parts_golden")
+    levels = np.random.default_rng(5).integers(-30000, 30000, 40)
+    whole_rows, whole_ov = stepped(GoldenStepper(g), levels)
+    force_split(monkeypatch)
+    parted = GoldenStepper(g)
+    parted_rows, parted_ov = stepped(parted, levels)
+    assert np.array_equal(parted_rows, whole_rows)
+    assert parted_ov == whole_ov and any(step > 37 for step in whole_ov.values())
+
+
+def test_parts_are_about_the_chosen_size():
+    groups = [([i], ["x"] * (1 + i % 7)) for i in range(200)]
+    parts = kernel_parts.split_groups(groups)
+    assert [ids for part in parts for ids, _ in part] == [[i] for i in range(200)]
+    sizes = [sum(len(lines) for _, lines in part) for part in parts]
+    assert all(kernel_parts.PART_LINES <= s < kernel_parts.PART_LINES + 7 for s in sizes[:-1])
