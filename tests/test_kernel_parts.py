@@ -1,4 +1,5 @@
-"""A step split into parts (pendc.ir.kernel_parts) computes the same bits as the one-function step.
+"""A step split into parts (pendc.ir.kernel_parts) computes the same bits as the one-function step,
+and LUTs printed as a group (one address computation, shared calls) the same bits as alone.
 
 The split is forced on the hand graph of every node kind (test_compiled) by lowering the
 thresholds, so each part boundary falls between nodes of every kind, states and checks
@@ -7,6 +8,7 @@ golden stepper (whose parts record overflow steps counted from its saved step) m
 """
 
 import ast
+import re
 
 import numpy as np
 import pytest
@@ -17,7 +19,9 @@ from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
-from test_compiled import MODES, block, hand_graph, random_inputs
+from pendc.ir.interpret import FixedInterpreter
+from pendc.ir.qformat import Rounding
+from test_compiled import MODES, assert_same, block, hand_graph, lut, random_inputs
 
 
 def force_split(monkeypatch):
@@ -87,3 +91,33 @@ def test_parts_are_about_the_chosen_size():
     assert [ids for part in parts for ids, _ in part] == [[i] for i in range(200)]
     sizes = [sum(len(lines) for _, lines in part) for part in parts]
     assert all(kernel_parts.PART_LINES <= s < kernel_parts.PART_LINES + 7 for s in sizes[:-1])
+
+
+def lut_family(name: str) -> Graph:
+    """The hand graph plus LUTs that share an input and a grid with its own (clamped and periodic,
+    both roundings): the kernels print each family once."""
+    g = hand_graph(name)
+    extra = []
+    for sfx, (rounding, _) in MODES.items():
+        fin_u, fin_k = QFormat.parse("FIX16_8"), QFormat.parse("FIX16_12")
+        extra += [lut(f"lut_ci2_{sfx}", "u", fin_u, QFormat.parse("FIX16_14"), "cos(v)", -2.0, 3.0, 4, True, False, rounding),
+                  lut(f"lut_ci3_{sfx}", "u", fin_u, QFormat.parse("FIX12_8"), "sin(v)*cos(v)", -2.0, 3.0, 4, True, False,
+                      Rounding.TRUNCATE),
+                  lut(f"lut_pi2_{sfx}", f"k9_{sfx}", fin_k, QFormat.parse("FIX16_14"), "sin(2*pi*v)**2", 0.0, 1.0, 6,
+                      True, True, rounding)]
+    nodes = list(g.nodes) + extra
+    return Graph.build(name, nodes, [(x.name, x.name) for x in nodes])
+
+
+def test_lut_families_print_once_and_compute_the_same_bits():
+    g = lut_family("hand_lut_family")
+    fixed = CompiledGraph(g, "fixed")
+    u = g.nodes.index(g["u"])
+    address = [s for s in fixed.source.splitlines() if re.match(rf"\s+d\d+ = v{u} - ", s)]
+    assert len(address) == 2          # two grids on u (lut_ci's family, lut_cn's), every mode's LUTs in them
+    inputs = random_inputs(2500, seed=9)
+    assert_same(fixed.run(inputs, track_max=True), FixedInterpreter(g).run(inputs, track_max=True))
+    flt = CompiledGraph(g, "float")
+    assert flt.source.count("math.sin(2*math.pi*x") < 4 * 2       # the wrapped angle's calls are shared
+    ov = fixed.run(inputs).overflows
+    assert {f"lut_ci2_{s}" for s in MODES} | {f"lut_ci3_{s}" for s in MODES} <= set(ov)

@@ -7,15 +7,20 @@ is bit-identical to :class:`~pendc.ir.interpret.FixedInterpreter` (int64 arithme
 the verifier guarantees every exact intermediate fits), ``mode="float"`` mirrors
 :class:`~pendc.ir.interpret.FloatInterpreter`.
 
-The source (see :mod:`pendc.ir.compiled_source`) depends on the graph's structure and
+The source (see :mod:`pendc.ir.kernel_module`) depends on the graph's structure and
 constants only: LUT contents are an argument, so refilling tables reuses the machine
 code; given ``like``, an earlier typing of the same graph, the nodes whose code differs
 from it read their numbers from data too (:mod:`pendc.ir.shared_source`), so retypings
 that differ alike share one compile. It is written to a cache file named by its hash
 (``$PENDC_CACHE_DIR`` or ``~/.cache/pendc/kernels``) and compiled with numba's on-disk cache.
+The kernels release the GIL, so independent runs go side by side on the machine's cores
+(:func:`run_side_by_side`).
 """
 
 from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -147,3 +152,13 @@ class CompiledGraph:
             extremes = {nd.name: (float(mn[i]), float(mx[i])) for i, nd in enumerate(nodes)}
         overflows = {nd.name: int(ov[i]) for i, nd in enumerate(nodes) if ov[i] >= 0}
         return Trace(outputs=outputs, max_abs=maxima, overflows=overflows, steps=steps, extremes=extremes)
+
+
+def run_side_by_side(calls: list) -> list:
+    """The results of the zero-argument ``calls`` (kernel runs: they release the GIL), in order,
+    run on as many threads as there are cores and calls. A call's exception is raised here."""
+    workers = min(len(calls), os.cpu_count() or 1)
+    if workers <= 1:
+        return [call() for call in calls]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(lambda call: call(), calls))

@@ -71,6 +71,7 @@ class _Gen(NodeVisitor, abstract=True):
         self._bounder = Bounds()
         self.flags = []       # (node index, bool local): the node's range check fired this step
         self.late = []        # lines after the step's nodes (FSM checks read inputs computed later)
+        self.lut_group, self.lut_member = {}, set()   # see group_luts
 
     def comment(self, node) -> str:
         """The comment line that names a node in the kernel."""
@@ -103,10 +104,19 @@ class _Gen(NodeVisitor, abstract=True):
             self._bounds[name] = self._bounder.visit(self.g[name], self, seen)
         return self._bounds[name]
 
+    def group_luts(self, key) -> None:
+        """LUTs with the same ``key(node)`` are printed together by the first of them (in evaluation
+        order), which computes what they share once: they read the same input the same way."""
+        groups: dict = {}
+        for i, n in enumerate(self.g.nodes):
+            if n.kind is Kind.LUT:
+                groups.setdefault(key(n), []).append(i)
+        self.lut_group = {members[0]: members for members in groups.values() if len(members) > 1}
+        self.lut_member = {i for members in self.lut_group.values() for i in members[1:]}
+
     def defined_by(self, i: int) -> list:
-        """The nodes whose values node ``i``'s lines compute (itself; a printer that prints several
-        nodes together says so)."""
-        return [i]
+        """The nodes whose values node ``i``'s lines compute: itself, or a LUT group's first the group."""
+        return self.lut_group.get(i, [i])
 
     # -- state -------------------------------------------------------------------------------
     def num(self, x) -> str:
@@ -244,22 +254,33 @@ class _FixedGen(_Gen):
             raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
         return [f"v{i} = (v{self.idx[node.inputs[0]]} >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)}"]
 
+    def __init__(self, graph: Graph, runtime_resets: bool = False, share_lut_index: bool = True):
+        super().__init__(graph, runtime_resets)
+        if share_lut_index:   # a LUT's address and fraction depend on its input and its grid only
+            def grid(n):
+                p = n.params
+                lo = lut_sem.lo_int(p.lo, graph[n.inputs[0]].qformat) if p.shift is not None else None
+                return n.inputs[0], lo, p.shift, p.addr_bits, bool(p.periodic), bool(p.interpolate)
+            self.group_luts(grid)
+
     def visit_lut(self, node, i):
+        if i in self.lut_member:
+            return []       # printed with its group's first LUT
         p = node.params
         a = f"v{self.idx[node.inputs[0]]}"
         fin = self.g[node.inputs[0]].qformat
-        table, shift, bits, interp = p.table, p.shift, p.addr_bits, bool(p.interpolate)
+        shift, bits, interp = p.shift, p.addr_bits, bool(p.interpolate)
         seg = 1 << bits
-        if table is None or shift is None:
-            raise ValueError(f"LUT '{node.name}' has no table yet (run fill_lut_tables)")
-        if len(table) != seg + interp:
-            raise ValueError(f"LUT '{node.name}': table has {len(table)} entries, expected {seg + interp}")
-        off = self.offsets[node.name] = self.tab_len
-        self.tab_len += len(table)
+        members = [self.g.nodes[m] for m in self.lut_group.get(i, [i])]
+        for n in members:
+            if n.params.table is None or n.params.shift is None:
+                raise ValueError(f"LUT '{n.name}' has no table yet (run fill_lut_tables)")
+            if len(n.params.table) != seg + interp:
+                raise ValueError(f"LUT '{n.name}': table has {len(n.params.table)} entries, expected {seg + interp}")
         d, j, f = f"d{i}", f"j{i}", f"f{i}"
         lines = [f"{d} = {a} - {_i(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {shift}",
                  f"{f} = {d} & {_i((1 << shift) - 1)}"]
-        jj, ff, y0 = f"jj{i}", f"ff{i}", f"y{i}"
+        jj, ff = f"jj{i}", f"ff{i}"
         if p.periodic:
             lines += [f"{jj} = {j} & {seg - 1}", f"{ff} = {f}"]
             nxt = f"{jj} + 1"
@@ -269,10 +290,20 @@ class _FixedGen(_Gen):
             lines += [f"b{i} = {out}", f"{jj} = min(max({j}, 0), {seg if interp else seg - 1})",
                       f"{ff} = {f} * (1 - b{i})"]
             self.flags.append(i)
+            for n in members[1:]:       # each LUT reports its own overflow
+                m = self.idx[n.name]
+                lines.append(f"b{m} = b{i}")
+                self.flags.append(m)
             nxt = f"min({jj} + 1, {seg})"    # at the end entry ff is 0: any entry of the table will do
-        if not interp or shift == 0:
-            return lines + [f"v{i} = tab[{off} + {jj}]"]
-        # ff == 0 adds (0 + half) >> shift == 0: the same as skipping the interpolation
-        step = f"(tab[{off} + {nxt}] - {y0}) * {ff}"
-        rnd = f"({step} + {_i(1 << (shift - 1))})" if node.rounding is Rounding.NEAREST else step
-        return lines + [f"{y0} = tab[{off} + {jj}]", f"v{i} = {y0} + ({rnd} >> {shift})"]
+        for n in members:
+            m = self.idx[n.name]
+            off = self.offsets[n.name] = self.tab_len
+            self.tab_len += len(n.params.table)
+            if not interp or shift == 0:
+                lines.append(f"v{m} = tab[{off} + {jj}]")
+                continue
+            # ff == 0 adds (0 + half) >> shift == 0: the same as skipping the interpolation
+            step = f"(tab[{off} + {nxt}] - y{m}) * {ff}"
+            rnd = f"({step} + {_i(1 << (shift - 1))})" if n.rounding is Rounding.NEAREST else step
+            lines += [f"y{m} = tab[{off} + {jj}]", f"v{m} = y{m} + ({rnd} >> {shift})"]
+        return lines

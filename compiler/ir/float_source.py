@@ -27,18 +27,8 @@ class FloatGen(_Gen):
     def __init__(self, graph: Graph, runtime_resets: bool = False):
         super().__init__(graph, runtime_resets)
         # LUTs reading the same input over the same domain share one wrapped or clamped input and
-        # their common calls; the first of them (in evaluation order) prints the whole group
-        groups: dict = {}
-        for i, n in enumerate(graph.nodes):
-            if n.kind is Kind.LUT:
-                p = n.params
-                groups.setdefault((n.inputs[0], p.lo, p.hi, bool(p.periodic)), []).append(i)
-        self.lut_group = {members[0]: members for members in groups.values()}
-        self.lut_member = {i for members in groups.values() for i in members[1:]}
-
-    def defined_by(self, i: int) -> list:
-        """The nodes whose values node ``i``'s lines compute: a LUT group's first, the group."""
-        return self.lut_group.get(i, [i])
+        # their common calls
+        self.group_luts(lambda n: (n.inputs[0], n.params.lo, n.params.hi, bool(n.params.periodic)))
 
     def _a(self, node) -> list:
         return [f"v{self.idx[x]}" for x in node.inputs]
@@ -87,7 +77,7 @@ class FloatGen(_Gen):
             return []       # printed with its group's first LUT
         p, x = node.params, f"x{i}"
         lo, hi = p.lo, p.hi
-        members = self.lut_group.get(i, [i])
+        members = self.defined_by(i)
         lines = [f"{x} = {self._a(node)[0]}"]
         if p.periodic:
             lines.append(f"{x} = {_f(lo)} + ({x} - {_f(lo)}) % {_f(hi - lo)}")

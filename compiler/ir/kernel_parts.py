@@ -26,7 +26,8 @@ import re
 PART_LINES = 300          # statements per part: numba compiles parts of this size quickly
 SPLIT_ABOVE = 1000        # a step loop this long (statements) is split; the SCT's (about 700) stays one function
 _VALUE = re.compile(r"\bv(\d+)\b")
-DECORATOR = '@njit(cache=True, error_model="numpy")'
+# nogil: independent runs of a kernel go side by side on threads (pendc.ir.compiled.run_side_by_side)
+DECORATOR = '@njit(cache=True, nogil=True, error_model="numpy")'
 
 
 def split_groups(groups: list) -> list:

@@ -199,7 +199,8 @@ class _DataGen(_Gen):
 
 def _baked_lines(graph: Graph) -> dict:
     """Per node, everything the baked printer emits for it (code, head, update, checks)."""
-    gen, out = _FixedGen(graph, runtime_resets=True), {}
+    # node by node: no LUT prints its group's lines
+    gen, out = _FixedGen(graph, runtime_resets=True, share_lut_index=False), {}
     for i, n in enumerate(graph.nodes):
         marks = len(gen.head), len(gen.update), len(gen.late), len(gen.flags)
         lines = gen.visit(n, i)
@@ -223,7 +224,7 @@ class _SharedGen:
 
     def __init__(self, graph: Graph, general: set):
         self.g, self.general = graph, general
-        self.baked, self.data = _FixedGen(graph, runtime_resets=True), _DataGen(graph)
+        self.baked, self.data = _FixedGen(graph, runtime_resets=True, share_lut_index=False), _DataGen(graph)
         for part in ("head", "update", "late", "flags", "offsets"):
             setattr(self.data, part, getattr(self.baked, part))
         self.head, self.update, self.late, self.flags = self.baked.head, self.baked.update, self.baked.late, \
@@ -237,7 +238,7 @@ class _SharedGen:
         return self._gen(node).comment(node)
 
     def defined_by(self, i: int) -> list:
-        return [i]
+        return [i]      # node by node (share_lut_index=False)
 
     def visit(self, node, i):
         gen = self._gen(node)

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..ir import lut as lut_sem
+from ..ir.compiled import run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.shared_source import same_structure
@@ -117,16 +118,15 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
     for name, (t, u) in stimuli.items():
         steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
         ints = {port: quantize(steps[port], in_fmt)}      # what each fixed run would quantise anew
-        a = fixed.run(ints)
+        a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
         if a.overflows:
             node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
             raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
                               f"training ranges do not cover it (raise margin_bits or override its range)")
-        b = _float_run(flt, steps, name, float_runs)
         errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
                         for s in states}
-        sa = fixed.run(ints, every=every, record=nodes)
-        sb = _float_run(flt, steps, name, float_runs, every=every, record=recorded)
+        sa, sb = run_side_by_side([lambda: fixed.run(ints, every=every, record=nodes),
+                                   lambda: _float_run(flt, steps, name, float_runs, every=every, record=recorded)])
         for n in nodes:
             lsb = graph[n].qformat.lsb
             diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb

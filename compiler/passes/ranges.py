@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..ir.compiled import run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..model.interface import graph_interface
@@ -104,11 +105,18 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     if envelope:
         runs += envelope_runs(graph)
     port = input_port(graph)
-    for name, g, (t, u) in runs:
-        steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
-        # the kernel keeps each node's extremes; recording the outputs or the LUT inputs at every
-        # step of the training runs (tens of millions) took gigabytes: one row is recorded
-        trace = _runner(g, engine).run({port: steps}, track_max=True, every=max(1, len(steps)))
+
+    def training_run(runner, t, u):
+        def run():
+            steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
+            # the kernel keeps each node's extremes; recording the outputs or the LUT inputs at every
+            # step of the training runs (tens of millions) took gigabytes: one row is recorded
+            return runner.run({port: steps}, track_max=True, every=max(1, len(steps)))
+        return run
+
+    calls = [training_run(_runner(g, engine), t, u) for _, g, (t, u) in runs]
+    traces = run_side_by_side(calls) if engine == "compiled" else [call() for call in calls]
+    for trace in traces:
         for node, value in trace.max_abs.items():
             max_abs[node] = max(max_abs[node], float(value))
         for node in lut_inputs:
