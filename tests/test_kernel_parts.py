@@ -30,7 +30,9 @@ def force_split(monkeypatch):
 
 
 def parts_of(source: str) -> list:
-    return [f.name for f in ast.parse(source).body if isinstance(f, ast.FunctionDef) and f.name.startswith("part")]
+    """The sources of the part modules a kernel module loads."""
+    return [ast.literal_eval(a.value.value.args[0]) for a in ast.parse(source).body
+            if isinstance(a, ast.Assign) and a.targets[0].id.startswith("part")]
 
 
 def same(a, b):
@@ -83,6 +85,20 @@ def test_split_golden_stepper_resumes_with_the_same_integers_and_overflow_steps(
     parted_rows, parted_ov = stepped(parted, levels)
     assert np.array_equal(parted_rows, whole_rows)
     assert parted_ov == whole_ov and any(step > 37 for step in whole_ov.values())
+
+
+def test_retypings_share_the_parts_they_print_alike(monkeypatch):
+    """A graph typed again with one node's format changed prints most parts alike: those load the
+    modules (and machine code) the first typing compiled."""
+    force_split(monkeypatch)
+    g = hand_graph("hand_parts_shared")
+    name = "a1_nt"
+    other = g.map_nodes(lambda n: n.typed(QFormat.parse("FIX11_3")) if n.name == name else n)
+    mine, theirs = parts_of(CompiledGraph(g, "fixed").source), parts_of(CompiledGraph(other, "fixed").source)
+    assert len(mine) == len(theirs) > 5
+    differ = sum(a != b for a, b in zip(mine, theirs))
+    assert 1 <= differ <= len(mine) // 2
+    assert all("hand_parts_shared" not in part for part in mine)
 
 
 def test_parts_are_about_the_chosen_size():
