@@ -96,11 +96,13 @@ def test_held_cart_residual_depends_only_on_theta():
     assert p.records[0].outputs == ("theta",) and set(p.scales) == {"theta"}
     # cart parameters cannot change the residual of a clamped cart
     assert p.cost(np.array([10.0, 0.0012889])) == p.cost(np.array([877.31327, 0.0012889]))
-    # the same file declared free: x is constant, so it is dropped with a note
+    # the same file without its experiment line: x never moves, so it is read as the experiment
+    # that holds the cart, with a note (issue 22: the simulation holds what the data show held)
     free = parse_measurements(format_csv(free_swing(2.0, theta0=0.5)), source="held but free")
+    assert free.experiment == "cart_held"
+    assert any("x does not move" in n and "cart_held" in n for n in free.notes)
     q = ShootingProblem(BASE, [free], [])
     assert q.records[0].outputs == ("theta",)
-    assert any("x does not move" in n and "cart_held" in n for n in q.notes)
 
 
 def test_files_of_different_experiments_fit_together():

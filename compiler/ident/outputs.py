@@ -17,11 +17,10 @@ import numpy as np
 
 from ..errors import PendcError
 from ..model.equations import DEFAULT_EXPERIMENT
-from ..sim.experiment_axes import experiments_of, irrelevant_axes
+from ..sim.experiment_axes import HELD_STEPS, experiments_of, irrelevant_axes, is_flat
 from ..sim.signals import signals_of
 
 FINEST = 1e-12      # the resolution of a position no sensor reads and the data do not show
-HELD_COUNTS = 2.0   # an output that never moves more than this many resolution steps is held
 
 
 def experiment_of(data, model=None) -> str:
@@ -109,9 +108,9 @@ def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
                 continue
             y = np.asarray(data.column(o), float)
             res = resolution_of(data, o)
-            if float(np.ptp(y)) <= HELD_COUNTS * res:
+            if is_flat(y, res):
                 hint = _held_hint(model, o) if exp == DEFAULT_EXPERIMENT else ""
-                notes.append(f"{source}: {o} does not move beyond {HELD_COUNTS:g} resolution steps "
+                notes.append(f"{source}: {o} does not move beyond {HELD_STEPS:g} resolution steps "
                              f"({res:.3g}): {o} is not compared{hint}")
                 continue
             used.append(o)

@@ -67,3 +67,29 @@ def missing_hint(plant, name: str) -> str:
         return ""
     what = f"a run without {sig.label(name) if name != sig.input else 'the input'}"
     return f"{what}: {' or '.join(ways)}"
+
+
+HELD_STEPS = 2.0    # a position that never moves more than this many resolution steps is held
+
+
+def is_flat(values, resolution: float | None) -> bool:
+    """Whether a position's values never move beyond HELD_STEPS resolution steps (exactly
+    constant when the resolution is unknown)."""
+    import numpy as np
+
+    return float(np.ptp(np.asarray(values, float))) <= HELD_STEPS * (resolution or 0.0)
+
+
+def held_experiment_of(plant, columns: dict, resolution: dict) -> str | None:
+    """The one experiment of ``plant`` that holds exactly the positions that do not move in
+    ``columns`` (a clamped cart's file read without ``--experiment``), or None."""
+    model = _model(plant)
+    if model is None:
+        return None
+    positions = signals_of(model).positions
+    flat = {p for p in positions if p in columns and is_flat(columns[p], resolution.get(p))}
+    if not flat:
+        return None
+    matches = [e for e in experiments_of(model)
+               if e != DEFAULT_EXPERIMENT and irrelevant_axes(model, e) & set(positions) == flat]
+    return matches[0] if len(matches) == 1 else None

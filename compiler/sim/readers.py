@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import PendcError, open_input
 from . import plausibility as plaus
+from .experiment_axes import held_experiment_of, irrelevant_axes, missing_hint
 from .read_options import ReadOptions, unit_factor  # noqa: F401 (re-exported: how a file is read)
 from .signals import TIME, UNIT_SCALES, PlantSignals
 from .table import Table
@@ -171,8 +172,6 @@ def estimate_resolution(values: np.ndarray, max_samples: int = 500_000) -> float
 
 def missing_allowed(experiment: str, options: ReadOptions) -> set:
     """Axes that may be absent from the file: the experiment's irrelevant ones and the user's."""
-    from .experiment_axes import irrelevant_axes
-
     return irrelevant_axes(options.plant, experiment) | set(options.allow_missing)
 
 
@@ -212,6 +211,12 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
     resolution = {n: q for n, q in resolution.items() if q is not None}
     resolution.update(options.resolution)
     warnings = _input_warning(table.source, sig, columns)
+    if not options.experiment and not table.meta.get("experiment"):
+        held = held_experiment_of(options.plant, columns, resolution)
+        if held is not None:    # the simulation then holds what the data show held
+            experiment = held
+            notes.append(f"{table.source}: {', '.join(sorted(irrelevant_axes(options.plant, held) & set(sig.positions)))}"
+                         f" does not move: read as experiment {held} (give --experiment free to compare it moving)")
     missing = tuple(n for n in (*sig.positions, sig.input) if n in absent)
     fill = {n: options.u_value if n == sig.input else 0.0 for n in missing}
     for n in missing:
@@ -261,7 +266,6 @@ def _frozen(values) -> np.ndarray:
 
 
 def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
-    from .experiment_axes import missing_hint
 
     names = table.names()
     sig = options.signals
