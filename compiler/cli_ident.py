@@ -64,6 +64,7 @@ def _figure_lines(fig: dict, indent: str = "") -> list:
 def cmd_diagnose(args) -> int:
     from .ident.diagnose import diagnose
     from .ident.evidence import parameter_hint
+    from .model.modelfile import fitted_parameters
     from .ident.outputs import parse_outputs
     from .ident.shooting import horizon_figures
 
@@ -100,7 +101,7 @@ def cmd_diagnose(args) -> int:
                      f"above the noise level ({ratio} the noise-only residual).")
         lines.append("The unexplained acceleration correlates with:")
         lines += [f"  {r['target']:21s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
-        hint = parameter_hint(model, d.correlations)
+        hint = parameter_hint(model, d.correlations, fitted_parameters(args.model))
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
                          f"--model {args.model or _default_model()} --free {hint[0]} -o NEW.toml")

@@ -22,7 +22,7 @@ def test_every_note_names_an_effect_or_constant_of_its_body(name):
     assert set(notes.separated_by) <= set(catalogue)
     assert all(len(pair) == 2 and pair <= set(catalogue) for pair in notes.pair_separated_by)
     params = set(body.constants) | {p.name for cls in catalogue.values() for p in cls.params}
-    for hint_body, kind, names, reason in notes.parameter_hints:
+    for hint_body, kind, names, reason, _also in notes.parameter_hints:
         assert kind in ("angle", "rate", "input") and reason
         assert set(names.split(",")) <= params, names
 

@@ -253,18 +253,31 @@ def _signal_kind(model: PlantModel, body: str, signal: str) -> str | None:
     return "input" if signal.split(" ", 1)[0] == s.input else None
 
 
-def parameter_hint(model: PlantModel, correlations: list) -> tuple | None:
+def parameter_hint(model: PlantModel, correlations: list, fitted=()) -> tuple | None:
     """``(parameters, reasons)`` to free when the strong correlations point at constants the
-    model has (its body's notes say which signal points at which constants), or None."""
+    model has (its body's notes say which signal points at which constants), or None.
+
+    ``fitted``: the parameters the fit that made ``model`` freed. They are never proposed again
+    (the advice would loop); a hint whose constants were all fitted proposes what else sets the
+    same thing (the hint's ``also``), and says so."""
     names = set(model.parameter_names())
+    fitted = set(fitted)
     params, reasons = {}, {}
     for row in correlations:
         if abs(row["r"]) < HINT_R:
             break
         body = row["target"].rsplit(" ", 1)[0]
         kind = _signal_kind(model, body, row["signal"])
-        for hint_body, hint_kind, hint_params, reason in model.rigid_body.notes.parameter_hints:
-            if (hint_body, hint_kind) == (body, kind) and all(p in names for p in hint_params.split(",")):
-                params.update(dict.fromkeys(hint_params.split(",")))
-                reasons[reason] = None
+        for hint_body, hint_kind, hint_params, reason, also in model.rigid_body.notes.parameter_hints:
+            if (hint_body, hint_kind) != (body, kind) or not all(p in names for p in hint_params.split(",")):
+                continue
+            wanted = [p for p in hint_params.split(",") if p not in fitted]
+            if not wanted:
+                wanted = [p for p in also.split(",") if p in names and p not in fitted]
+                if not wanted:
+                    continue
+                reason = (f"{reason}, though the fit that made this model freed {hint_params.replace(',', ', ')} "
+                          f"already: what else sets it is {', '.join(wanted)}")
+            params.update(dict.fromkeys(wanted))
+            reasons[reason] = None
     return (",".join(params), "; ".join(reasons)) if params else None

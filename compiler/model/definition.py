@@ -183,10 +183,11 @@ class IdentificationNotes:
     ``evidence``: effect -> what it adds to the residual, in words. ``separated_by``: effect ->
     the experiment that shows it on its own. ``pair_separated_by``: frozenset of two effects ->
     what separates that pair when their own experiments would not. ``parameter_hints``:
-    ``(body, signal kind, parameters, reason)``: when the unexplained acceleration of ``body``
-    follows a signal of that kind ("angle", "rate", "input"), the comma-separated
-    ``parameters`` are the constants to free; a hint applies only to a model that has every
-    parameter it names. ``constraints``: ``(parameter, at_least, reason)``: a fit that frees
+    ``(body, signal kind, parameters, reason, also)``: when the unexplained acceleration of
+    ``body`` follows a signal of that kind ("angle", "rate", "input"), the comma-separated
+    ``parameters`` are the constants to free, and ``also`` (comma-separated, may be empty) the
+    other constants that set the same thing, proposed when a fit has freed ``parameters``
+    already; a hint applies only to a model that has every parameter it names. ``constraints``: ``(parameter, at_least, reason)``: a fit that frees
     both keeps ``parameter >= at_least``."""
 
     evidence: dict

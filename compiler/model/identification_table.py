@@ -25,12 +25,12 @@ def read_identification_notes(top: TableReader, catalogue: dict) -> Identificati
     hints = []
     for i, item in enumerate(r.table.get("hints", [])):
         h = TableReader(r.source, f"identification.hints[{i}]", item)
-        h.only(("body", "signal", "free", "reason"))
+        h.only(("body", "signal", "free", "reason", "also"))
         signal = h.string("signal", required=True)
         if signal not in ("angle", "rate", "input"):
             h.fail(f"must be angle, rate or input, got '{signal}'", "signal")
         hints.append((h.string("body", required=True), signal, ",".join(h.names("free")),
-                      h.string("reason", required=True)))
+                      h.string("reason", required=True), ",".join(h.names("also"))))
     evidence = {n: e.evidence for n, e in catalogue.items() if e.evidence}
     separated = {n: e.separated_by for n, e in catalogue.items() if e.separated_by}
     return IdentificationNotes(evidence, separated, pairs, tuple(hints))

@@ -250,3 +250,17 @@ def data_fingerprint(path: str | os.PathLike) -> str:
     """``name (sha256 first 16 hex)``: which data a fit used, reproducibly (no dates)."""
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
     return f"{Path(path).name} (sha256 {digest})"
+
+
+def fitted_parameters(path: str | os.PathLike | None) -> tuple:
+    """The parameters the fit that wrote model file ``path`` freed (its ``[meta] fitted``, which
+    ``pendc fit`` writes); empty for a model no fit wrote, the default model or standard input."""
+    if path is None or str(path) == STDIN:
+        return ()
+    try:
+        meta = tomllib.loads(read_model_text(path)[0]).get("meta", {})
+    except (PendcError, tomllib.TOMLDecodeError):
+        return ()
+    if not isinstance(meta, dict) or meta.get("generator") != "pendc fit":
+        return ()
+    return tuple(p.strip() for p in str(meta.get("fitted", "")).split(",") if p.strip())
