@@ -89,4 +89,4 @@ def describe(fig: dict) -> str:
 
 
 UNWRAPPED_NOTE = ("a free-run fit of an angle counts each extra turn of the unwrapped angle as 2 pi of error; "
-                  "the wrapped-angle error is given beside it, and the 0.5 s horizon fit is what the fit minimises")
+                  "the wrapped-angle error is given beside it, and the 0.5 s horizon fit does not depend on turns")

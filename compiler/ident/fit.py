@@ -15,7 +15,8 @@ with a falsely narrow interval.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from types import SimpleNamespace
 
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
@@ -49,6 +50,8 @@ class FitResult:
     message: str
     unidentifiable: dict = None   # parameter -> why the data do not determine it (empty: all fine)
     notes: tuple = ()             # what the output weighting left out, one line each
+    objective: str = "horizon"    # what was minimised: the horizon error, or the free run's
+    horizons: tuple = ()          # the horizons (s) fitted in turn, the last the objective's
 
     def refused(self) -> str:
         """One line naming the parameters the data do not determine, or '' when all are."""
@@ -180,13 +183,65 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
     return z
 
 
+OBJECTIVES = ("horizon", "free-run", "auto")
+LONGER_HORIZONS = (2.0, 8.0)   # s: between the first horizon and the whole record, each fit starts from the last
+WHOLE_RECORD = 1e9             # a horizon no record reaches: one simulation from the start (the free run)
+
+
 def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | None = None,
                    dt: float = 1e-4, segment: float = 0.5, max_evaluations: int = 200,
-                   search: bool = True, subset: str = "all", outputs=None) -> FitResult:
+                   search: bool = True, subset: str = "all", outputs=None, objective: str = "horizon") -> FitResult:
     """Fit ``free`` parameters of ``model`` to ``datasets`` (Measurements); others stay fixed.
 
     Each data set is simulated under its own experiment; ``outputs`` restricts the compared
-    outputs. ``search`` runs a coarse grid search per parameter before the local optimiser."""
+    outputs. ``search`` runs a coarse grid search per parameter before the local optimiser.
+
+    ``objective``: ``"horizon"`` minimises the error of simulations restarted every ``segment``
+    seconds from the measured state (robust far from the answer); ``"free-run"`` then continues
+    the fit to longer horizons (2 s, 8 s, the whole record), each from the last result, so the
+    model is best over the run a HIL plant makes, not over half a second; ``"auto"`` does so
+    only where the free run is reproducible on these data (the headline test of
+    :mod:`pendc.ident.headline` on the horizon-fitted model), else keeps the horizon fit and
+    says why in ``notes``. Intervals always come from the ``segment`` horizon's residuals at the
+    final values (its segments are the independent pieces of the data)."""
+    if objective not in OBJECTIVES:
+        raise PendcError(f"--objective must be one of {', '.join(OBJECTIVES)}, got '{objective}'")
+    first = _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, search, subset, outputs)
+    if objective == "horizon" or not first.converged:
+        return replace(first, horizons=(segment,))
+    if objective == "auto":
+        blocked = _free_run_blocked(first.model, datasets, dt, outputs)
+        if blocked:
+            return replace(first, horizons=(segment,), notes=first.notes + (
+                f"objective auto: fitted for the {segment:g} s horizon, the free run is not reproducible ({blocked})",))
+    values, horizons, result = dict(first.values), [segment], first
+    for horizon in [h for h in LONGER_HORIZONS if h > segment] + [WHOLE_RECORD]:
+        result = _fit_horizon(model, datasets, free, values, dt, horizon, max_evaluations, False, subset, outputs)
+        if not result.converged:
+            break
+        values = dict(result.values)
+        horizons.append(horizon)
+    final = _fit_horizon(model, datasets, free, values, dt, segment, 0, False, subset, outputs)  # intervals only
+    return replace(final, cost_before=first.cost_before, evaluations=first.evaluations + result.evaluations,
+                   converged=result.converged, message=result.message, objective="free-run",
+                   horizons=tuple(horizons))
+
+
+def _free_run_blocked(model: PlantModel, datasets: list, dt: float, outputs) -> str:
+    """Why the free run of ``model`` is not reproducible on one of ``datasets`` ('' when it is)."""
+    from .compare import compare
+    from .headline import FREE_RUN
+
+    for data in datasets:
+        head = compare(model, data, dt=dt, outputs=outputs).headline
+        if head is not None and head.metric != FREE_RUN:
+            return f"{data.source}: {head.reason}"
+    return ""
+
+
+def _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, search, subset, outputs) -> FitResult:
+    """One least-squares fit of the ``segment`` horizon error (``max_evaluations=0``: none, the
+    values and intervals at ``start``)."""
     if not free:
         raise PendcError("nothing to fit: no free parameters")
     problem = ShootingProblem(model, datasets, free, dt=dt, segment=segment, subset=subset, outputs=outputs)
@@ -203,8 +258,9 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
         z0 = grid_search(problem, tf, z0)
     try:
         with np.errstate(all="ignore"):
-            sol = least_squares(lambda z: problem.residual(tf.to_values(z)), z0, bounds=(lo, hi), method="trf",
-                                diff_step=1e-2, x_scale="jac", max_nfev=max_evaluations)
+            sol = (least_squares(lambda z: problem.residual(tf.to_values(z)), z0, bounds=(lo, hi), method="trf",
+                                 diff_step=1e-2, x_scale="jac", max_nfev=max_evaluations) if max_evaluations
+                   else _at(problem, tf, z0))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         raise PendcError(f"fit failed to run: {exc}") from None
     values = tf.to_values(sol.x)
@@ -220,6 +276,20 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
                      cost_before=cost_before, cost_after=float(sol.cost), n_residuals=problem.size,
                      evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message),
                      unidentifiable=why, notes=problem.notes)
+
+
+def _at(problem: ShootingProblem, tf: "_Transform", z: np.ndarray) -> SimpleNamespace:
+    """What least_squares reports, at ``z`` without a step: residual, forward-difference Jacobian
+    (its step rule: 1e-2 of max(1, |z|))."""
+    r = problem.residual(tf.to_values(z))
+    jac = np.empty((r.size, z.size))
+    for j in range(z.size):
+        step = 1e-2 * max(1.0, abs(float(z[j])))
+        zj = z.copy()
+        zj[j] += step
+        jac[:, j] = (problem.residual(tf.to_values(zj)) - r) / step
+    return SimpleNamespace(x=z, fun=r, jac=jac, cost=0.5 * float(r @ r), nfev=z.size + 1, status=1,
+                           message="evaluated at the given values")
 
 
 def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict, null: set) -> dict:
