@@ -72,6 +72,8 @@ class SensorSpec:
     code on one port (:attr:`code_port`).
     """
 
+    # the plant file's SensorDecl (pendc.model.definition) with the body the state moves: the
+    # declaration stays what the file says, this is what the compiler and the testbench use
     name: str
     state: str
     body: str
