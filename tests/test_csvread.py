@@ -73,3 +73,41 @@ def test_no_final_newline_and_trailing_blank_lines_across_blocks(monkeypatch):
         assert got.columns["b"].tolist() == [2.0, 4.0]
         got = read("a,b\n1,2\n3,4\n\n \n\n", block, monkeypatch)
         assert got.columns["a"].tolist() == [1.0, 3.0]
+
+
+TEXT_RECORD = ("# generator: pendc hil\n# status: complete\nt,u,x,mode\n"
+               "0.000,5.1,0.0,swing\n0.001,5.2,0.5,swing\n0.002,5.3,1.5,balance\n0.003,5.4,2.5,1\n")
+
+
+@pytest.mark.parametrize("block", [1, 7, 4096])
+def test_text_columns_are_skipped_with_one_note(block, monkeypatch):
+    monkeypatch.setattr(csvread, "TEXT_SAMPLE", 3)  # the '1' after the sampled rows is text all the same
+    got = read(TEXT_RECORD, block, monkeypatch)
+    assert list(got.columns) == ["t", "u", "x"] and got.meta == {"generator": "pendc hil", "status": "complete"}
+    assert got.columns["x"].tolist() == [0.0, 0.5, 1.5, 2.5] and got.first_line == 4
+    assert got.notes == ("f.csv: ignoring text column(s) mode",) and got.text_columns == {"mode": (4, "swing")}
+    spaced = read(TEXT_RECORD.replace(",", " "), block, monkeypatch)
+    assert [c.tolist() for c in spaced.columns.values()] == [c.tolist() for c in got.columns.values()]
+
+
+@pytest.mark.parametrize("block", [1, 5, 4096])
+@pytest.mark.parametrize("text, message", [
+    # a column with numbers among its first rows is numeric: its one bad value is an error, not text
+    ("a,mode,b\n1,swing,2\n3,swing,x\n5,swing,6\n", "line 3: column 'b': not a number: 'x'"),
+    ("a,b\n1,x\n3,4\n", "line 2: column 'b': not a number: 'x'"),
+    ("a,b\n1,\n3,\n", "line 2: column 'b': not a number: ''"),              # blank is no text
+    ("a;b\n1.5;0,5\n3.5;0,7\n", "line 2: column 'b': not a number: '0,5' (decimal comma?"),  # not text
+    ("a,mode\n1,swing\n2\n", "line 3: 1 fields, expected 2"),
+    ("a,mode\n1,swing\n# late\n", "line 3: comment line among the data"),
+    ("a,mode\nx,swing\ny,balance\n", "line 2: no column holds numbers (column 'a': 'x')"),
+])
+def test_text_detection_keeps_the_line_and_column_errors(text, message, block, monkeypatch):
+    with pytest.raises(PendcError) as info:
+        read(text, block, monkeypatch)
+    assert message in str(info.value)
+
+
+def test_text_detection_reads_only_the_first_rows(monkeypatch):
+    rows = "".join(f"{k},{k}\n" for k in range(csvread.TEXT_SAMPLE)) + "99,late\n"
+    with pytest.raises(PendcError, match="line 18: column 'b': not a number: 'late'"):
+        read("a,b\n" + rows, 64, monkeypatch)

@@ -57,6 +57,21 @@ def test_decimal_comma_is_named():
         parse_measurements("t;u;x;theta\n0;5;0;0\n0.001;5;0,5;0\n")
 
 
+def test_a_text_column_is_skipped_and_named_when_it_is_needed():
+    t, theta, x, u = truth(duration=0.2)
+    rows = [f"{a!r},{b!r},{c!r},{d!r},{'swing' if k < 100 else 'balance'}"
+            for k, (a, b, c, d) in enumerate(zip(t.tolist(), u.tolist(), x.tolist(), theta.tolist()))]
+    text = "# controller: builtin\nt,u,x,theta,mode\n" + "\n".join(rows) + "\n"
+    m = parse_measurements(text)
+    assert np.array_equal(m.theta, theta) and "mode" not in m.columns
+    assert [n for n in m.notes if "text" in n] == ["<string>: ignoring text column(s) mode"]
+    with pytest.raises(PendcError, match=r"--columns theta=mode: column 'mode' holds text \('swing' on line 3\), "
+                                         r"not numbers$"):
+        parse_measurements(text, options=opts(columns={"theta": "mode"}))
+    with pytest.raises(PendcError, match=r"missing column\(s\) x: column 'x' holds text \('zero' on line 2\)"):
+        parse_measurements("t,u,x,theta\n0,5,zero,0\n")
+
+
 @pytest.mark.parametrize("sep", [";", "\t"])
 def test_decimal_commas_detected_or_given(sep):
     t, theta, x, u = truth(duration=0.5)

@@ -235,7 +235,7 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         twin = hl.twin_fit(free_run, x0, y, sig)
     except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
         twin = {k: -math.inf for k in outputs}
-    head = hl.choose(twin, horizon)
+    head = hl.choose(twin, horizon, controller=(data.meta or {}).get("controller"))
     hrun = horizon_run(model, data, outputs=outputs, horizon=horizon, dt=dt, method=method)
     if head.metric == hl.HORIZON:
         residual = {k: np.nan_to_num(y[k] - hrun.outputs[k], nan=0.0) for k in outputs}   # restarts are exact

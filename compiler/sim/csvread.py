@@ -6,6 +6,11 @@ separator positions, the numbers from one ``np.loadtxt`` call (its C parser). On
 is malformed is it re-read line by line, to name the line and the column. Memory is
 therefore the columns themselves plus a few blocks: a 1e7-row file of four columns
 needs ~320 MB of float64 and little more (see bench/bench_read_csv.py).
+
+Columns of text (a closed-loop record's controller ``mode``) are found from the first data
+rows (:data:`TEXT_SAMPLE`) and skipped by the parser, with one note naming them: a column is
+text only when none of its sampled values reads as a number, so a numeric column with one bad
+value still stops at that value's line and column.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from ..errors import PendcError
 from .table import Table
 
 BLOCK = 1 << 22  # bytes of text parsed at a time
+TEXT_SAMPLE = 16  # data rows that decide which columns hold text
 _KEY = r"[A-Za-z_][\w.\-]*"  # one word, so prose like '# Run 3 on rig B: ok' is not metadata
 META_LINE = re.compile(rf"#\s*({_KEY})\s*:\s*(.*?)\s*$")
 SEPARATORS = {",": ",", "comma": ",", ";": ";", "semicolon": ";", "\\t": "\t", "\t": "\t", "tab": "\t",
@@ -83,10 +89,48 @@ def read_csv_table(stream, source: str, separator=..., decimal=..., encoding: st
         stream, size = _Prefixed(raw, stream), (size + len(raw) if size is not None else None)
         line_no -= 1
     _check_header(source, names, line_no)
-    notes = []
-    columns = _read_rows(stream, source, names, sep, line_no + 1, decimal, notes, size)
+    notes, text = [], {}
+    if not headerless:  # a headerless file's first row is all numbers: no column is text
+        stream, text = _text_columns(stream, names, sep, line_no + 1)
+        if len(text) == len(names):
+            name, (line, value) = next(iter(text.items()))
+            raise PendcError(f"{source}: line {line}: no column holds numbers (column '{name}': {value!r})")
+        if text:
+            notes.append(f"{source}: ignoring text column(s) {', '.join(text)}")
+    columns = _read_rows(stream, source, names, sep, line_no + 1, decimal, notes, size, text)
     return Table(columns=columns, meta=meta, source=source, first_line=line_no + 1, notes=tuple(notes),
-                 headerless=headerless)
+                 headerless=headerless, text_columns=text)
+
+
+def _text_columns(stream, names: list, sep, first: int):
+    """``(stream, text)``: the stream with the sampled rows put back, and name -> (line, value)
+    of the first value of each column that holds only text in the first :data:`TEXT_SAMPLE`
+    data rows. A blank value is no evidence (an empty column stays numeric, and its error
+    names it), nor is a decimal comma ('0,5' is a number written another way)."""
+    sampled, raws, seen = 0, [], {}
+    numeric = set()
+    line = first - 1
+    while sampled < TEXT_SAMPLE:
+        raw = stream.readline()
+        if not raw:
+            break
+        raws.append(raw)
+        line += 1
+        text = raw.decode("utf-8", errors="replace").rstrip("\r\n")
+        fields = text.split(sep) if sep is not None else text.split()
+        if text.startswith("#") or not text.strip() or len(fields) != len(names):
+            continue  # malformed rows are the parser's to name
+        sampled += 1
+        for k, value in enumerate(fields):
+            value = value.strip()
+            if not value:
+                continue
+            if _is_number(value.replace(",", ".")):
+                numeric.add(k)
+            elif k not in seen:
+                seen[k] = (line, value)
+    text = {names[k]: seen[k] for k in sorted(seen) if k not in numeric}
+    return (_Prefixed(b"".join(raws), stream) if raws else stream), text
 
 
 class _Prefixed:
@@ -181,11 +225,13 @@ class _Columns:
         return out
 
 
-def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., notes=None, size=None) -> dict:
+def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., notes=None, size=None,
+               text=()) -> dict:
     """Parse every data row after the header (``size`` bytes of them, None if unknown);
-    returns name -> float64 column (appends notes)."""
+    returns name -> float64 column of every column not in ``text`` (appends notes)."""
     ncols = len(names)
-    columns = _Columns(ncols, size)
+    keep = [k for k, n in enumerate(names) if n not in text]
+    columns = _Columns(len(keep), size)
     line = first          # file line of the block's first line
     pending_blank = 0     # blank lines seen at the end of the previous block
     carry = b""
@@ -213,7 +259,7 @@ def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., n
                     row = body.lstrip(_BLANKS).split(b"\n", 1)[0].decode("utf-8", "replace").strip()
                     notes.append(f"{source}: numbers with decimal commas (first row: {row!r})")
             block = body.replace(b",", b".") if decimal == "," else body
-            values = _parse_block(block + b"\n", source, names, sep, line, truncated)
+            values = _parse_block(block + b"\n", source, names, sep, line, truncated, keep)
             columns.add(values, len(buf))
             del values
             line += body.count(b"\n") + 1
@@ -227,7 +273,7 @@ def _read_rows(stream, source: str, names: list, sep, first: int, decimal=..., n
             break
     if columns.rows == 0:
         raise PendcError(f"{source}: no data rows after the header (line {first - 1})")
-    return dict(zip(names, columns.finish()))
+    return dict(zip([names[k] for k in keep], columns.finish()))
 
 
 def _detect_decimal(body: bytes, sep) -> str:
@@ -248,29 +294,35 @@ def _fields_per_line(a: np.ndarray, ends: np.ndarray, sep) -> np.ndarray:
     return np.diff(np.searchsorted(pos, ends), prepend=0)
 
 
-def _parse_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool) -> np.ndarray:
+def _parse_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool,
+                 keep: list | None = None) -> np.ndarray:
+    """The block's values of the columns ``keep`` (indices; default all), one row per line."""
     a = np.frombuffer(block, dtype=np.uint8)
     ends = np.flatnonzero(a == 10)
     ncols = len(names)
+    keep = list(range(ncols)) if keep is None else keep
+    use = None if len(keep) == ncols else keep  # usecols only when skipping: the plain call is the fastest
     counts = _fields_per_line(a, ends, sep)
     if np.all(counts == ncols):
         try:
             text = io.StringIO(block.decode("utf-8", errors="replace"))  # str input parses fastest
-            values = np.loadtxt(text, delimiter=sep, comments=None, dtype=np.float64, ndmin=2)
+            values = np.loadtxt(text, delimiter=sep, comments=None, dtype=np.float64, ndmin=2, usecols=use)
         except ValueError:
             values = None
-        if values is not None and values.shape == (len(ends), ncols):
+        if values is not None and values.shape == (len(ends), len(keep)):
             return values
-    return _diagnose_block(block, source, names, sep, line, truncated)
+    return _diagnose_block(block, source, names, sep, line, truncated, keep)
 
 
-def _diagnose_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool) -> np.ndarray:
+def _diagnose_block(block: bytes, source: str, names: list, sep, line: int, truncated: bool,
+                    keep: list | None = None) -> np.ndarray:
     """Name the first bad line of a block that failed the fast parse, or parse it slowly.
 
     The slow path returns values only for text that Python's float() reads but
     np.loadtxt does not (e.g. 'Infinity'); the finiteness checks come later.
     """
     rows = []
+    keep = list(range(len(names))) if keep is None else keep
     lines = block.decode("utf-8", errors="replace").split("\n")[:-1]
     for k, text in enumerate(lines):
         where = f"{source}: line {line + k}"
@@ -283,9 +335,10 @@ def _diagnose_block(block: bytes, source: str, names: list, sep, line: int, trun
             raise PendcError(f"{where}: blank line, expected {len(names)} fields ({', '.join(names)})")
         if len(fields) != len(names):
             raise PendcError(f"{where}: {len(fields)} fields, expected {len(names)} fields ({', '.join(names)}){end}")
-        for name, value in zip(names, fields):
+        fields = [fields[k] for k in keep]
+        for name, value in zip([names[k] for k in keep], fields):
             if not _is_number(value) or "_" in value:
                 hint = " (decimal comma? give --decimal comma)" if sep != "," and "," in value else ""
                 raise PendcError(f"{where}: column '{name}': not a number: {value.strip()!r}{hint}{end}")
         rows.append([float(v) for v in fields])
-    return np.array(rows, dtype=np.float64).reshape(len(lines), len(names))
+    return np.array(rows, dtype=np.float64).reshape(len(lines), len(keep))

@@ -51,8 +51,8 @@ def map_columns(table: Table, options: ReadOptions, wanted: tuple) -> tuple[dict
     for name, file_name in options.columns.items():
         key = table.lookup(file_name)
         if key is None:
-            raise PendcError(f"{table.source}: --columns {name}={file_name}: no such column or signal "
-                             f"(names found: {', '.join(table.names())})")
+            raise PendcError(f"{table.source}: --columns {name}={file_name}: " + (
+                _text_hint(table, [file_name]) or f"no such column or signal (names found: {', '.join(table.names())})"))
         chosen[name], origin[name] = table.columns[key], key
     for name in wanted:
         if name not in chosen:
@@ -265,6 +265,13 @@ def _frozen(values) -> np.ndarray:
     return arr
 
 
+def _text_hint(table: Table, names: list) -> str:
+    """For the ``names`` that are columns of text the reader skipped: which, with their first
+    value and its line ('' when none is)."""
+    text = [(k, *table.text_columns[k]) for n in names for k in table.text_columns if k.lower() == n.lower()]
+    return "; ".join(f"column '{k}' holds text ({value!r} on line {line}), not numbers" for k, line, value in text)
+
+
 def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
 
     names = table.names()
@@ -279,6 +286,9 @@ def _missing_error(table: Table, refused: list, options: ReadOptions) -> None:
     why = f", or for {'; for '.join(hints)}" if found and all(hints) else ""
     if table.unreadable:
         why += f" (not readable here: {', '.join(table.unreadable)}: MATLAB objects or malformed structs)"
+    text = _text_hint(table, refused)
+    if text:   # the column is there, but as words: say so rather than that it is missing
+        raise PendcError(f"{table.source}: missing column(s) {', '.join(refused)}: {text}")
     raise PendcError(f"{table.source}: missing column(s) {', '.join(refused)} (columns: {', '.join(names)}); map "
                      f"with --columns NAME=FILE_NAME{why}")
 

@@ -30,6 +30,7 @@ class Table:
     unreadable: tuple = ()  # variables the reader could not make sense of (MATLAB objects...)
     notes: tuple = ()       # what the reader decided (decimal commas...), one line each
     headerless: bool = False  # a text file without a header row: columns are named 1, 2, ...
+    text_columns: dict = field(default_factory=dict)  # skipped text column -> (line, first value)
 
     def where(self, row: int) -> str:
         """How a message names row ``row`` (0-based): the file line, or the 1-based row."""
