@@ -214,17 +214,21 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
         if blocked:
             return replace(first, horizons=(segment,), notes=first.notes + (
                 f"objective auto: fitted for the {segment:g} s horizon, the free run is not reproducible ({blocked})",))
-    values, horizons, result = dict(first.values), [segment], first
+    values, horizons, evaluations, notes = dict(first.values), [segment], first.evaluations, first.notes
     for horizon in [h for h in LONGER_HORIZONS if h > segment] + [WHOLE_RECORD]:
-        result = _fit_horizon(model, datasets, free, values, dt, horizon, max_evaluations, False, subset, outputs)
-        if not result.converged:
+        stage = _fit_horizon(model, datasets, free, values, dt, horizon, max_evaluations, False, subset, outputs)
+        evaluations += stage.evaluations
+        if not stage.converged:   # keep what the shorter horizon found
+            where = "the whole record" if horizon >= WHOLE_RECORD else f"the {horizon:g} s horizon"
+            notes += (f"objective {objective}: the fit on {where} did not converge in {max_evaluations} "
+                      f"evaluations ({stage.message}); the {horizons[-1]:g} s horizon's values are kept",)
             break
-        values = dict(result.values)
+        values = dict(stage.values)
         horizons.append(horizon)
     final = _fit_horizon(model, datasets, free, values, dt, segment, 0, False, subset, outputs)  # intervals only
-    return replace(final, cost_before=first.cost_before, evaluations=first.evaluations + result.evaluations,
-                   converged=result.converged, message=result.message, objective="free-run",
-                   horizons=tuple(horizons))
+    return replace(final, cost_before=first.cost_before, evaluations=evaluations, converged=True,
+                   message=first.message, notes=notes, horizons=tuple(horizons),
+                   objective="free-run" if horizons[-1] >= WHOLE_RECORD else "horizon")
 
 
 def _free_run_blocked(model: PlantModel, datasets: list, dt: float, outputs) -> str:
