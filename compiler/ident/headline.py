@@ -19,7 +19,7 @@ A record made under feedback (its metadata name a controller, ``# controller: ..
 was computed from its own outputs, and a free run replays that input without the controller.
 Both twins then leave the record the same way (an upright pendulum falls), so they agree with
 each other and not with the data: on the four hidden-effect records of
-tests/test_closed_loop_ident.py the true plants score theta free-run fits of -3 to -43 %,
+tests/test_closed_loop_ident.py the true plants score angle free-run fits of -3 to -43 %,
 and fitting the free run biased every estimate (docs/identification.md, "Closed-loop recordings").
 """
 
