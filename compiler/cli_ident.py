@@ -215,6 +215,7 @@ def cmd_fit(args) -> int:
            "params": {p: {"value": result.values[p], "ci95": result.ci95[p],
                           "identifiable": p not in result.unidentifiable} for p in free},
            "objective": result.objective, "horizons": [h if h < 1e8 else "whole record" for h in result.horizons],
+           "objective_reason": result.objective_reason,
            "model": args.output}
     if args.json:
         _dump(out)
@@ -232,7 +233,8 @@ def cmd_fit(args) -> int:
         lines.append(f"  {p:10s} = {result.values[p]:.6g}   95 % CI [{lo:.6g}, {hi:.6g}]{flag}")
     stages = " -> ".join(f"{h:g} s" if h < 1e8 else "the whole record" for h in result.horizons)
     lines.append(f"objective: {result.objective} (fitted on horizons {stages}; the 95 % intervals from the "
-                 f"{result.horizons[0]:g} s horizon's segments)")
+                 f"{result.horizons[0]:g} s horizon's segments)"
+                 + (f": {result.objective_reason}" if result.objective_reason else ""))
     lines.append(f"wrote {args.output}")
     sys.stdout.write("\n".join(lines) + "\n")
     return 0

@@ -48,5 +48,4 @@ def test_auto_keeps_the_horizon_where_the_free_run_is_not_reproducible():
     data = [read_measurements(DATA / "hidden_spring.csv")]
     result = fit_parameters(load_model(), data, ["b_theta"], max_evaluations=20, objective="auto")
     assert result.objective == "horizon"
-    assert any(n.startswith("objective auto: fitted for the 0.5 s horizon, the free run is not reproducible")
-               for n in result.notes)
+    assert result.objective_reason.startswith("the free run is not reproducible (")

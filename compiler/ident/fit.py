@@ -51,6 +51,7 @@ class FitResult:
     unidentifiable: dict = None   # parameter -> why the data do not determine it (empty: all fine)
     notes: tuple = ()             # what the output weighting left out, one line each
     objective: str = "horizon"    # what was minimised: the horizon error, or the free run's
+    objective_reason: str = ""    # why auto or a failed continuation kept the horizon
     horizons: tuple = ()          # the horizons (s) fitted in turn, the last the objective's
 
     def refused(self) -> str:
@@ -212,22 +213,21 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
     if objective == "auto":
         blocked = _free_run_blocked(first.model, datasets, dt, outputs)
         if blocked:
-            return replace(first, horizons=(segment,), notes=first.notes + (
-                f"objective auto: fitted for the {segment:g} s horizon, the free run is not reproducible ({blocked})",))
-    values, horizons, evaluations, notes = dict(first.values), [segment], first.evaluations, first.notes
+            return replace(first, horizons=(segment,), objective_reason=f"the free run is not reproducible ({blocked})")
+    values, horizons, evaluations, reason = dict(first.values), [segment], first.evaluations, ""
     for horizon in [h for h in LONGER_HORIZONS if h > segment] + [WHOLE_RECORD]:
         stage = _fit_horizon(model, datasets, free, values, dt, horizon, max_evaluations, False, subset, outputs)
         evaluations += stage.evaluations
         if not stage.converged:   # keep what the shorter horizon found
             where = "the whole record" if horizon >= WHOLE_RECORD else f"the {horizon:g} s horizon"
-            notes += (f"objective {objective}: the fit on {where} did not converge in {max_evaluations} "
-                      f"evaluations ({stage.message}); the {horizons[-1]:g} s horizon's values are kept",)
+            reason = (f"the fit on {where} did not converge in {max_evaluations} evaluations ({stage.message}); "
+                      f"the {horizons[-1]:g} s horizon's values are kept")
             break
         values = dict(stage.values)
         horizons.append(horizon)
     final = _fit_horizon(model, datasets, free, values, dt, segment, 0, False, subset, outputs)  # intervals only
     return replace(final, cost_before=first.cost_before, evaluations=evaluations, converged=True,
-                   message=first.message, notes=notes, horizons=tuple(horizons),
+                   message=first.message, notes=first.notes, horizons=tuple(horizons), objective_reason=reason,
                    objective="free-run" if horizons[-1] >= WHOLE_RECORD else "horizon")
 
 
