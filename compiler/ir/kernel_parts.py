@@ -55,9 +55,10 @@ def part_module(groups: list, flags: list, data_args: str) -> str:
     and stores to ``buf``, then one rarely taken branch recording the checks of ``flags`` that
     fired. It names no graph: a part printed alike in another kernel is the same module."""
     defined = sorted(i for nodes, _ in groups for i in nodes)
+    mine = set(defined)
     body = [s for _, lines in groups for s in lines]
-    own = [i for i in flags if i in set(defined)]
-    lines = _loads(body, set(defined)) + body + [f"buf[{i}] = v{i}" for i in defined]
+    own = [i for i in flags if i in mine]
+    lines = _loads(body, mine) + body + [f"buf[{i}] = v{i}" for i in defined]
     if own:
         lines += [f"if {' | '.join(f'b{i}' for i in own)}:"]
         for i in own:
