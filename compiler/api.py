@@ -284,7 +284,8 @@ def _write_fitted(source, result, names: list, data, before: dict, after: dict, 
             meta[f"horizon_fit_{o}_{when}"] = round(v, 3)
     intervals = {p: result.ci95[p] for p in names if p not in (result.unidentifiable or {})}
     if path is not None and path.is_file():
-        text = dumps_fitted(result.model, path.read_text(encoding="utf-8"), meta, intervals)
+        text = dumps_fitted(result.model, path.read_text(encoding="utf-8"), meta, intervals,
+                            covariance=result.covariance_of(names))
     else:
         text = dumps_model(result.model, meta)
     write_atomic(output, text)

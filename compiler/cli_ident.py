@@ -207,7 +207,8 @@ def cmd_fit(args) -> int:
     source = Path(args.model) if args.model else default_model_path()
     meta = {**_provenance(args, free, before, after), "objective": result.objective}
     text = dumps_fitted(result.model, source.read_text(encoding="utf-8"), meta,
-                        {p: result.ci95[p] for p in free if p not in result.unidentifiable})
+                        {p: result.ci95[p] for p in free if p not in result.unidentifiable},
+                        covariance=result.covariance_of(free))
     write_atomic(args.output, text)
     for p, why in result.unidentifiable.items():
         note(f"{p} is not identified by these data ({why}); written because of --force")

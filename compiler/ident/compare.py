@@ -101,6 +101,7 @@ class Comparison:
     headline: hl.Headline | None = None
     residual_of: str = "free run"
     notes: tuple = ()
+    band: object = None             # a PredictionBand (pendc.ident.prediction_band) when asked for
 
     @property
     def fit_horizon(self) -> dict:
@@ -155,7 +156,8 @@ class Comparison:
             "rms_free_run": self.rms_free_run(), "residual_of": self.residual_of, "rms": self.rms(),
             "windows": self.windows, "regimes": self.regimes, "whiteness": self.whiteness,
             self.centre_name: self.v_off,
-            f"{self.motion_rate}_source": self.motion_source, "notes": list(self.notes)})
+            f"{self.motion_rate}_source": self.motion_source, "notes": list(self.notes),
+            **({"prediction_band": self.band.to_json()} if self.band is not None else {})})
 
     @property
     def motion_rate(self) -> str:

@@ -53,6 +53,16 @@ class FitResult:
     objective: str = "horizon"    # what was minimised: the horizon error, or the free run's
     objective_reason: str = ""    # why auto or a failed continuation kept the horizon
     horizons: tuple = ()          # the horizons (s) fitted in turn, the last the objective's
+    covariance: np.ndarray | None = None   # of ``values`` (their order), the intervals' own
+
+    def covariance_of(self, names) -> tuple:
+        """``(names, matrix)``: the covariance of the fitted values among ``names`` that the data
+        identify (what a fitted model file stores beside the intervals)."""
+        keep = [p for p in names if p in self.values and p not in (self.unidentifiable or {})]
+        if self.covariance is None or not keep:
+            return (), np.zeros((0, 0))
+        index = [list(self.values).index(p) for p in keep]
+        return tuple(keep), self.covariance[np.ix_(index, index)]
 
     def refused(self) -> str:
         """One line naming the parameters the data do not determine, or '' when all are."""
@@ -268,7 +278,7 @@ def _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, sea
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         raise PendcError(f"fit failed to run: {exc}") from None
     values = tf.to_values(sol.x)
-    ci, null = _intervals(sol, tf, values, problem.segment_blocks())
+    ci, null, cov = _intervals(sol, tf, values, problem.segment_blocks())
     why = _unidentifiable(model, free, values, ci, null)
     segments = len(problem.segment_blocks())
     if segments < SEGMENTS_PER_PARAMETER * len(free):
@@ -279,7 +289,7 @@ def _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, sea
     return FitResult(model=fitted, values=dict(zip(free, map(float, values))), ci95=ci,
                      cost_before=cost_before, cost_after=float(sol.cost), n_residuals=problem.size,
                      evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message),
-                     unidentifiable=why, notes=problem.notes)
+                     unidentifiable=why, notes=problem.notes, covariance=cov)
 
 
 def _at(problem: ShootingProblem, tf: "_Transform", z: np.ndarray) -> SimpleNamespace:
@@ -311,13 +321,15 @@ def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict,
     return why
 
 
-def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> tuple[dict, set]:
-    """95 % intervals and the parameters in the Jacobian's null space.
+def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> tuple[dict, set, np.ndarray]:
+    """95 % intervals, the parameters in the Jacobian's null space and the covariance of the values.
 
     The covariance is the wider of a cluster-robust (sandwich) one, one cluster per segment
     (residuals inside a segment are strongly correlated, so plain Gauss-Newton makes the
     intervals too narrow on long data), and the Gauss-Newton one (the sandwich degenerates
-    with few segments: one segment gives a zero-width interval at any optimum)."""
+    with few segments: one segment gives a zero-width interval at any optimum). The covariance
+    returned has those variances and the Gauss-Newton correlations (a valid covariance, unlike an
+    element-wise maximum of two matrices)."""
     J, r = np.asarray(sol.jac, float), np.asarray(sol.fun, float)
     n, k = J.shape
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
@@ -334,9 +346,14 @@ def _intervals(sol, tf: _Transform, values: np.ndarray, blocks: list) -> tuple[d
     cov_gn = bread * float(r @ r) / max(n - k, 1)
     # map the covariance of the scaled variables to the parameters (linear map)
     A = tf.jacobian()
-    var = np.maximum(np.diag(A @ cov_sandwich @ A.T), np.diag(A @ cov_gn @ A.T))
-    half = 1.96 * np.sqrt(np.maximum(var, 0.0))
+    gn = A @ cov_gn @ A.T
+    var = np.maximum(np.maximum(np.diag(A @ cov_sandwich @ A.T), np.diag(gn)), 0.0)
+    half = 1.96 * np.sqrt(var)
+    gn_sd = np.sqrt(np.maximum(np.diag(gn), 0.0))
+    corr = np.divide(gn, np.outer(gn_sd, gn_sd), out=np.zeros_like(gn), where=np.outer(gn_sd, gn_sd) > 0)
+    np.fill_diagonal(corr, 1.0)
+    cov = np.clip(corr, -1.0, 1.0) * np.outer(np.sqrt(var), np.sqrt(var))
     ci = {}
     for p, v, h in zip(tf.free, values, half):
         ci[p] = [float("-inf"), float("inf")] if p in null else [float(v - h), float(v + h)]
-    return ci, null
+    return ci, null, cov

@@ -58,7 +58,7 @@ class HorizonRun:
 
 
 def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt: float = 1e-4,
-                method: str = "rk4") -> HorizonRun:
+                method: str = "rk4", params: dict | None = None, motion: tuple | None = None) -> HorizonRun:
     """Simulate ``data`` with restarts from the measured state every ``horizon`` s.
 
     ``model`` is a PlantModel (already set to the data's experiment); ``outputs`` the
@@ -71,11 +71,11 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
     u = np.asarray(data.u, dtype=np.float64)
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
-    measured, velocity = measured_motion(data, model)
+    measured, velocity = motion if motion is not None else measured_motion(data, model)
     sim = Simulator(model, dt=dt, method=method)
     positions = sim.signals.positions
     outputs = positions if outputs is None else tuple(outputs)
-    p = sim.param_vector
+    p = sim.vector(params)
     offset = sim.offset_values(p)
     h = float(np.median(np.diff(t)))
     step = max(2, int(round(horizon / h)))

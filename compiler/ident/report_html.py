@@ -91,7 +91,7 @@ def _run_section(s: SideBySide, i: int, run) -> list:
     free = ["<h3>Free run: measured and simulated outputs</h3>", _img(_figure_free(s, run), "free-run outputs"),
             '<p class="note">' + (f"{e(c0.angle.capitalize())} residual wrapped to (-π, π]." if c0.angle else "")
             + (f" Shaded: the worst {WORST_WINDOW:g} s windows of the first model's free run." if not horizon_first else "")
-            + "</p>"]
+            + "</p>"] + _band_notes(s, run)
     seg = [f"<h3>{e(horizon.capitalize())}: segments restarting from the measured state</h3>",
            _img(_figure_horizon(s, run), f"{horizon} segments over the data"),
            _img(_figure_horizon(s, run, zoom=True), f"{horizon} segments, zoomed on the worst stretch"),
@@ -103,6 +103,30 @@ def _run_section(s: SideBySide, i: int, run) -> list:
     out += seg + free if horizon_first else free + seg
     for lab, c in zip(s.labels, run):
         out += _model_section(lab if len(s.labels) > 1 else "", c)
+    return out
+
+
+def _band_notes(s: SideBySide, run) -> list:
+    """Per model with a prediction band: where it comes from and how often the measurement leaves it."""
+    e = html.escape
+    out = []
+    for lab, c in zip(s.labels, run):
+        if c.band is None:
+            continue
+        b = c.band
+        who = f"{e(lab)}: " if len(s.labels) > 1 else ""
+        rows = "".join(f"<tr><td>{e(k)}</td><td>{100 * b.outside_free[k]:.1f} %</td>"
+                       f"<td>{100 * b.outside_horizon[k]:.1f} %</td></tr>" for k in b.outside_free)
+        out += [f'<p class="note">{who}Band: the 95 % prediction band of {b.samples} parameter draws of '
+                f"{e(b.uncertainty.describe())}, simulated in free run and on the {b.horizon_s:g} s horizon; in the "
+                "residual panels it is drawn around the nominal simulation, so the residual leaves it where the "
+                "measurement does. It holds the parameters' uncertainty and half a sensor count each side "
+                "(quantisation), not sensor noise: a measurement that leaves it often has an error the fit's "
+                "uncertainty does not explain.</p>",
+                f"<table><tr><th>{who}output</th><th>outside the band, free run</th>"
+                f"<th>outside the band, {b.horizon_s:g} s horizon</th></tr>{rows}</table>"]
+        if b.diverged:
+            out.append(f'<p class="note">{b.diverged} of {b.samples} draws diverged and are not in the band.</p>')
     return out
 
 

@@ -76,6 +76,23 @@ def _shade(ax, c: Comparison, output: str) -> None:
             ax.axvspan(w["t0"], w["t1"], color="#f4a261", alpha=0.25, lw=0)
 
 
+def _band(ax, c: Comparison, output: str, factor: float, colour: str, horizon: bool = False,
+          around=None, wrapped: bool = False) -> None:
+    """Shade ``c``'s 95 % prediction band of ``output`` (free run, or ``horizon``), minus
+    ``around`` when given (the band as a residual's bounds: the residual lies inside where the
+    measurement does); ``wrapped``: for an angle residual wrapped to (-pi, pi], the band's
+    bounds are clipped to it (a band wider than a turn holds every wrapped residual)."""
+    if c.band is None or output not in c.band.free:
+        return
+    low, high = (c.band.horizon if horizon else c.band.free)[output]
+    base = 0.0 if around is None else around
+    low, high = low - base, high - base
+    if wrapped:
+        low, high = np.clip(low, -np.pi, np.pi), np.clip(high, -np.pi, np.pi)
+    ax.fill_between(c.simulated.t, factor * low, factor * high, color=colour, alpha=0.22, lw=0,
+                    label=f"95 % prediction band ({c.band.samples} draws)")
+
+
 def figure_free(s: SideBySide, run):
     """Per output: measured and every model's free run; then the residuals (angles wrapped)."""
     c0 = run[0]
@@ -89,6 +106,7 @@ def figure_free(s: SideBySide, run):
             _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.0, label="measured")
         for j, (lab, c) in enumerate(zip(s.labels, run)):
+            _band(ax, c, k, sc, _colour(j))
             ax.plot(t, sc * c.simulated.states[k], color=_colour(j), lw=1.0, ls="--", label=f"free run {lab}")
         ax.set_title(f"{k}: free-run fit {_fits([c.fit[k] for c in run], s.labels)}", fontsize=10)
         ax.set_ylabel(label)
@@ -100,6 +118,7 @@ def figure_free(s: SideBySide, run):
         wrapped = _periodic(c0, k)
         for j, (lab, c) in enumerate(zip(s.labels, run)):
             r = wrap_difference(c.free_residual[k]) if wrapped else c.free_residual[k]
+            _band(ax, c, k, sc, _colour(j), around=c.simulated.states[k], wrapped=wrapped)
             ax.plot(t, sc * r, color=_colour(j), lw=0.8, label=lab)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(label + (" wrapped" if wrapped else ""))
@@ -107,7 +126,7 @@ def figure_free(s: SideBySide, run):
             ax.set_title(f"{k} free-run residual, wrapped: fit "
                          + _fits([c.fit_wrapped for c in run], s.labels), fontsize=10)
         ax.grid(alpha=0.3)
-        if len(run) > 1:
+        if len(run) > 1 or any(c.band is not None for c in run):
             ax.legend(loc="upper right", fontsize=8)
     ax.set_xlabel("t (s)")
     return fig
@@ -137,6 +156,7 @@ def figure_horizon(s: SideBySide, run, zoom: bool = False):
             _shade(ax, c0, k)
         ax.plot(t, sc * c0.measured[k], color=MEASURED, lw=1.6, alpha=0.6, label="measured")
         for j, (lab, c) in enumerate(zip(s.labels, run)):
+            _band(ax, c, k, sc, _colour(j), horizon=True)
             tt, yy = c.horizon_run.plot_lines(k)
             ax.plot(tt, sc * yy, color=_colour(j), lw=1.0, ls="--", label=f"{c.horizon:g} s segments {lab}")
         ax.set_title(f"{k}: {hl.horizon_label(c0.horizon)} {_fits([c.fit_horizon[k] for c in run], s.labels)}",
@@ -147,11 +167,12 @@ def figure_horizon(s: SideBySide, run, zoom: bool = False):
         ax = fig.add_subplot(2 * n, 1, 2 * i + 2)
         sr, rlabel = residual_scale(c0, k)
         for j, (lab, c) in enumerate(zip(s.labels, run)):
+            _band(ax, c, k, sr, _colour(j), horizon=True, around=c.horizon_run.outputs[k])
             ax.plot(t, sr * (c0.measured[k] - c.horizon_run.outputs[k]), color=_colour(j), lw=0.8, label=lab)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(rlabel)
         ax.grid(alpha=0.3)
-        if len(run) > 1:
+        if len(run) > 1 or any(c.band is not None for c in run):
             ax.legend(loc="upper right", fontsize=8)
     if span is not None:
         for ax in fig.axes:

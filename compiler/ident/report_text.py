@@ -86,7 +86,8 @@ def _figures(c: Comparison) -> list:
                     f"rms error {amount(a, rms[f'{a}_wrapped'], c.model)}")
     horizon = [f"{hl.horizon_label(c.horizon)} (restarting every {c.horizon:g} s from the measured state; the "
                f"figure diagnose and fit report): {fits_words(c.fit_horizon)}"]
-    return horizon + free if h_is_horizon(c) else free + horizon
+    band = c.band.lines() if c.band is not None else []
+    return (horizon + free if h_is_horizon(c) else free + horizon) + band
 
 
 def h_is_horizon(c: Comparison) -> bool:

@@ -9,13 +9,14 @@ the first model to each other one, so "watch the error fall" is one command.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import PendcError
 from . import headline as hl
 from .compare import Comparison, _clean, compare, model_name
 from .horizon import DEFAULT_HORIZON
+from .prediction_band import BAND_SAMPLES, prediction_band
 from .units import small_scale, unit_of
 
 
@@ -104,14 +105,25 @@ def labels_for(models) -> tuple:
 
 
 def compare_models(models, datasets, dt: float = 1e-4, method: str = "rk4",
-                   horizon: float = DEFAULT_HORIZON, labels=None, outputs=None) -> SideBySide:
+                   horizon: float = DEFAULT_HORIZON, labels=None, outputs=None, uncertainties=None,
+                   band_samples: int = BAND_SAMPLES, seed: int = 0) -> SideBySide:
     """Compare every model in ``models`` with every run in ``datasets`` (see :class:`SideBySide`);
     ``labels`` name the models (default: :func:`labels_for`), ``outputs`` restricts what is
-    compared (see :func:`pendc.ident.compare.compare`)."""
+    compared (see :func:`pendc.ident.compare.compare`). ``uncertainties``: per model, what its
+    fit left uncertain (:class:`~pendc.model.fit_uncertainty.FitUncertainty`) or None; each
+    model that has one gets a prediction band of ``band_samples`` draws (``seed``) on every run."""
     if labels is not None and len(labels) != len(models):
         raise PendcError(f"{len(labels)} labels for {len(models)} models")
-    runs = tuple(tuple(compare(m, d, dt=dt, method=method, horizon=horizon, outputs=outputs) for m in models)
-                 for d in datasets)
+    uncertainties = list(uncertainties or [None] * len(models))
+
+    def one(m, d, unc):
+        c = compare(m, d, dt=dt, method=method, horizon=horizon, outputs=outputs)
+        if unc is None or band_samples == 0:
+            return c
+        return replace(c, band=prediction_band(c.model, d, unc, samples=band_samples, seed=seed, dt=dt,
+                                               method=method, horizon=horizon, outputs=c.outputs))
+
+    runs = tuple(tuple(one(m, d, unc) for m, unc in zip(models, uncertainties)) for d in datasets)
     return SideBySide(labels=tuple(labels) if labels is not None else labels_for(models), runs=runs)
 
 

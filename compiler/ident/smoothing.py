@@ -37,3 +37,22 @@ def velocity_and_acceleration(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray,
     if len(y) <= n:
         return np.gradient(y, t), np.gradient(np.gradient(y, t), t)
     return savgol_filter(y, n, 3, deriv=1, delta=h), savgol_filter(y, n, 3, deriv=2, delta=h)
+
+
+def velocity_error_sd(t: np.ndarray, step: float) -> np.ndarray:
+    """Per sample, the standard deviation of :func:`estimate_velocities`' error on positions
+    quantised to ``step`` (each reading off by a uniform error of variance step^2 / 12,
+    independent from sample to sample): the filter's coefficients' norm times that error. Near
+    the ends the filter fits an off-centre window, whose coefficients are larger."""
+    from scipy.signal import savgol_coeffs
+
+    n = savgol_window(t)
+    sd = step / np.sqrt(12.0)
+    if len(t) < n:          # np.gradient: central differences
+        return np.full(len(t), sd * np.sqrt(0.5) / float(np.median(np.diff(t))))
+    h = float(np.median(np.diff(t)))
+    out = np.full(len(t), sd * float(np.linalg.norm(savgol_coeffs(n, 3, deriv=1, delta=h))))
+    for k in range(n // 2):
+        edge = sd * float(np.linalg.norm(savgol_coeffs(n, 3, deriv=1, delta=h, pos=k, use="dot")))
+        out[k], out[len(t) - 1 - k] = edge, edge
+    return out

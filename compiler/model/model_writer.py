@@ -111,12 +111,14 @@ _TABLE = re.compile(r"^\s*\[([A-Za-z0-9_.]+)\]\s*(#.*)?$")
 _ASSIGN = re.compile(r"^(\s*)([A-Za-z_][A-Za-z0-9_]*)(\s*=\s*)([^#]*?)(\s*#.*)?$")
 
 
-def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dict) -> str:
+def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dict,
+                 covariance: tuple | None = None) -> str:
     """A fitted model's file written over its source model's text.
 
     The source's comments and layout stay; each value is replaced by the fitted one,
     effects the fit added are appended, ``[meta]`` records where the model came from and
-    ``[fit.intervals]`` holds each fitted value's 95 % interval. The source's own ``[meta]``
+    ``[fit.intervals]`` holds each fitted value's 95 % interval, ``[fit.covariance]`` the
+    covariance ``(names, matrix)`` of those values when given. The source's own ``[meta]``
     and ``[fit]`` tables are replaced. The result reads back as exactly ``model``."""
     values = {"plant": model.plant, **{f"effects.{e}": p for e, p in model.effects.items()}}
     out, table, seen, skip = [], None, set(), False
@@ -140,7 +142,8 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
     for table, params in values.items():
         if table not in seen:
             out += ["", f"[{table}]"] + [f"{k} = {_number(v)}" for k, v in params.items()]
-    head = ["# Fitted by pendc; see [meta] for the data and the command, [fit.intervals] for 95 % intervals.", "",
+    head = ["# Fitted by pendc; see [meta] for the data and the command, [fit.intervals] for 95 % intervals,",
+            "# [fit.covariance] for the covariance of the fitted values.", "",
             "[meta]"]
     head += [f"{k} = {_number(v) if isinstance(v, (int, float)) else _string(str(v))}" for k, v in meta.items()]
     tail = []
@@ -149,6 +152,11 @@ def dumps_fitted(model: PlantModel, source_text: str, meta: dict, intervals: dic
     finite = {k: v for k, v in intervals.items() if all(map(math.isfinite, v))}
     if finite:
         tail += ["", "[fit.intervals]"] + [f"{k} = [{_number(lo)}, {_number(hi)}]" for k, (lo, hi) in finite.items()]
+    if covariance is not None and len(covariance[0]):
+        names, matrix = covariance
+        rows = "".join("\n  [" + ", ".join(_number(v) for v in row) + "]," for row in matrix)
+        tail += ["", "[fit.covariance]", "names = [" + ", ".join(_string(n) for n in names) + "]",
+                 f"matrix = [{rows}\n]"]
 
     def assemble(body: str) -> str:
         return "\n".join(head) + "\n\n" + body.strip("\n") + "\n" + ("\n".join(tail) + "\n" if tail else "")

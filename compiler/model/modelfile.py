@@ -13,6 +13,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from ..errors import PendcError, open_input
+from .fit_uncertainty import FitTableError, FitUncertainty, check_fit_table, uncertainty_of
 from .plant import PlantModel
 from .plantfile import PHYSICS, PLANT_META, read_definition
 
@@ -109,12 +110,11 @@ def parse_model(text: str, source: str = "<model>", _chain: tuple = ()) -> Plant
     model's plant when it names none)."""
     doc = _merged(text, source, _chain)
     fit = doc.get("fit", {})
-    if not isinstance(fit, dict) or set(fit) - {"free", "intervals"}:
-        raise PendcError(f"{source}: [fit] may only hold 'free = [...]' and an [fit.intervals] table")
+    try:
+        check_fit_table(fit)
+    except FitTableError as exc:
+        raise PendcError(f"{source}: {exc}") from None
     free = fit.get("free", [])
-    if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
-        raise PendcError(f"{source}: [fit] free must be a list of parameter names")
-    _check_intervals(fit.get("intervals", {}), source)
     hardware = doc.get("hardware", {})
     if not isinstance(hardware, dict):
         raise PendcError(f"{source}: [hardware] must be a table")
@@ -236,14 +236,19 @@ def _input_range(table, source: str):
     return tuple(pair)
 
 
-def _check_intervals(intervals, source: str) -> None:
-    """``[fit.intervals]``: parameter -> [low, high] (the 95 % interval a fit reported)."""
-    if not isinstance(intervals, dict):
-        raise PendcError(f"{source}: [fit.intervals] must be a table of [low, high] pairs")
-    for name, pair in intervals.items():
-        if (not isinstance(pair, list) or len(pair) != 2
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in pair)):
-            raise PendcError(f"{source}: fit.intervals.{name} must be [low, high], got {pair!r}")
+def load_fit_uncertainty(path: str | os.PathLike | None) -> FitUncertainty | None:
+    """What the fit that wrote model file ``path`` left uncertain (see :func:`fit_uncertainty_of`)."""
+    text, source = read_model_text(path)
+    return fit_uncertainty_of(text, source, parse_model(text, source=source))
+
+
+def fit_uncertainty_of(text: str, source: str, model: PlantModel) -> FitUncertainty | None:
+    """The ``[fit]`` covariance (else intervals) of a model file's ``text`` around the values of
+    ``model`` (that text, read); None for a file no fit wrote."""
+    try:
+        return uncertainty_of(tomllib.loads(text).get("fit", {}), model.parameter_values())
+    except FitTableError as exc:
+        raise PendcError(f"{source}: {exc}") from None
 
 
 def data_fingerprint(path: str | os.PathLike) -> str:
