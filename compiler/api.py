@@ -119,7 +119,7 @@ class CompareReport:
 
 
 def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4, method: str = "rk4",
-            labels=None, **reading) -> CompareReport:
+            labels=None, band: int = 20, seed: int = 0, **reading) -> CompareReport:
     """How well does ``model`` reproduce ``data``, where and why not (``pendc compare``).
 
     ``model``: a model file path or PlantModel (None: the default model), or a
@@ -129,17 +129,23 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
     horizon fit. ``outputs``: a tuple of state names to compare only those (default: every output
     the data move; ``report.notes`` says what was left out). ``**reading``: :class:`~pendc.sim.readers.ReadOptions` fields for paths.
     The headline (``report.headline``) is the free-run fit where a free run is meaningful
-    on the data, else the horizon fit, and says why.
+    on the data, else the horizon fit, and says why. A model given by the file a fit wrote gets
+    the 95 % prediction band of ``band`` parameter draws (``seed``) from its ``[fit.covariance]``
+    (0: none; see :mod:`pendc.ident.prediction_band`).
     """
     import numpy as np
 
     from .ident.sidebyside import compare_models
+    from .model.modelfile import load_fit_uncertainty
 
-    models = [_model(m) for m in _as_list(model)]
+    given = _as_list(model)
+    models = [_model(m) for m in given]
+    uncertainties = [load_fit_uncertainty(m) if isinstance(m, (str, os.PathLike)) and band else None for m in given]
     datasets = _datasets(data, reading)
     with np.errstate(all="ignore"):   # undefined figures are NaN by design, never a warning
         return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels,
-                                            outputs=None if outputs is None else tuple(_as_list(outputs))))
+                                            outputs=None if outputs is None else tuple(_as_list(outputs)),
+                                            uncertainties=uncertainties, band_samples=band, seed=seed))
 
 
 def _names(value) -> list:
