@@ -64,6 +64,7 @@ def _figure_lines(fig: dict, indent: str = "") -> list:
 def cmd_diagnose(args) -> int:
     from .ident.diagnose import diagnose
     from .ident.evidence import parameter_hint
+    from .ident.parameter_trials import try_parameters
     from .model.modelfile import fitted_parameters
     from .ident.outputs import parse_outputs
     from .ident.shooting import horizon_figures
@@ -80,6 +81,11 @@ def cmd_diagnose(args) -> int:
     for c, row in zip(d.candidates, out["candidates"]):
         row["fit_after"] = (horizon_figures(model.with_effect(c.effect, c.params), datasets, outputs=outputs)
                             if c.score > 0.05 else before)
+    hint = parameter_hint(model, d.correlations, fitted_parameters(args.model)) if d.unexplained else None
+    trials = try_parameters(model, datasets, hint[0].split(","), outputs=outputs) if hint else []
+    if hint:
+        out["parameter_hint"] = {"free": hint[0].split(","), "reason": hint[1],
+                                 "tested": [t.to_json() for t in trials]}
     if args.json:
         _dump(out)
         return 0
@@ -101,10 +107,12 @@ def cmd_diagnose(args) -> int:
                      f"above the noise level ({ratio} the noise-only residual).")
         lines.append("The unexplained acceleration correlates with:")
         lines += [f"  {r['target']:21s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
-        hint = parameter_hint(model, d.correlations, fitted_parameters(args.model))
         if hint:
-            lines.append(f"This points at a constant the model has: {hint[1]}. Try: pendc fit {_data_words(args)} "
-                         f"--model {args.model or _default_model()} --free {hint[0]} -o NEW.toml")
+            lines.append(f"This points at a constant the model has: {hint[1]}.")
+            lines.append("Tested, each freed alone (a short 0.5 s horizon fit): "
+                         + "; ".join(t.words() for t in trials) + ".")
+            lines.append(f"Try: pendc fit {_data_words(args)} --model {args.model or _default_model()} "
+                         f"--free {hint[0]} -o NEW.toml")
     elif d.tie:
         lines.append(f"Ambiguous: {d.tie['message']}")
         for name in d.tie["effects"]:

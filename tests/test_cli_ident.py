@@ -178,10 +178,23 @@ def test_diagnose_says_nothing_systematic_is_left_on_a_complete_model(tmp_path, 
     assert noise_ratio(load_model(), [read_measurements(path)])["theta"] > 2.0
 
 
-def test_diagnose_of_another_pendulum_points_at_its_constants(capsys):
-    rc, text, err = run(capsys, "diagnose", DATA / "unknown_pendulum_swing.csv")
+def test_diagnose_of_another_pendulum_points_at_its_constants_and_tests_them(tmp_path, capsys):
+    """The model is written as a fit that freed I would write it ([meta] fitted): the period hint
+    then names what else sets the period (L), never I again, and each name is tested."""
+    from pendc.model.model_writer import dumps_fitted
+    from pendc.model.modelfile import default_model_path
+
+    source = default_model_path().read_text(encoding="utf-8")
+    model = tmp_path / "fitted_i.toml"
+    model.write_text(dumps_fitted(load_model(), source, {"generator": "pendc fit", "fitted": "I"}, {}))
+    rc, text, err = run(capsys, "diagnose", DATA / "unknown_pendulum_swing.csv", "--model", model, "--json")
     assert rc == 0 and err == "", err
-    assert "No catalogue effect explains" in text and "--free I,b_theta" in text
+    hint = json.loads(text)["parameter_hint"]
+    assert hint["free"] == ["L", "b_theta"] and "freed I already: what else sets it is L" in hint["reason"]
+    tested = {row["parameter"]: row for row in hint["tested"]}
+    assert set(tested) == {"L", "b_theta"}
+    # the other pendulum's L is 5 % shorter: freeing L moves it that way and removes much of the error
+    assert tested["L"]["value"] < tested["L"]["start"] and tested["L"]["cost_reduction"] > 0.3
 
 
 def test_another_pendulum_is_fitted_with_the_issue_command(tmp_path, capsys):
