@@ -211,33 +211,10 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     a fixed step lands on the jump at a random phase (1e-5 RK4 still differs by 0.5 counts). Pass
     ``dt=1e-6, method="euler"`` to compare with the hardware's own integrator.
     """
-    experiment = experiment_of(data, model)
-    if experiment != model.experiment:
-        model = model.for_experiment(experiment)
-    if len(data.t) < 3:
-        raise PendcError(f"{data.source}: too short to compare ({len(data.t)} samples; at least 3 needed)")
-    # the same choice as diagnose and fit: held, constant, missing or unasked outputs are left out
-    plan = plan_outputs([data], requested=outputs, model=model)
-    outputs = plan.outputs[0]
-    t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
-    y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
-    sim = Simulator(model, dt=dt, method=method)
+    model, plan, outputs, t, u, y, sim, x0, run, head = _free_run(model, data, dt, method, outputs, horizon)
     sig = sim.signals
-    position, velocity = measured_motion(data, model)
-    x0 = sim.true_state(sim.initial_vector(position, velocity, 0))
-
-    def free_run(start) -> dict:
-        run = sim(t, u, x0=tuple(start))
-        return {k: run.measured(k) for k in outputs}
-
-    run = sim(t, u, x0=tuple(x0))
     simulated = {k: run.measured(k) for k in outputs}
     free_residual = {k: y[k] - simulated[k] for k in outputs}
-    try:
-        twin = hl.twin_fit(free_run, x0, y, sig)
-    except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
-        twin = {k: -math.inf for k in outputs}
-    head = hl.choose(twin, horizon, controller=(data.meta or {}).get("controller"))
     hrun = horizon_run(model, data, outputs=outputs, horizon=horizon, dt=dt, method=method)
     if head.metric == hl.HORIZON:
         residual = {k: np.nan_to_num(y[k] - hrun.outputs[k], nan=0.0) for k in outputs}   # restarts are exact
@@ -282,9 +259,46 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         measured={**y, **({lead_rate: lead_velocity} if lead_rate else {})},
         model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, centre_name=centre_name,
         motion_source=motion_source,
-        outputs=outputs, experiment=experiment, free_residual=free_residual, fit_wrapped=wrapped_fit,
+        outputs=outputs, experiment=model.experiment, free_residual=free_residual, fit_wrapped=wrapped_fit,
         turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
         notes=tuple(plan.notes))
+
+
+def headline_of(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str = "rk4", outputs=None,
+                horizon: float = DEFAULT_HORIZON) -> hl.Headline:
+    """The headline :func:`compare` would give ``model`` on ``data`` (which fit means something
+    there, and why), without the rest of the comparison: three free runs."""
+    return _free_run(model, data, dt, method, outputs, horizon)[-1]
+
+
+def _free_run(model, data, dt, method, outputs, horizon) -> tuple:
+    """What compare and its headline share: the model under the data's experiment, the output
+    plan, the data, the simulator, the initial state, the free run and the headline."""
+    experiment = experiment_of(data, model)
+    if experiment != model.experiment:
+        model = model.for_experiment(experiment)
+    if len(data.t) < 3:
+        raise PendcError(f"{data.source}: too short to compare ({len(data.t)} samples; at least 3 needed)")
+    # the same choice as diagnose and fit: held, constant, missing or unasked outputs are left out
+    plan = plan_outputs([data], requested=outputs, model=model)
+    outputs = plan.outputs[0]
+    t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
+    y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
+    sim = Simulator(model, dt=dt, method=method)
+    position, velocity = measured_motion(data, model)
+    x0 = sim.true_state(sim.initial_vector(position, velocity, 0))
+    run = sim(t, u, x0=tuple(x0))
+
+    def free_run(start) -> dict:
+        again = run if np.array_equal(start, x0) else sim(t, u, x0=tuple(start))
+        return {k: again.measured(k) for k in outputs}
+
+    try:
+        twin = hl.twin_fit(free_run, x0, y, sim.signals)
+    except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
+        twin = {k: -math.inf for k in outputs}
+    head = hl.choose(twin, horizon, controller=(data.meta or {}).get("controller"))
+    return model, plan, outputs, t, u, y, sim, x0, run, head
 
 
 def wrap_difference(angle):

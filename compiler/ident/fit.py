@@ -243,11 +243,11 @@ def fit_parameters(model: PlantModel, datasets: list, free: list, start: dict | 
 
 def _free_run_blocked(model: PlantModel, datasets: list, dt: float, outputs) -> str:
     """Why the free run of ``model`` is not reproducible on one of ``datasets`` ('' when it is)."""
-    from .compare import compare
+    from .compare import headline_of
     from .headline import FREE_RUN
 
     for data in datasets:
-        head = compare(model, data, dt=dt, outputs=outputs).headline
+        head = headline_of(model, data, dt=dt, outputs=outputs)
         if head is not None and head.metric != FREE_RUN:
             return f"{data.source}: {head.reason}"
     return ""
