@@ -62,7 +62,7 @@ def add_parser(sub) -> None:
     """``pendc compare``: its data options, models and outputs."""
     import argparse
 
-    from .ident.prediction_band import BAND_SAMPLES
+    from .model.fit_uncertainty import BAND_SAMPLES
 
     p = sub.add_parser("compare", help="compare a model (or several) with measurements: fit, where and why it fails",
                        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
-from ..model.fit_uncertainty import FitUncertainty
+from ..model.fit_uncertainty import BAND_SAMPLES, FitUncertainty
 from ..model.plant import PlantModel
 from ..sim.simulator import Simulator
 from .fit import parameter_bounds
@@ -26,7 +26,6 @@ from .horizon import DEFAULT_HORIZON, horizon_run, measured_motion
 from .outputs import experiment_of
 from .smoothing import velocity_error_sd
 
-BAND_SAMPLES = 20      # parameter draws per band: the 2.5 and 97.5 % points of 20 are the outermost two
 LEVEL = 0.95
 
 

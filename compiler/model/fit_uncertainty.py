@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 FIT_KEYS = ("free", "intervals", "covariance")
+BAND_SAMPLES = 20      # parameter draws per prediction band: its 2.5 and 97.5 % points lie between the outermost
 Z95 = 1.959963984540054          # the normal distribution's 97.5 % point
 SYMMETRY_TOLERANCE = 1e-9        # relative; what a printed and re-read float keeps
 PSD_TOLERANCE = 1e-9             # smallest eigenvalue allowed below zero, relative to the largest
