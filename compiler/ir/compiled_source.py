@@ -176,6 +176,15 @@ class _FixedGen(_Gen):
 
     fixed = True
 
+    def __init__(self, graph: Graph, runtime_resets: bool = False, share_lut_index: bool = True):
+        super().__init__(graph, runtime_resets)
+        if share_lut_index:   # a LUT's address and fraction depend on its input and its grid only
+            def grid(n):
+                p = n.params
+                lo = lut_sem.lo_int(p.lo, graph[n.inputs[0]].qformat) if p.shift is not None else None
+                return n.inputs[0], lo, p.shift, p.addr_bits, bool(p.periodic), bool(p.interpolate)
+            self.group_luts(grid)
+
     def aligned(self, name: str, frac: int) -> tuple:
         """(expression, bounds) of a node's integer shifted left to ``frac`` fraction bits."""
         n = frac - self.g[name].qformat.frac
@@ -253,15 +262,6 @@ class _FixedGen(_Gen):
         if hi - lo + 1 > 63 or lo < 0:
             raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
         return [f"v{i} = (v{self.idx[node.inputs[0]]} >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)}"]
-
-    def __init__(self, graph: Graph, runtime_resets: bool = False, share_lut_index: bool = True):
-        super().__init__(graph, runtime_resets)
-        if share_lut_index:   # a LUT's address and fraction depend on its input and its grid only
-            def grid(n):
-                p = n.params
-                lo = lut_sem.lo_int(p.lo, graph[n.inputs[0]].qformat) if p.shift is not None else None
-                return n.inputs[0], lo, p.shift, p.addr_bits, bool(p.periodic), bool(p.interpolate)
-            self.group_luts(grid)
 
     def visit_lut(self, node, i):
         if i in self.lut_member:

@@ -36,17 +36,18 @@ class FloatGen(_Gen):
     def visit_gain(self, node, i):
         return [f"v{i} = {self._a(node)[0]} * {_f(node.params.value)}"]
 
-    def visit_add(self, node, i):
+    def _binary(self, node, i, op: str) -> list:
         a = self._a(node)
-        return [f"v{i} = {a[0]} + {a[1]}"]
+        return [f"v{i} = {a[0]} {op} {a[1]}"]
+
+    def visit_add(self, node, i):
+        return self._binary(node, i, "+")
 
     def visit_sub(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = {a[0]} - {a[1]}"]
+        return self._binary(node, i, "-")
 
     def visit_mul(self, node, i):
-        a = self._a(node)
-        return [f"v{i} = {a[0]} * {a[1]}"]
+        return self._binary(node, i, "*")
 
     def visit_neg(self, node, i):
         return [f"v{i} = -{self._a(node)[0]}"]
