@@ -102,8 +102,18 @@ class PlantModel:
         return values
 
     def for_experiment(self, name: str) -> "PlantModel":
-        """The same model under experiment ``name`` (same parameters, other equations)."""
-        return replace(self, experiment=name)
+        """The same model under experiment ``name`` (same parameters, other equations). One copy
+        per experiment is kept with this model, so asking again reuses its derived equations."""
+        if name == self.experiment:
+            return self
+        copies = self._experiment_copies
+        if name not in copies:
+            copies[name] = replace(self, experiment=name)
+        return copies[name]
+
+    @cached_property
+    def _experiment_copies(self) -> dict:
+        return {}
 
     def with_params(self, values: dict) -> "PlantModel":
         """A copy with some parameters (bare names) set to new values."""
