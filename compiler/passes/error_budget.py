@@ -100,38 +100,42 @@ def float_twin(graph: Graph) -> tuple[Graph, dict]:
 
 def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "compiled",
                         every: int = 1000, like: Graph | None = None,
-                        float_runs: dict | None = None) -> tuple[dict, dict]:
+                        float_runs: dict | None = None, states: bool = True, nodes: bool = True) -> tuple:
     """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|
-    (``like``: an earlier typing whose kernel this one may share, see CompiledGraph).
+    (``like``: an earlier typing whose kernel this one may share, see CompiledGraph); ``states``
+    or ``nodes`` False leaves that half out (None in its place: each is a run of every stimulus).
 
     ``float_runs``: a dict kept across calls on the same ``stimuli`` (the budget's rounds). The
     rounds' float twins mostly print the same kernel with the same data, so they compute the
     same numbers: a run is looked up by everything it reads instead of run again."""
     from ..ir.compiled import CompiledGraph, quantize
-    nodes = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
+    names = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
     twin, alias = float_twin(graph)
     fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
-    errors, node_errors = {}, {n: 0.0 for n in nodes}
-    states, port = budget_states(graph), input_port(graph)
+    errors, node_errors = ({} if states else None), ({n: 0.0 for n in names} if nodes else None)
+    compared, port = budget_states(graph), input_port(graph)
     in_fmt = next(n.qformat for n in graph.of_kind(Kind.INPUT))
-    recorded = tuple(sorted({alias.get(n, n) for n in nodes}))     # in no round's order: rounds share the run
+    recorded = tuple(sorted({alias.get(n, n) for n in names}))     # in no round's order: rounds share the run
     for name, (t, u) in stimuli.items():
         steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
         ints = {port: quantize(steps[port], in_fmt)}      # what each fixed run would quantise anew
-        a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
-        if a.overflows:
-            node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
-            raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
-                              f"training ranges do not cover it (raise margin_bits or override its range)")
-        errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
-                        for s in states}
-        sa, sb = run_side_by_side([lambda: fixed.run(ints, every=every, record=nodes),
-                                   lambda: _float_run(flt, steps, name, float_runs, every=every, record=recorded)])
-        for n in nodes:
-            lsb = graph[n].qformat.lsb
-            diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb
-                          - np.asarray(sb.outputs[alias.get(n, n)], np.float64))
-            node_errors[n] = max(node_errors[n], float(np.max(diff)) if diff.size else 0.0)
+        if states:
+            a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
+            if a.overflows:
+                node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
+                raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
+                                  f"training ranges do not cover it (raise margin_bits or override its range)")
+            errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
+                            for s in compared}
+        if nodes:
+            sa, sb = run_side_by_side([lambda: fixed.run(ints, every=every, record=names),
+                                       lambda: _float_run(flt, steps, name, float_runs, every=every,
+                                                          record=recorded)])
+            for n in names:
+                lsb = graph[n].qformat.lsb
+                diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb
+                              - np.asarray(sb.outputs[alias.get(n, n)], np.float64))
+                node_errors[n] = max(node_errors[n], float(np.max(diff)) if diff.size else 0.0)
     return errors, node_errors
 
 
@@ -179,8 +183,13 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         # from the third round of one structure on, the rounds differ from its first in the same
         # nodes (the widened accumulators and their readers): they share one kernel. The first two
         # stay baked, so a budget met by then leaves the kernel later golden runs of it load.
-        errors, node_errors = compare_fixed_float(graph, stimuli, dt, engine, like=anchor if since >= 2 else None,
-                                                  float_runs=float_runs)
+        like = anchor if since >= 2 else None
+
+        def node_errors_now():      # a second run of every stimulus: only when a decision or the report reads it
+            return compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, states=False)[1]
+
+        errors, _ = compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, nodes=False)
+        node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
         if not over:
@@ -191,6 +200,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
                 widen[s] = current + WIDEN_STEP
             actions.append(f"{', '.join(over)} over budget: state accumulators +{WIDEN_STEP} fraction bits")
             continue
+        node_errors = node_errors_now()
         raise_ = _products_to_widen(graph, node_errors, levels, max_level)
         if raise_:
             for n in raise_:
@@ -208,6 +218,8 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         for n in grown:
             addr[n] = graph[n].params.addr_bits + 1
         actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
+    if node_errors is None:
+        node_errors = node_errors_now()
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
                          addr_bits={n.name: n.params.addr_bits for n in graph.of_kind(Kind.LUT)},
