@@ -7,7 +7,6 @@ fitted model has), and by the independent generator (tests/independent_plant.py)
 Coulomb friction the model lacks (a structural error no parameter value explains)."""
 
 import json
-import sys
 import tomllib
 from pathlib import Path
 
@@ -22,8 +21,9 @@ from pendc.model.model_writer import save_model
 from pendc.model.modelfile import load_fit_uncertainty
 from pendc.sim.measurements import format_csv
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from independent_plant import free_swing as independent_swing  # noqa: E402
+
+from cli_capture import run_cli
+from independent_plant import free_swing as independent_swing
 
 
 @pytest.fixture(scope="module")
@@ -63,14 +63,16 @@ def test_the_fitted_file_stores_a_covariance_that_matches_its_intervals(fitted):
 def test_the_band_holds_the_models_own_data_and_not_a_missing_effect(fitted, capsys):
     folder, out, _ = fitted
     html = folder / "cmp.html"
-    assert main(["compare", str(folder / "val.csv"), "--model", str(out), "--json", "--html", str(html)]) == 0
-    own = json.loads(capsys.readouterr().out)["prediction_band"]
+    rc, text, err = run_cli(capsys, "compare", folder / "val.csv", "--model", out, "--json", "--html", html)
+    assert rc == 0 and all(line.startswith("pendc: note: ") for line in err.splitlines()), err   # no warning
+    own = json.loads(text)["prediction_band"]
     assert own["samples"] == 20 and own["from"] == "covariance" and own["diverged"] == 0
     assert own["outside_horizon"]["theta"] < 0.25 and own["outside_free_run"]["theta"] < 0.5
     page = html.read_text()
     assert "95 % prediction band of 20 parameter draws" in page and "outside the band, free run" in page
-    assert main(["compare", str(folder / "coulomb.csv"), "--model", str(out), "--json"]) == 0
-    other = json.loads(capsys.readouterr().out)["prediction_band"]
+    rc, text, err = run_cli(capsys, "compare", folder / "coulomb.csv", "--model", out, "--json")
+    assert rc == 0 and all(line.startswith("pendc: note: ") for line in err.splitlines()), err
+    other = json.loads(text)["prediction_band"]
     assert other["outside_free_run"]["theta"] > max(0.8, 2 * own["outside_free_run"]["theta"])
     assert other["outside_horizon"]["theta"] > 2 * own["outside_horizon"]["theta"]
 
