@@ -65,7 +65,7 @@ def check_found_and_fitted(effect: str) -> None:
     within 10 % and comes within 1.5 points of the true model's fit."""
     true, tool = CASES[effect]
     data = case_data(effect)
-    d = diagnose(tool, [data], workers=2)
+    d = diagnose(tool, [data])
     ranking = [(c.effect, round(c.score, 3)) for c in d.candidates]
     assert d.candidates[0].effect == effect, ranking
     assert not d.unexplained and d.candidates[0].score >= EXPLAINED

@@ -34,13 +34,20 @@ def test_there_are_at_least_eight_cases():
         assert name in candidate_effects(tool)
 
 
+# The rivals of the two hidden effects: what else pulls the cart towards a place (the end stops,
+# an asymmetric friction) and what else brakes the swing by its speed (quadratic drag). Every
+# other catalogue effect is ranked against each hidden one alone in tests/hidden_effect_cases.py;
+# here the question is whether the second is found once the first is in the model.
+RIVALS = ("cart_spring", "coulomb_pendulum", "quadratic_pendulum", "end_stops", "asymmetric_cart")
+
+
 def test_two_hidden_effects_are_found_in_turn():
     true = BASE.with_effect("cart_spring", {"k_c": 300.0, "x_0": 0.05}).with_effect("coulomb_pendulum", {"tau_c": 0.004})
     t, u = identification_experiment(14.0)
     data = as_measurement(make_dataset(true, t, u), "two effects")
     model, found = BASE, []
     for _ in range(2):
-        d = diagnose(model, [data], workers=2)
+        d = diagnose(model, [data], effects=[e for e in RIVALS if e not in model.effects])
         best = d.candidates[0]
         assert not d.unexplained, [(c.effect, c.score) for c in d.candidates]
         found.append(best.effect)
@@ -66,7 +73,7 @@ def test_physics_outside_the_catalogue_is_reported_unexplained():
     # the resonant swing) leave every candidate as far from explaining the ripple as all 20 s do
     # (best score 0.03 and 0.002), for 0.6 of the diagnosis' cost
     data = first_seconds(DATA / "hidden_unexplained.csv", 12.0)
-    d = diagnose(BASE, [data], workers=2)
+    d = diagnose(BASE, [data])
     assert d.unexplained
     assert d.candidates[0].score < EXPLAINED
     assert d.correlations and all({"signal", "target", "r"} <= set(r) for r in d.correlations)

@@ -44,7 +44,7 @@ def measured(columns, experiment, name):
 def identify(tool, data, effect, truth):
     with warnings.catch_warnings():
         warnings.simplefilter("error")      # no numpy warning may escape
-        d = diagnose(tool, [data], workers=2)
+        d = diagnose(tool, [data])
         ranking = [(c.effect, round(c.score, 3)) for c in d.candidates]
         assert d.candidates[0].effect == effect, ranking
         assert d.candidates[0].score >= EXPLAINED and not d.unexplained

@@ -41,7 +41,7 @@ def test_runs_into_the_end_stops_find_the_position_offset(into_the_stops):
     tool = BASE.with_effect("end_stops", STOPS)
     with warnings.catch_warnings():
         warnings.simplefilter("error")      # no numpy warning may escape
-        d = diagnose(tool, [into_the_stops], workers=2)
+        d = diagnose(tool, [into_the_stops])
     ranking = [(c.effect, round(c.score, 3)) for c in d.candidates]
     assert d.candidates[0].effect == "x_offset", ranking
     assert d.candidates[0].score >= EXPLAINED and not d.unexplained
@@ -77,7 +77,7 @@ def spring_tie():
     # with a spring centred on the track, an offset of the sensor is a constant force on the
     # cart, and so, while the cart moves, is friction that differs by direction
     columns = cart_alone([0.6, 1.0, 1.5], x_off=0.03, **SPRING)
-    d = diagnose(BASE.with_effect("cart_spring", SPRING), [measured(columns, "spring runs")], workers=2,
+    d = diagnose(BASE.with_effect("cart_spring", SPRING), [measured(columns, "spring runs")],
                  effects=["x_offset", "asymmetric_cart"])
     return columns, d
 
