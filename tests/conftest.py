@@ -34,10 +34,12 @@ SLOWEST_FIRST = (
     "test_synth.py",                # 75 s: YoWASP's first run compiles yosys and nextpnr
     "test_sim_second_plant.py",     # 75 s: the Furuta's core on both simulators
     "test_closed_loop_ident.py",    # 64 s (measured under load): four hidden-effect HIL runs, diagnosed and fitted
+    "test_prediction_band.py",      # ~50 s (estimated): a fit and three compares with 20-draw bands
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
     "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
-    "test_cli_ident.py",            # 55 s
+    "test_cli_ident.py",            # 100 s at 4368da0 (cold cache, 2 workers; so are the new entries below)
+    "test_kernel_parts.py",         # 99 s: split and whole kernels of the every-kind graph compiled side by side
     "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus
     "test_error_budget.py",         # 45 s
     "test_ident_shipped.py",        # 41 s
@@ -59,6 +61,8 @@ SLOWEST_FIRST = (
     "test_golden.py",               # 14 s
     "test_ident_second_plant.py",   # 13 s
     "test_datagen.py",              # 13 s
+    "test_fit_objective.py",        # 17 s
+    "test_held_axes.py",            # 13 s
     "test_build_cache_lock.py",     # two processes compile one entry
 )
 
