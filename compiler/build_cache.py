@@ -25,7 +25,7 @@ except ImportError:     # no flock (Windows): concurrent misses compile twice, a
     fcntl = None
 
 from .codegen import cache_dir
-from .model.model_writer import dumps_model
+from .model.modelfile import model_fingerprint
 from .model.plant import PlantModel
 from .passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
 
@@ -52,7 +52,9 @@ def _compiler_digest() -> str:
 
 
 def build_key(model: PlantModel, options: BuildOptions) -> str:
-    text = dumps_model(model) + repr(sorted(getattr(model, "hardware", {}).items())) + repr(options)
+    """What a cached build is found by: the model as the compile reads it (its fingerprint: an
+    edit of its identification advice or drawing rebuilds nothing), the options and the compiler."""
+    text = model_fingerprint(model) + repr(options)
     return hashlib.sha256((text + _compiler_digest()).encode()).hexdigest()[:24]
 
 

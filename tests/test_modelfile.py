@@ -146,3 +146,23 @@ def test_fingerprint_is_the_model_not_its_file():
     assert [model_fingerprint(m) for m in same] == [fp]
     assert len({fp, *(model_fingerprint(m) for m in other)}) == 1 + len(other)
     assert fp in build_source(base) and "a.toml" not in build_source(base)
+
+
+def test_fingerprint_and_build_key_ignore_what_no_build_reads():
+    """Identification advice, operating points and the drawing are read by diagnose, hil and
+    animate, never by the compile: editing them rebuilds nothing (same fingerprint, same cached
+    build); a renamed core is another Verilog module, so another build."""
+    from pendc.build_cache import build_key
+    from pendc.model.modelfile import default_model_path, model_fingerprint
+    from pendc.passes.pipeline import BuildOptions
+
+    text = default_model_path().read_text(encoding="utf-8")
+    base = parse_model(text, source="a.toml")
+    advice = parse_model(text.replace('also = ["L"]', 'also = ["L", "g"]'), source="a.toml")
+    assert advice.definition.notes != base.definition.notes
+    assert model_fingerprint(advice) == model_fingerprint(base)
+    assert build_key(advice, BuildOptions()) == build_key(base, BuildOptions())
+    core = base.definition.core
+    renamed = parse_model(text.replace(f'core = "{core}"', 'core = "my_core"'), source="a.toml")
+    assert renamed.definition.core == "my_core" and model_fingerprint(renamed) != model_fingerprint(base)
+    assert build_key(renamed, BuildOptions()) != build_key(base, BuildOptions())

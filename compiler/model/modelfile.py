@@ -18,6 +18,8 @@ from .plant import PlantModel
 from .plantfile import PHYSICS, PLANT_META, read_definition
 
 TOP_LEVEL = ("extends", "plant", "effects", "input", "fit", "meta", "hardware") + PHYSICS
+# physics tables no build reads: identification's advice, HIL's operating points, the animation
+NOT_READ_BY_THE_BUILD = ("identification", "operating_points", "drawing")
 MAX_EXTENDS = 8      # a chain of files extending each other longer than this is a mistake (or a loop)
 
 
@@ -79,12 +81,16 @@ def load_model(path: str | os.PathLike | None = None) -> PlantModel:
 
 def model_fingerprint(model: PlantModel) -> str:
     """``sha256:`` and 16 hex digits of what the compiler reads from ``model`` (its constants,
-    effects and ``[hardware]`` table, in a canonical form): equal for the same model wherever
-    its file is and whatever its comments, layout or ``[meta]`` and ``[fit]`` tables say."""
+    effects, ``[hardware]`` table and physics, in a canonical form): equal for the same model wherever
+    its file is and whatever its comments, layout, ``[meta]`` and ``[fit]`` tables or the physics
+    tables only identification and HIL read (:data:`NOT_READ_BY_THE_BUILD`) say."""
     import json
 
+    physics = {k: v for k, v in model.definition.physics.items() if k not in NOT_READ_BY_THE_BUILD}
+    d = model.definition
     read = {"plant": model.plant, "effects": model.effects, "hardware": model.hardware,
-            "physics": model.definition.key}
+            "physics": json.dumps(physics, sort_keys=True, default=repr),
+            "names": [d.name, d.core, d.summary, d.source]}     # module names and header comments
     if model.input_range is not None:  # the input port's full scale follows the range
         read["input"] = list(model.input_range)
     canonical = json.dumps(read, sort_keys=True, separators=(",", ":"), default=repr)
