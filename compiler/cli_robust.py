@@ -41,13 +41,29 @@ def _new_sweep(args):
     return spec, plan
 
 
-def _prepare_golden(spec) -> None:
-    """Build (or read from the build cache) the nominal core here, once, before the workers need it,
-    and refuse a sampled parameter that changes the datapath's structure."""
+def _prepare_golden(spec, plan, defaulted: bool):
+    """Build (or read from the build cache) the nominal core here, once, before the workers need it.
+    A parameter whose range ends change the core's structure (an exponent leaving 1) cannot be
+    retyped: held at its nominal value when the ranges are the defaults (said in the output),
+    a one-line error when the user asked for it."""
     from .robust.golden_retype import RetypeTemplate
     from .robust.scenario_runner import WorkerCache
 
-    RetypeTemplate.of(WorkerCache().models(spec)[0])
+    model = WorkerCache().models(spec)[0]
+    template = RetypeTemplate.of(model)
+    held = {}
+    for name, lo, hi in plan.ranges:
+        for value in (lo, hi):
+            try:
+                template.graph_for(model.with_params({name: value}))
+            except PendcError as exc:
+                held.setdefault(name, str(exc))
+    if held and not defaulted:
+        name, why = next(iter(held.items()))
+        raise PendcError(f"--plant golden: --vary {name}: {why}")
+    if held:
+        return plan.without(set(held), f"held for the golden plant (their values shape the core): {', '.join(held)}")
+    return plan
 
 
 def _replay(args) -> int:
@@ -92,7 +108,7 @@ def cmd_robust(args) -> int:
             raise PendcError(f"{folder}: is a file; --out names a folder for the sweep")
         spec, plan = _new_sweep(args)
         if spec.plant == "golden":
-            _prepare_golden(spec)
+            plan = _prepare_golden(spec, plan, defaulted=not args.vary and plan.origin.startswith("default"))
         write_manifest(folder, spec, plan)
     print(f"{plan.count} plants sampled around {spec.model_source} ({plan.method}, seed {plan.seed}) "
           f"from {plan.origin}:")

@@ -34,7 +34,8 @@ def wilson_interval(successes: int, trials: int, z: float = Z95) -> tuple:
     p = successes / trials
     centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    # at 0 and n successes the bound is exactly 0 (1); rounding would leave 1e-17 of it
+    return (0.0 if successes == 0 else max(0.0, centre - half), 1.0 if successes == trials else min(1.0, centre + half))
 
 
 def columns_of(rows: list, plan: SamplePlan) -> list:

@@ -84,6 +84,15 @@ class SamplePlan:
         row = (self.design() if design is None else design)[index]
         return {n: float(v) for n, v in zip(self.names, row)}
 
+    def without(self, names: set, note: str) -> "SamplePlan":
+        """The plan with the ranges of ``names`` dropped (held at their nominal values), ``note`` added
+        to its origin."""
+        from dataclasses import replace
+        keep = tuple(r for r in self.ranges if r[0] not in names)
+        kept = {r[0] for r in keep} | set(self.fit_names)
+        return replace(self, ranges=keep, nominal={k: v for k, v in self.nominal.items() if k in kept},
+                       bounds={k: v for k, v in self.bounds.items() if k in kept}, origin=f"{self.origin}; {note}")
+
     def describe(self) -> list:
         """One line per varied parameter: its nominal value and how it is drawn."""
         lines = [f"{n} {self.nominal[n]:.6g}: uniform on [{lo:.6g}, {hi:.6g}]" for n, lo, hi in self.ranges]

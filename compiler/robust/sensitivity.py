@@ -51,13 +51,17 @@ def rank_parameters(names: list, X: np.ndarray, failed: np.ndarray, figure: np.n
         outcome = f"{figure_name} (every run {'failed' if failed.all() else 'passed'})"
         if X.shape[0] < MIN_RUNS or np.ptp(y) == 0:
             return None
-    # RBD-FAST's harmonics: 10 by default, fewer for a small sweep (it needs N > 2 M)
-    harmonics = int(max(1, min(10, (X.shape[0] - 1) // 2 - 1)))
+    # RBD-FAST's harmonics: 10 by default, fewer for a small sweep (its bootstrap resamples half
+    # the runs and needs more than 2 M of them)
+    harmonics = int(max(1, min(10, (X.shape[0] - 1) // 5)))
     problem = {"num_vars": len(names), "names": list(names),
                "bounds": [[float(X[:, j].min()), float(X[:, j].max()) + 1e-300] for j in range(len(names))]}
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")      # a bootstrap resample without variance gives a NaN half-width
-        result = rbd_fast.analyze(problem, X, y, M=harmonics, num_resamples=100, seed=seed)
+        try:
+            result = rbd_fast.analyze(problem, X, y, M=harmonics, num_resamples=100, seed=seed)
+        except (ZeroDivisionError, ValueError):    # too few distinct runs for the estimator
+            return None
     s1 = np.nan_to_num(np.asarray(result["S1"], dtype=float))
     conf = np.nan_to_num(np.asarray(result["S1_conf"], dtype=float))
     order = np.argsort(-s1, kind="stable")

@@ -1,0 +1,53 @@
+"""Helpers of the ``pendc robust`` tests: a controller whose run raises, and sweeps run as processes."""
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PENDC = [sys.executable, "-m", "pendc.cli"]
+SHORT = 6.0        # s per run: the builtin swing-up is upright by ~2.7 s, the criterion reads the last 3 s
+# two parameters that move the outcome on the rig model: the drive gain and the cart's damping
+VARY = ["--vary", "alpha=200:320", "--vary", "b_x=700:1000"]
+
+
+class ResetRaises:
+    """A controller whose reset raises: every run of a sweep with it raises inside its scenario."""
+
+    def __init__(self, period):
+        self.period = period
+
+    def reset(self):
+        raise RuntimeError("this controller cannot start")
+
+    def step(self, meas):
+        return 5.0
+
+
+def sweep_args(out, samples: int, *extra) -> list:
+    return ["robust", "--model", str(ROOT / "models" / "sct_rig.toml"), "--samples", str(samples), "--seconds",
+            str(SHORT), "--seed", "7", "--out", str(out), "--no-progress", *VARY, *extra]
+
+
+def start_pendc(args, cwd=None) -> subprocess.Popen:
+    return subprocess.Popen([*PENDC, *args], cwd=cwd or ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+
+
+def wait_for_rows(folder, count: int, proc, timeout: float = 240.0) -> None:
+    """Wait until ``folder`` holds ``count`` finished rows (or the process ends)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if len(list((Path(folder) / "rows").glob("*.json"))) >= count or proc.poll() is not None:
+            return
+        time.sleep(0.2)
+    raise TimeoutError(f"{folder}: fewer than {count} rows after {timeout} s")
+
+
+def rows_of(folder) -> list:
+    """Every row file of a sweep folder, by index."""
+    rows = [json.loads(p.read_text()) for p in sorted((Path(folder) / "rows").glob("*.json"))]
+    return sorted(rows, key=lambda r: r["index"])
