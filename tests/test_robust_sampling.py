@@ -85,3 +85,11 @@ def test_the_plan_survives_its_manifest(rig):
     assert again == plan and np.array_equal(again.design(), plan.design())
     held = plan.without({"alpha"}, "alpha held")
     assert held.names == ("b_x",) and held.origin.endswith("alpha held")
+
+
+def test_nothing_to_vary_is_refused():
+    from types import SimpleNamespace
+    switches_only = SimpleNamespace(parameter_values=lambda: {"v_stick": 0.0},
+                                    definition=SimpleNamespace(constants={}))
+    with pytest.raises(PendcError, match="nothing to vary: .* give --vary NAME=LO:HI"):
+        plan_for(switches_only, None, [], "lhs", 0, 5)

@@ -100,7 +100,7 @@ def _client(scheduler: str | None, workers: int | None):
             raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
     n = workers or os.cpu_count() or 1
     # one thread per worker: the kernels are numba loops, the controller Python; processes, not threads
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
