@@ -14,17 +14,17 @@ from .errors import PendcError
 
 
 def _progress(enabled: bool):
-    """A one-line progress bar on stderr when it is a terminal, else None."""
+    """A progress bar (tqdm) on stderr when it is a terminal, else None: ``show(fraction)``."""
     if not (enabled and sys.stderr.isatty()):
         return None
+    from tqdm import tqdm
+
+    bar = tqdm(total=100, unit="%", file=sys.stderr, dynamic_ncols=True, bar_format="{l_bar}{bar}| {elapsed}")
 
     def show(fraction: float):
-        width = 30
-        filled = int(width * fraction)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:3.0f} %")
+        bar.update(round(100 * fraction) - bar.n)
         if fraction >= 1.0:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+            bar.close()
     return show
 
 
