@@ -16,7 +16,7 @@ examples:
 
 The first line is the headline: the free-run fit where a free run is meaningful on the
 data, else the 0.5 s horizon fit, and the next line says why. A model written by `pendc fit` carries the covariance of what
-was fitted: compare draws its 95 % prediction band and says how often the data leave it."""
+was fitted: compare draws its 95 %% prediction band and says how often the data leave it."""
 
 
 def cmd_compare(args) -> int:

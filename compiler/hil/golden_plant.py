@@ -14,7 +14,7 @@ from ..errors import PendcError
 from ..golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
 from ..model.plant import PlantModel
 from .core_ports import CorePorts
-from .plant import PlantState, check_step_request, x4_count_delta
+from .plant_state import PlantState, check_initial, check_step_request, x4_count_delta  # noqa: F401
 
 
 def build_for(model: PlantModel, dt: float, build=None):
@@ -26,17 +26,6 @@ def build_for(model: PlantModel, dt: float, build=None):
     if abs(build.options.dt - dt) > 1e-15:
         raise PendcError(f"the core was built for a step of {build.options.dt:g} s, not {dt:g} s")
     return build
-
-
-def check_initial(ports: CorePorts, initial) -> tuple | None:
-    """``initial`` as floats, one per reported state (None stays None); a wrong count is an error."""
-    if initial is None:
-        return None
-    values = tuple(float(v) for v in initial)
-    if len(values) != len(ports.states):
-        raise PendcError(f"initial state needs {len(ports.states)} values ({', '.join(ports.states)}), "
-                         f"got {len(values)}")
-    return values
 
 
 class GoldenPlant:

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
-from .golden_plant import build_for, check_initial
-from .plant import PlantState, check_step_request
+from .golden_plant import build_for
+from .plant_state import PlantState, check_initial, check_step_request
 from .rtl_harness import HarnessLink, build_harness
 
 SIMULATORS = ("verilator", "icarus")

@@ -179,7 +179,7 @@ def build_measurement(table: Table, options: ReadOptions = ReadOptions(), requir
     """Map, convert, check and (if ``options.uniform``) regrid a table (see the module docstring).
     ``required`` names the columns the file must have (default: the plant's time, input and
     positions)."""
-    from .measurements import Measurement
+    from .measured_run import Measurement
 
     sig = options.signals
     required = sig.columns if required is None else tuple(required)
