@@ -88,6 +88,10 @@ def cmd_robust(args) -> int:
     from .robust.engine import MANIFEST, read_manifest, run_sweep, write_manifest
     from .robust.results import write_results
 
+    if args.workers is not None and args.workers < 1:
+        raise PendcError(f"robust: --workers must be at least 1, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise PendcError("robust: --workers sizes the LocalCluster; a --scheduler's cluster has its own workers")
     if args.replay is not None and not args.resume:
         raise PendcError("robust: --replay K replays run K of a finished sweep: give its folder with --resume DIR")
     if args.resume:

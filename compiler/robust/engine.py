@@ -95,7 +95,7 @@ def _client(scheduler: str | None, workers: int | None):
 
     if scheduler:
         try:
-            return Client(scheduler, timeout="20s"), None
+            return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
             raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
     n = workers or os.cpu_count() or 1
