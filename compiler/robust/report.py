@@ -62,6 +62,7 @@ def success_along(values: np.ndarray, passed: np.ndarray, bins: int = BINS) -> t
 
 def figure_success_per_parameter(names, X, passed):
     plt = _figure()
+    from matplotlib.ticker import MaxNLocator
     cols = min(3, len(names))
     rows = math.ceil(len(names) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.6 * rows), squeeze=False)
@@ -72,6 +73,7 @@ def figure_success_per_parameter(names, X, passed):
         ax.plot(X[passed, j], np.full(passed.sum(), 1.04), "|", color="#2a9d4a", ms=6)
         ax.plot(X[~passed, j], np.full((~passed).sum(), -0.04), "|", color="#c0392b", ms=6)
         ax.set_ylim(-0.1, 1.1)
+        ax.xaxis.set_major_locator(MaxNLocator(4))     # long tick labels (1.2e-3) must not overlap
         ax.set_xlabel(name)
         ax.set_ylabel("success rate")
         ax.grid(alpha=0.3)
