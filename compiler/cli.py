@@ -11,6 +11,7 @@ import json
 import re
 import sys
 
+from .cli_common import build_model, write_output
 from .cli_data import MODEL_HELP, positive as _positive
 from .cli_simulate import cmd_simulate, initial_state
 from .errors import PendcError
@@ -71,16 +72,6 @@ def _emit_json(obj) -> None:
     sys.stdout.write("\n")
 
 
-def write_output(output: str | None, text: str) -> None:
-    """``text`` to standard output (no ``-o``, or ``-o -``) or, atomically, to the file ``output``."""
-    from .atomic import write_atomic
-
-    if output in (None, "-"):
-        sys.stdout.write(text)
-    else:
-        write_atomic(output, text)
-
-
 def cmd_stimulus(args) -> int:
     from .sim.measurements import format_csv
     from .sim.signals import TIME
@@ -95,21 +86,6 @@ def cmd_stimulus(args) -> int:
     name = inp.name
     write_output(args.output, format_csv({TIME: t, name: u}, {"generator": "pendc stimulus", "stimulus": args.name}))
     return 0
-
-
-def build_model(model, args):
-    """The model compiled with the command's options (from the build cache when it has it)."""
-    from .build_cache import compile_cached
-    from .passes.pipeline import options_from_model, preset_options
-
-    def tell():
-        print("pendc: compiling the model (range analysis and error budget, about half a minute; "
-              "cached afterwards)...", file=sys.stderr)
-
-    # a step-time preset also picks its arithmetic (the short chain); other commands have no preset
-    options = options_from_model(model, target=getattr(args, "target", None),
-                                 **preset_options(getattr(args, "preset", None)))
-    return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False), on_miss=tell)
 
 
 def cmd_build(args) -> int:

@@ -34,7 +34,7 @@ def cmd_simulate(args) -> int:
     from .atomic import check_file_output
     from .sim.signals import TIME
     from .sim.simulator import Simulator
-    from .cli import build_model, write_output   # shared with build and report; cli imports this module
+    from .cli_common import build_model, write_output
 
     if args.output not in (None, "-"):
         check_file_output(args.output)   # before the run, which may compile the model first
