@@ -62,3 +62,11 @@ def test_the_summary(tmp_path):
     assert summary["success_rate"] == 0.25 and summary["complete"]
     assert summary["success_rate_95"] == list(wilson_interval(1, 4))
     json.dumps(summary)          # every value is JSON
+
+
+def test_limit_ratio():
+    from pendc.robust.results import limit_ratio
+    assert limit_ratio({"worst_last_3s_rad": 0.01, "max_abs_x_m": 0.15}) == pytest.approx(0.5)
+    assert limit_ratio({"worst_last_3s_rad": 0.04, "max_abs_x_m": 0.15}) == pytest.approx(0.8)
+    assert limit_ratio({"worst_last_3s_rad": 3.1, "max_abs_x_m": 0.15}) == 2.0
+    assert math.isnan(limit_ratio({"worst_last_3s_rad": None}))

@@ -31,3 +31,12 @@ def test_no_ranking_without_enough_runs_or_variation():
     X = _design(20)
     assert rank_parameters(["a", "b", "c"], X, np.zeros(20, bool), None, "w") is None
     assert rank_parameters(["a", "b", "c"], X, np.zeros(20, bool), np.ones(20), "w") is None
+
+
+def test_a_handful_of_failures_ranks_the_figure_instead():
+    X = _design(100, seed=2)
+    figure = 0.5 + X[:, 0]                    # the figure follows a, the three failures happen along c
+    failed = np.zeros(100, bool)
+    failed[np.argsort(X[:, 2])[-3:]] = True
+    ranking = rank_parameters(["a", "b", "c"], X, failed, figure, "margin")
+    assert ranking.top == "a" and ranking.outcome == "margin (3 of 100 runs failed: too few to rank failure)"

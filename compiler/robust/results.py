@@ -25,6 +25,7 @@ from .scenario_runner import CRITERION_FIGURE, FIGURES, SweepSpec
 Z95 = 1.959963984540054
 WORST_SHOWN = 5
 ROW_FILES = ("rows.parquet", "rows.csv")
+LIMIT_RATIO = "closeness to the limits (max of worst |angle - pi| / 0.05 rad and max travel / 0.3; 1 = at a limit)"
 
 
 def wilson_interval(successes: int, trials: int, z: float = Z95) -> tuple:
@@ -129,9 +130,28 @@ def rank_rows(rows: list, spec: SweepSpec, plan: SamplePlan):
         return None
     X = np.array([[r[n] for n in plan.names] for r in rows], dtype=float)
     failed = np.array([not r.get("passed") for r in rows])
-    figure_name = CRITERION_FIGURE[spec.scenario]
-    figure = np.array([np.nan if r.get(figure_name) is None else r[figure_name] for r in rows], dtype=float)
+    if spec.scenario == "swing_up_balance":
+        figure_name = LIMIT_RATIO
+        figure = np.array([limit_ratio(r) for r in rows], dtype=float)
+    else:
+        figure_name = CRITERION_FIGURE[spec.scenario]
+        figure = np.array([np.nan if r.get(figure_name) is None else r[figure_name] for r in rows], dtype=float)
     return rank_parameters(list(plan.names), X, failed, figure, figure_name, seed=plan.seed)
+
+
+def limit_ratio(row: dict) -> float:
+    """How close a swing-up-and-balance run came to its criterion's limits: the larger of its worst
+    angle from the upright over the last 3 s / the tolerance and its largest travel / the track
+    limit (1: at a limit), capped at 2 so that a pendulum that never came up does not outweigh
+    every other run; NaN for a run that raised."""
+    from ..hil.loop import UPRIGHT_TOLERANCE
+    from ..hil.scenarios import TRACK_LIMIT
+
+    worst = row.get("worst_last_3s_rad")
+    travel = [v for k, v in row.items() if k.startswith("max_abs_") and v is not None]
+    if worst is None or not travel:
+        return math.nan
+    return min(2.0, max(worst / UPRIGHT_TOLERANCE, max(travel) / TRACK_LIMIT))
 
 
 def write_results(folder, rows: list, spec: SweepSpec, plan: SamplePlan, outcome=None) -> dict:

@@ -4,9 +4,9 @@ SALib's RBD-FAST first-order indices (``SALib.analyze.rbd_fast``), which take an
 sample (the sweep's Latin hypercube or Sobol points, or a fit's normal draws), not a special
 Saltelli design. The outcome ranked is the failure indicator (1 failed, 0 passed): its first-order
 index of a parameter is the share of the variance of failure explained by that parameter alone,
-i.e. how much the chance of failing moves along it. When every run passed (or every run failed)
-the indicator does not vary, and the scenario's continuous criterion figure is ranked instead
-(the ranking says which). Imports numpy and SALib.
+i.e. how much the chance of failing moves along it. With fewer than ``MIN_EACH`` failures (or
+passes) the indicator carries too little (a handful of failures among 17 parameters ranks noise),
+and the scenario's continuous criterion figure is ranked instead (the ranking says which). Imports numpy and SALib.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MIN_RUNS = 8          # fewer finished runs give no meaningful index
+MIN_EACH = 10         # failures (and passes) below which the indicator says too little: the figure is ranked
 
 
 @dataclass(frozen=True)
@@ -41,14 +42,18 @@ def rank_parameters(names: list, X: np.ndarray, failed: np.ndarray, figure: np.n
     X = np.asarray(X, dtype=float)
     if X.shape[0] < MIN_RUNS or not names:
         return None
-    y, outcome = np.asarray(failed, dtype=float), "failure (1 failed, 0 passed)"
-    if np.ptp(y) == 0:
-        if figure is None:
+    failed = np.asarray(failed, dtype=bool)
+    y, outcome = failed.astype(float), "failure (1 failed, 0 passed)"
+    few = min(int(failed.sum()), int((~failed).sum()))
+    if few < MIN_EACH:
+        if figure is None and few == 0:
             return None
-        y = np.asarray(figure, dtype=float)
-        keep = np.isfinite(y)
-        X, y = X[keep], y[keep]
-        outcome = f"{figure_name} (every run {'failed' if failed.all() else 'passed'})"
+        if figure is not None:
+            y = np.asarray(figure, dtype=float)
+            keep = np.isfinite(y)
+            X, y = X[keep], y[keep]
+            outcome = (f"{figure_name} (every run {'failed' if failed.all() else 'passed'})" if few == 0 else
+                       f"{figure_name} ({int(failed.sum())} of {failed.size} runs failed: too few to rank failure)")
         if X.shape[0] < MIN_RUNS or np.ptp(y) == 0:
             return None
     # RBD-FAST's harmonics: 10 by default, fewer for a small sweep (its bootstrap resamples half
