@@ -173,7 +173,9 @@ def format_resources_report(r: dict) -> str:
             ("DSP blocks, scheduled", f"{r.get('dsp_scheduled', '')} (preset {r.get('schedule', {}).get('preset')}, "
                                       f"ii {r.get('schedule', {}).get('ii')}, estimated step "
                                       f"{r.get('schedule', {}).get('estimated_step_ns')} ns)"),
-            ("18x18 DSP blocks (est.)", r["dsp18"]), ("tables", r["luts"]), ("table bits", r["lut_bits"]),
+            # in 18x18 blocks too, where the target's multiplier has another shape (the same number twice otherwise)
+            *([("18x18 DSP blocks (est.)", r["dsp18"])] if r.get("dsp_shape", "18x18") != "18x18" else []),
+            ("tables", r["luts"]), ("table bits", r["lut_bits"]),
             ("36-kbit block RAMs", r["brams"]), ("16-kbit block RAMs (ECP5)", r.get("bram16", "")),
             ("LUT4s (fabric arithmetic)", r.get("lut4_est", "")),
             ("LUT4s with the schedule", r.get("lut4_scheduled", "")), ("carry cells", r.get("carry_est", "")),
