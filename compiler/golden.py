@@ -164,20 +164,25 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
     """The compiled kernel's source with its state made an argument: registers and FSM states
     start from ``st`` and are written back to it, overflow steps count from ``k0``.
 
-    Returns (source, node indices of the states in ``st`` order). The transformation is checked
-    line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
+    Returns (source, node indices of the states in ``st`` order)."""
     from .ir.kernel_module import kernel_source
 
-    source, _ = kernel_source(graph, "fixed")
+    return make_resumable(kernel_source(graph, "fixed")[0], graph, "pendc.golden.resumable_source")
+
+
+def make_resumable(source: str, graph: Graph, header: str, signature: str = _SIGNATURE) -> tuple[str, list]:
+    """Kernel ``source`` of ``graph`` (baked, or shared: its ``signature`` line) made resumable as
+    :func:`resumable_source` says, its header naming ``header`` as its maker. The transformation is
+    checked line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
     state_idx = [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
     lines = source.split("\n")
     try:
-        head = lines.index(_SIGNATURE)
+        head = lines.index(signature)
         loop = lines.index("    for k in range(steps):")
         ret = len(lines) - 1 - lines[::-1].index("    return row")
     except ValueError:
         raise PendcError("internal error: the compiled kernel's source has an unexpected shape") from None
-    lines[head] = _SIGNATURE.replace("ov):", "ov, st, k0):")
+    lines[head] = signature.replace("ov):", "ov, st, k0):")
     seen = []
     for j in range(head + 1, loop):
         m = re.fullmatch(r"    s(\d+) = (.+)", lines[j])
@@ -190,9 +195,8 @@ def resumable_source(graph: Graph) -> tuple[str, list]:
         lines[j] = re.sub(r"(ov\[\d+\] = )k$", r"\1k0 + k", lines[j])
         # a split kernel's parts record their checks at the step number they are given
         lines[j] = re.sub(r"^(\s+part\d+\(k, )k, ", r"\1k0 + k, ", lines[j])
-    save = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
-    lines[ret:ret] = save
-    return "\n".join(lines).replace("pendc.ir.kernel_module", "pendc.golden.resumable_source"), state_idx
+    lines[ret:ret] = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
+    return "\n".join(lines).replace("pendc.ir.kernel_module", header), state_idx
 
 
 def register_integers(graph: Graph, registers: dict) -> dict:

@@ -35,6 +35,9 @@ SLOWEST_FIRST = (
     "test_sim_second_plant.py",     # 75 s: the Furuta's core on both simulators
     "test_closed_loop_ident.py",    # 64 s (measured under load): four hidden-effect HIL runs, diagnosed and fitted
     "test_prediction_band.py",      # ~50 s (estimated): a fit and three compares with 20-draw bands
+    "test_robust_engine.py",        # ~130 s (under load): Dask scheduler and workers as processes, faults, resume
+    "test_robust_cli.py",           # ~60 s (under load): a 20-sample sweep, its page in headless Chromium
+    "test_robust_golden_retype.py", # ~35 s (under load): the retyped core against the baked kernel
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
     "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build

@@ -15,12 +15,10 @@ golden model and HIL golden plant.
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from ..errors import PendcError
-from ..golden import OVERFLOW_CHOICES, register_integers
+from ..golden import OVERFLOW_CHOICES, make_resumable, register_integers
 from ..hil.core_ports import CorePorts
 from ..hil.golden_plant import GoldenPlant, check_initial
 from ..ir.compiled import CompiledGraph
@@ -31,29 +29,8 @@ _SIGNATURE = "def kernel(ins, steps, every, tab, rst, qp, sel, out, track, mx, m
 
 def resumable_shared_source(source: str, graph) -> tuple[str, list]:
     """The shared kernel ``source`` with its state made an argument (``st``, ``k0``), and the
-    node indices of the states in ``st`` order."""
-    state_idx = [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
-    lines = source.split("\n")
-    try:
-        head = lines.index(_SIGNATURE)
-        loop = lines.index("    for k in range(steps):")
-        ret = len(lines) - 1 - lines[::-1].index("    return row")
-    except ValueError:
-        raise PendcError("internal error: the shared kernel's source has an unexpected shape") from None
-    lines[head] = _SIGNATURE.replace("ov):", "ov, st, k0):")
-    seen = []
-    for j in range(head + 1, loop):
-        m = re.fullmatch(r"    s(\d+) = (.+)", lines[j])
-        if m:
-            seen.append(int(m.group(1)))
-            lines[j] = f"    s{m.group(1)} = st[{state_idx.index(int(m.group(1)))}]"
-    if seen != state_idx:
-        raise PendcError("internal error: the shared kernel does not initialise the states it should")
-    for j in range(loop, ret):
-        lines[j] = re.sub(r"(ov\[\d+\] = )k$", r"\1k0 + k", lines[j])
-        lines[j] = re.sub(r"^(\s+part\d+\(k, )k, ", r"\1k0 + k, ", lines[j])
-    lines[ret:ret] = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
-    return "\n".join(lines).replace("pendc.ir.kernel_module", "pendc.robust.retyped_stepper"), state_idx
+    node indices of the states in ``st`` order (:func:`pendc.golden.make_resumable`)."""
+    return make_resumable(source, graph, "pendc.robust.retyped_stepper", signature=_SIGNATURE)
 
 
 class SharedGoldenStepper:
