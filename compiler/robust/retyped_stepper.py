@@ -18,11 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PendcError
-from ..golden import OVERFLOW_CHOICES, make_resumable, register_integers
+from ..golden import OVERFLOW_CHOICES, GoldenStepper, make_resumable
 from ..hil.core_ports import CorePorts
 from ..hil.golden_plant import GoldenPlant, check_initial
 from ..ir.compiled import CompiledGraph
-from ..ir.nodes import Kind
 
 _SIGNATURE = "def kernel(ins, steps, every, tab, rst, qp, sel, out, track, mx, mn, ov):"
 
@@ -33,9 +32,9 @@ def resumable_shared_source(source: str, graph) -> tuple[str, list]:
     return make_resumable(source, graph, "pendc.robust.retyped_stepper", signature=_SIGNATURE)
 
 
-class SharedGoldenStepper:
-    """:class:`pendc.golden.GoldenStepper`'s interface (``advance``, ``reset``, ``state``, ``k``,
-    ``overflows``, ``ports``) over the shared kernel of ``graph`` against ``like``."""
+class SharedGoldenStepper(GoldenStepper):
+    """:class:`pendc.golden.GoldenStepper` (its ``reset`` and start state) over the shared kernel of
+    ``graph`` against ``like``: its own constructor, kernel call and ``advance``."""
 
     def __init__(self, graph, like):
         from ..codegen import load_source
@@ -49,21 +48,10 @@ class SharedGoldenStepper:
         self.ports = [p for p, _ in graph.outputs]
         index = {n.name: i for i, n in enumerate(graph.nodes)}
         self._sel = np.array([index[node] for _, node in graph.outputs], dtype=np.int64)
-        self._reset_state = np.array([n.params.reset_index if n.kind is Kind.FSM
-                                      else n.qformat.from_float(float(n.params.reset))
-                                      for n in (graph.nodes[i] for i in self.state_idx)], dtype=np.int64)
+        self._reset_state = self._initial_state()
         self._mx = np.zeros(len(graph.nodes), np.int64)
         self._mn = np.zeros(len(graph.nodes), np.int64)
         self.reset()
-
-    def reset(self, registers: dict | None = None) -> None:
-        """Back to reset; ``registers`` (name -> real value) start some registers elsewhere."""
-        self.state = self._reset_state.copy()
-        names = [self.graph.nodes[i].name for i in self.state_idx]
-        for name, q in register_integers(self.graph, registers or {}).items():
-            self.state[names.index(name)] = q
-        self.k = 0
-        self.overflows: dict = {}
 
     def _run(self, ins, n, every, out, ov, k0):
         c = self.compiled
