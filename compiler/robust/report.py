@@ -87,7 +87,7 @@ def figure_failure_region(a: str, b: str, xa, xb, passed, nominal: dict):
     plt = _figure()
     fig, ax = plt.subplots(figsize=(6, 4.6))
     ax.scatter(xa[passed], xb[passed], marker="o", s=18, color="#2a9d4a", label="passed")
-    ax.scatter(xa[~passed], xb[~passed], marker="x", s=28, color="#c0392b", label="failed")
+    ax.scatter(xa[~passed], xb[~passed], marker="X", s=28, color="#c0392b", label="failed")
     ax.plot([nominal[a]], [nominal[b]], marker="*", ms=14, color="k", ls="none", label="nominal")
     ax.set_xlabel(a)
     ax.set_ylabel(b)
@@ -105,7 +105,7 @@ def figure_ranking(ranking):
     fig, ax = plt.subplots(figsize=(6, 0.35 * len(names) + 1.2))
     ax.barh(names, s1, xerr=conf, color="#1f4e9a", ecolor="#888")
     ax.set_xlabel(f"first-order index (RBD-FAST) of {ranking.outcome}")
-    ax.grid(alpha=0.3, axis="x")
+    ax.xaxis.grid(True, alpha=0.3)
     fig.tight_layout()
     return fig
 
