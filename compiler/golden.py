@@ -192,7 +192,7 @@ def make_resumable(source: str, graph: Graph, header: str, signature: str = _SIG
     if seen != state_idx:
         raise PendcError("internal error: the compiled kernel does not initialise the states it should")
     for j in range(loop, ret):
-        lines[j] = re.sub(r"(ov\[\d+\] = )k$", r"\1k0 + k", lines[j])
+        lines[j] = re.sub(r"(ov\[(?:\d+|i)\] = )k$", r"\1k0 + k", lines[j])
         # a split kernel's parts record their checks at the step number they are given
         lines[j] = re.sub(r"^(\s+part\d+\(k, )k, ", r"\1k0 + k, ", lines[j])
     lines[ret:ret] = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]

@@ -13,7 +13,7 @@ from __future__ import annotations
 from .compiled_source import SOURCE_FORMAT, _FixedGen, _Gen
 from .float_source import FloatGen
 from .graph import Graph
-from .kernel_parts import DECORATOR, SPLIT_ABOVE, split_step
+from .kernel_parts import DECORATOR, SPLIT_ABOVE, record_checks, split_step
 from .nodes import Kind
 
 
@@ -48,10 +48,7 @@ def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "")
         parts, body, flags = split_step(gen, groups, data_args)
     else:
         body, flags = [s for _, lines in groups for s in lines] + gen.late, gen.flags
-    if flags:   # one rarely taken branch per step records every check that fired
-        body += [f"if {' | '.join(f'b{i}' for i in flags)}:"]
-        for i in flags:
-            body += [f"    if b{i} & (ov[{i}] < 0):", f"        ov[{i}] = k"]
+    body += record_checks(flags, len(nodes), "k")
     # a split step has stored every value already (its parts pass them on through buf)
     varying = [] if parts else [i for i, n in enumerate(nodes) if n.kind is not Kind.CONST]
     if gen.fixed:
