@@ -7,12 +7,10 @@ interrupted by Ctrl-C and resumed must all give exactly its rows: none missing, 
 
 import os
 import signal
-import subprocess
-import sys
-import time
 
 import pytest
 
+from dask_processes import dask_cluster
 from pendc.robust.engine import read_manifest, read_rows, run_sweep
 from robust_helpers import ROOT, rows_of, start_pendc, sweep_args, wait_for_rows
 
@@ -41,26 +39,9 @@ def test_two_workers_give_the_same_rows(reference, tmp_path):
     assert sum(r["passed"] for r in rows) not in (0, SAMPLES), "the ranges should make some runs fail"
 
 
-def _start(cmd, cwd, **kw):
-    return subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **kw)
-
-
 def test_a_killed_worker_on_a_real_scheduler_loses_nothing(reference, tmp_path):
     """A scheduler and two workers as separate processes; one worker is killed mid-sweep."""
-    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
-    worker = [sys.executable, "-m", "distributed.cli.dask_worker"]
-    info = tmp_path / "scheduler.json"
-    procs = [_start([*dask, "--scheduler-file", str(info), "--port", "0", "--no-dashboard"], tmp_path)]
-    try:
-        for _ in range(100):
-            if info.exists() and info.stat().st_size:
-                break
-            time.sleep(0.1)
-        import json
-        address = json.loads(info.read_text())["address"]
-        workers = [_start([*worker, "--scheduler-file", str(info), "--nthreads", "1", "--no-nanny",
-                           "--no-dashboard"], ROOT) for _ in range(2)]
-        procs += workers
+    with dask_cluster(tmp_path, workers=2) as (address, workers):
         out = tmp_path / "sweep"
         sweep = start_pendc(sweep_args(out, SAMPLES, "--scheduler", address))
         wait_for_rows(out, 2, sweep)
@@ -71,14 +52,6 @@ def test_a_killed_worker_on_a_real_scheduler_loses_nothing(reference, tmp_path):
         assert workers[0].wait(timeout=10) == -signal.SIGKILL
         assert f"({address})" in stdout
         assert rows_of(out) == reference[1]
-    finally:
-        for p in procs:
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-                try:
-                    p.wait(timeout=20)
-                except subprocess.TimeoutExpired:
-                    p.kill()
 
 
 def test_ctrl_c_keeps_what_finished_and_resume_completes(reference, tmp_path):
