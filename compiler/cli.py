@@ -220,9 +220,11 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_ident import add_parsers as add_identification_parsers
     from .cli_hil import add_parsers as add_hil_parsers
     from .cli_plant import add_parsers as add_plant_parsers
+    from .cli_explore import add_parser as add_explore_parser
     from .cli_robust import add_parser as add_robust_parser
     add_hil_parsers(sub)
     add_robust_parser(sub)
+    add_explore_parser(sub)
     add_plant_parsers(sub)
     add_identification_parsers(sub)
 
