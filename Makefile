@@ -69,11 +69,12 @@ full-scale: setup
 	$(PY) bench/bench_rtl_cpp.py --full-scale -o bench/out/rtl_cpp.json
 
 # Long differential fuzzing run of the backend (tests/graphgen.py); count, seed, mismatches to bench/out/.
+# Its batches run on Dask: a LocalCluster here, or FUZZ_SCHEDULER=tcp://HOST:PORT (docs/robustness.md).
 .PHONY: fuzz
 FUZZ_GRAPHS ?= 5000
 fuzz: setup
 	mkdir -p bench/out
-	$(PY) bench/fuzz.py --graphs $(FUZZ_GRAPHS) -o bench/out/fuzz.json
+	$(PY) bench/fuzz.py --graphs $(FUZZ_GRAPHS) -o bench/out/fuzz.json $(if $(FUZZ_SCHEDULER),--scheduler $(FUZZ_SCHEDULER))
 
 clean:
 	rm -rf sim_build bench/out demo_out .pytest_cache
