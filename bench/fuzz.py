@@ -92,6 +92,10 @@ def _run_options(args, work: Path) -> dict:
     return run
 
 
+def _resume_command(args, output: Path) -> str:
+    return f"python bench/fuzz.py --resume -o {output}" + (f" --work {args.work}" if args.work else "")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--graphs", type=int, help=f"graphs to check (default {DEFAULTS['graphs']})")
@@ -121,6 +125,9 @@ def main(argv=None) -> int:
     except PendcError as exc:
         print(f"fuzz: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:           # before the engine runs (it keeps what finished itself)
+        print(f"fuzz: interrupted; continue with {_resume_command(args, output)}", file=sys.stderr)
+        return 130
 
 
 def _fuzz(run: dict, args, output: Path, work: Path) -> int:
@@ -146,12 +153,13 @@ def _fuzz(run: dict, args, output: Path, work: Path) -> int:
     report = report_of(run, outcome.results, t_start, outcome.workers, outcome.scheduler, outcome.failed)
     write_report(output, report)
     for b, why in outcome.failed.items():
-        print(f"fuzz: batch {b} not run ({why}); run it with --resume", file=sys.stderr)
+        print(f"fuzz: batch {b} not run ({why}); run it with {_resume_command(args, output)}", file=sys.stderr)
+    ran = f"{outcome.ran_now} batches on {outcome.workers} workers, {outcome.scheduler}" if outcome.ran_now else "none run now"
     print(f"fuzz: {report['graphs']} graphs, seed {run['seed']}, {report['mismatches']} mismatches -> {output}"
-          f" ({outcome.workers} workers, {outcome.scheduler}; batches in {work})")
+          f" ({ran}; batches in {work})")
     if outcome.interrupted:
         print(f"fuzz: interrupted: {len(outcome.results)} of {len(starts)} batches kept (in {work}); "
-              f"continue with --resume", file=sys.stderr)
+              f"continue with {_resume_command(args, output)}", file=sys.stderr)
         return 130
     return 1 if report["mismatches"] or outcome.failed else 0
 
