@@ -41,13 +41,15 @@ def test_pareto_marks_the_points_no_other_beats_in_step_dsp_and_luts():
             _row(4, 80.0, 8, 800),         # between them, fewest LUTs
             _row(5, 80.0, 8, 800),         # a tie with row 4: neither beats the other
             _row(6, None, 1, 10),          # no step time: takes no part
-            _row(7, None, None, None, error="pendc build: no schedule in 1 cycle(s)")]
+            _row(7, None, None, None, error="pendc build: no schedule in 1 cycle(s)"),
+            {**_row(8, 10.0, 1, 10), "fits": False, "misfit": "MULT18X18 34 of 20"}]   # the part is too small
     table = pareto_rows(rows)
-    assert [r["index"] for r in table] == [1, 3, 4, 5, 0, 2, 6, 7]           # by step time, failures last
+    assert [r["index"] for r in table] == [1, 3, 4, 5, 0, 2, 6, 7, 8]        # by step time, the others last
     assert {r["index"] for r in table if r["pareto"]} == {0, 1, 4, 5}
     text = format_table(table).splitlines()
     assert text[1].startswith("* ecp5-85k") and "50.0" in text[1] and text[2].startswith("  ")
-    assert text[-1].endswith("failed: pendc build: no schedule in 1 cycle(s)")
+    assert text[-2].endswith("failed: pendc build: no schedule in 1 cycle(s)")
+    assert text[-1].startswith("  ") and text[-1].endswith("does not fit: MULT18X18 34 of 20")
 
 
 def test_an_estimated_step_is_marked():

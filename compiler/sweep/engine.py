@@ -90,8 +90,10 @@ def open_client(scheduler: str | None, workers: int | None):
             raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
     n = workers or os.cpu_count() or 1
     # one thread per worker: the tasks are numba loops, simulators and Python; processes, not threads
+    # the workers' own logs stay quiet: a task's failure reaches the caller through its future, and a
+    # worker still heartbeating while the cluster closes would print a connection traceback
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+                           silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
 
 

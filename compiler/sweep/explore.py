@@ -9,7 +9,8 @@ model travels inside the task as self-contained text (a worker needs no model fi
 
 A point whose build the compiler refuses (no schedule in N cycles, a product wider than a preset's
 DSP budget) or whose synthesis fails is a row with the reason in ``error``: a finding about the
-design space, kept, never run again.
+design space, kept, never run again. So is a point the part is too small for (``fits`` false, what
+it lacks in ``misfit``): its figures are kept, and it takes no part in the Pareto front.
 """
 
 from __future__ import annotations
@@ -135,7 +136,8 @@ def build_and_synthesize(point: Point, model_text: str, freq_mhz: float) -> dict
     from ..synth import synthesize
 
     row = {"target": point.target, "schedule": point.label, **{f: None for f in FIGURES},
-           "step_time_ns": None, "step_source": None, "design_hash": None, "pnr_note": "", "error": None}
+           "step_time_ns": None, "step_source": None, "fits": None, "misfit": "", "fmax_bound": "",
+           "real_time": None, "design_hash": None, "pnr_note": "", "error": None}
     with tempfile.TemporaryDirectory(prefix="pendc-explore-") as tmp:
         model, out = Path(tmp) / "model.toml", Path(tmp) / "build"
         model.write_text(model_text, encoding="utf-8")
@@ -155,7 +157,9 @@ def build_and_synthesize(point: Point, model_text: str, freq_mhz: float) -> dict
     return {**row, "ii": result.ii, "fmax_mhz": result.fmax_mhz, "step_ns": result.step_ns,
             "estimated_step_ns": est, "dsp": result.dsp, "lut": result.lut, "ff": result.ff,
             "carry": result.carry, "bram": result.bram, "logic_depth": result.logic_depth,
-            "step_time_ns": step, "step_source": source, "design_hash": result.design_hash,
+            "step_time_ns": step, "step_source": source, "fits": result.fits,
+            "misfit": "; ".join(f"{what} {used} of {have}" for what, used, have in result.misfit),
+            "fmax_bound": result.fmax_bound, "real_time": result.real_time, "design_hash": result.design_hash,
             "pnr_note": result.pnr_note, "files": files}
 
 

@@ -4,8 +4,8 @@ A row (design point) is Pareto-optimal when no other row is at least as good in 
 time, DSP blocks, LUTs) and better in one: the points worth choosing between, each the cheapest
 for its speed. The step time is the routed one (``ii / Fmax``) where the target has an open
 place-and-route that succeeded, else the scheduler's estimate, marked as such (``est.``): a
-routed and an estimated figure are compared as they stand. A row that failed, or has no step
-time, takes no part.
+routed and an estimated figure are compared as they stand. A row that failed, has no step time,
+or does not fit its part (too few multipliers, LUTs or block RAMs) takes no part.
 """
 
 from __future__ import annotations
@@ -18,13 +18,15 @@ from pathlib import Path
 from ..atomic import write_atomic, write_bytes_atomic
 
 COLUMNS = ("index", "target", "schedule", "ii", "fmax_mhz", "step_time_ns", "step_source", "step_ns",
-           "estimated_step_ns", "dsp", "lut", "ff", "carry", "bram", "logic_depth", "pareto", "error", "build",
-           "design_hash", "pnr_note")
+           "estimated_step_ns", "dsp", "lut", "ff", "carry", "bram", "logic_depth", "pareto", "fits", "misfit",
+           "fmax_bound", "real_time", "error", "build", "design_hash", "pnr_note")
 OBJECTIVES = ("step_time_ns", "dsp", "lut")
 
 
 def _comparable(row: dict) -> bool:
-    return not row.get("error") and all(row.get(k) is not None for k in OBJECTIVES)
+    # a design the part cannot hold is no choice, however fast its estimate
+    return (not row.get("error") and row.get("fits") is not False
+            and all(row.get(k) is not None for k in OBJECTIVES))
 
 
 def dominates(a: dict, b: dict) -> bool:
@@ -58,9 +60,11 @@ def format_table(rows: list) -> str:
             lines.append(f"{'':2s}{r['target']:12s} {r['schedule']:14s} failed: {r['error']}")
             continue
         step = _cell(r["step_time_ns"]) + (" est." if r["step_source"] == "estimated" else "     ")
+        note = (f"  does not fit: {r.get('misfit')}" if r.get("fits") is False
+                else "  Fmax an upper bound" if r.get("fmax_bound") == "upper" else "")
         lines.append(f"{'*' if r['pareto'] else ' ':2s}{r['target']:12s} {r['schedule']:14s} {_cell(r['ii']):>4s} "
                      f"{_cell(r['fmax_mhz']):>9s} {step:>12s} {_cell(r['dsp']):>5s} {_cell(r['lut']):>7s} "
-                     f"{_cell(r['ff']):>7s}")
+                     f"{_cell(r['ff']):>7s}{note}")
     return "\n".join(lines) + "\n"
 
 
@@ -91,5 +95,5 @@ def _schema(pa):
     types = {"index": pa.int64(), "ii": pa.int64(), "dsp": pa.int64(), "lut": pa.int64(), "ff": pa.int64(),
              "carry": pa.int64(), "logic_depth": pa.int64(), "pareto": pa.bool_(), "fmax_mhz": pa.float64(),
              "step_time_ns": pa.float64(), "step_ns": pa.float64(), "estimated_step_ns": pa.float64(),
-             "bram": pa.float64()}
+             "bram": pa.float64(), "fits": pa.bool_(), "real_time": pa.bool_()}
     return pa.schema([(c, types.get(c, pa.string())) for c in COLUMNS])
