@@ -14,7 +14,6 @@ from its saved state (registers and FSM states), for plants that step in lockste
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +22,7 @@ from .errors import PendcError
 from .ir.compiled import CompiledGraph
 from .ir.graph import Graph
 from .ir.interpret import FixedInterpreter
+from .ir.resumable import make_resumable, reset_state, state_indices  # noqa: F401  (make_resumable: its old home)
 from .model.interface import require_interface
 from .sim.signals import signals_of
 from .sim.simulator import SimResult
@@ -157,48 +157,6 @@ class GoldenModel:
                          overflows=dict(stepper.overflows), rows=np.concatenate([[0], np.cumsum(steps)]))
 
 
-_SIGNATURE = "def kernel(ins, steps, every, tab, sel, out, track, mx, mn, ov):"
-
-
-def resumable_source(graph: Graph) -> tuple[str, list]:
-    """The compiled kernel's source with its state made an argument: registers and FSM states
-    start from ``st`` and are written back to it, overflow steps count from ``k0``.
-
-    Returns (source, node indices of the states in ``st`` order)."""
-    from .ir.kernel_module import kernel_source
-
-    return make_resumable(kernel_source(graph, "fixed")[0], graph, "pendc.golden.resumable_source")
-
-
-def make_resumable(source: str, graph: Graph, header: str, signature: str = _SIGNATURE) -> tuple[str, list]:
-    """Kernel ``source`` of ``graph`` (baked, or shared: its ``signature`` line) made resumable as
-    :func:`resumable_source` says, its header naming ``header`` as its maker. The transformation is
-    checked line by line, so a change of the kernel's shape fails here loudly instead of miscompiling."""
-    state_idx = [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
-    lines = source.split("\n")
-    try:
-        head = lines.index(signature)
-        loop = lines.index("    for k in range(steps):")
-        ret = len(lines) - 1 - lines[::-1].index("    return row")
-    except ValueError:
-        raise PendcError("internal error: the compiled kernel's source has an unexpected shape") from None
-    lines[head] = signature.replace("ov):", "ov, st, k0):")
-    seen = []
-    for j in range(head + 1, loop):
-        m = re.fullmatch(r"    s(\d+) = (.+)", lines[j])
-        if m:
-            seen.append(int(m.group(1)))
-            lines[j] = f"    s{m.group(1)} = st[{state_idx.index(int(m.group(1)))}]"
-    if seen != state_idx:
-        raise PendcError("internal error: the compiled kernel does not initialise the states it should")
-    for j in range(loop, ret):
-        lines[j] = re.sub(r"(ov\[(?:\d+|i)\] = )k$", r"\1k0 + k", lines[j])
-        # a split kernel's parts record their checks at the step number they are given
-        lines[j] = re.sub(r"^(\s+part\d+\(k, )k, ", r"\1k0 + k, ", lines[j])
-    lines[ret:ret] = [f"    st[{p}] = s{i}" for p, i in enumerate(state_idx)]
-    return "\n".join(lines).replace("pendc.ir.kernel_module", header), state_idx
-
-
 def register_integers(graph: Graph, registers: dict) -> dict:
     """{register name: integer} for real start values (name -> value) of registers of ``graph``.
 
@@ -244,36 +202,25 @@ class GoldenStepper:
 
     ``advance(u_int, n)`` runs n steps with the input port held at the integer ``u_int`` and
     returns the output ports' integers at the start of every step and after the last one
-    ((n + 1) x ports); ``overflows`` accumulates {node: first step since reset}."""
+    ((n + 1) x ports); ``overflows`` accumulates {node: first step since reset}. The kernel is
+    :class:`~pendc.ir.compiled.CompiledGraph`'s own (every fixed-point kernel is resumable), so a
+    model that was run or compiled already steps without another compile; ``like`` (an earlier
+    typing of the graph) shares machine code as CompiledGraph's ``like`` does."""
 
-    def __init__(self, graph: Graph):
-        from .codegen import load_source
+    def __init__(self, graph: Graph, like: Graph | None = None):
         from .ir.nodes import Kind
 
         self.graph = graph
         inputs = [n for n in graph.nodes if n.kind is Kind.INPUT]
         if len(inputs) != 1:
             raise PendcError(f"a stepping golden model needs exactly one input port, the graph has {len(inputs)}")
-        self.compiled = CompiledGraph(graph, "fixed")   # tables, validation
-        source, self.state_idx = resumable_source(graph)
-        self._kernel = load_source(source, "pendc_golden_step").kernel
+        self.compiled = CompiledGraph(graph, "fixed", like=like)
+        self.state_idx = state_indices(graph)
         self.ports = [p for p, _ in graph.outputs]
         index = {n.name: i for i, n in enumerate(graph.nodes)}
         self._sel = np.array([index[node] for _, node in graph.outputs], dtype=np.int64)
-        self._reset_state = self._initial_state()
-        self._mx = np.zeros(len(graph.nodes), np.int64)
-        self._mn = np.zeros(len(graph.nodes), np.int64)
+        self._reset_state = reset_state(graph)
         self.reset()
-
-    def _initial_state(self) -> np.ndarray:
-        from .ir.nodes import Kind
-
-        st = np.empty(len(self.state_idx), np.int64)
-        for p, i in enumerate(self.state_idx):
-            n = self.graph.nodes[i]
-            st[p] = (n.params.reset_index if n.kind is Kind.FSM
-                     else n.qformat.from_float(float(n.params.reset)))
-        return st
 
     def reset(self, registers: dict | None = None) -> None:
         """Back to reset; ``registers`` (name -> real value) start some registers elsewhere."""
@@ -290,17 +237,18 @@ class GoldenStepper:
         recording every step copies every node's value)."""
         ins = np.full((1, n + 1), int(u_int), dtype=np.int64)
         rows = n + 1 if every_step else 2
-        out = np.empty((rows, len(self._sel)), np.int64)
+        out = np.empty((len(self._sel), rows), np.int64)     # the kernel writes out[column, row]
+        last = np.empty((len(self._sel), 1), np.int64)       # its own array: a slice would be another layout
         ov = np.full(len(self.graph.nodes), -1, np.int64)
+        self.compiled.call(ins, n, 1 if every_step else n, self._sel, out, ov, self.state, self.k)
+        after_n = self.state.copy()
         # the last row comes from one more step whose update is discarded (the state saved after
         # step n is put back): its outputs are the state after n steps
-        self._kernel(ins, n, 1 if every_step else n, self.compiled.tables, self._sel, out, False, self._mx,
-                     self._mn, ov, self.state, self.k)
-        after_n = self.state.copy()
-        self._kernel(ins[:, n:], 1, 1, self.compiled.tables, self._sel, out[rows - 1:], False, self._mx, self._mn,
-                     np.full(len(self.graph.nodes), -1, np.int64), self.state, self.k + n)
+        self.compiled.call(ins[:, n:], 1, 1, self._sel, last, np.full(len(self.graph.nodes), -1, np.int64),
+                           self.state, self.k + n)
+        out[:, rows - 1] = last[:, 0]
         self.state = after_n
         for i in np.flatnonzero(ov >= 0):
             self.overflows.setdefault(self.graph.nodes[int(i)].name, int(ov[i]))
         self.k += n
-        return out
+        return out.T

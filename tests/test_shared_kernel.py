@@ -6,11 +6,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from pendc.ir.compiled import CompiledGraph
+from pendc.ir.compiled import _SIGNATURE, CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
+from pendc.ir.resumable import make_resumable
 from pendc.ir.shared_source import same_structure, shared_kernel_source
 
 from test_compiled import MODES, Q, assert_same, block, random_inputs, requant_nodes
@@ -46,7 +47,7 @@ def test_general_form_is_bit_identical_on_every_node_kind():
     assert {int(k) for k in re.findall(r"qp\[(\d+)\]", src)} == set(range(len(params)))
     assert len(params) > 5 * len(g.nodes)
     cg = CompiledGraph(g, "fixed", like=shifted(g))
-    assert cg.source == src and {n.kind for n in g.nodes} == set(Kind)
+    assert cg.source == make_resumable(src, g, "pendc.ir.compiled", _SIGNATURE[True]) and {n.kind for n in g.nodes} == set(Kind)
     interp = FixedInterpreter(g)
     inputs = dict(random_inputs(2000, seed=13), a=np.random.default_rng(2).integers(-300, 300, 2000))
     trace = cg.run(inputs, track_max=True)

@@ -35,10 +35,12 @@ class GoldenPlant:
     and the time at the step a node leaves its range; ``"mark"`` carries on and lists the nodes
     in ``overflows`` ({node: first step}). ``initial`` (one value per reported state, in the
     plant interface's order) starts the registers elsewhere than at reset (the encoders then
-    count from there, as at power-on)."""
+    count from there, as at power-on). ``like`` (an earlier typing of the build's graph, such as
+    the nominal core a retyped sample comes from) shares its kernel's machine code
+    (:class:`~pendc.ir.compiled.CompiledGraph`)."""
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
-                 initial: tuple | None = None):
+                 initial: tuple | None = None, like=None):
         if on_overflow not in OVERFLOW_CHOICES:
             raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
         self.build = build_for(model, dt, build)
@@ -48,7 +50,7 @@ class GoldenPlant:
             self.ports = CorePorts.of_graph(graph)
         except ValueError as exc:
             raise PendcError(str(exc)) from None
-        self.stepper = GoldenStepper(graph)
+        self.stepper = GoldenStepper(graph, like=like)
         self._col = {p: self.stepper.ports.index(p) for p in self.ports.outputs}
         self._lsb = {p: graph.output(p).qformat.lsb for p in self.ports.states + self.ports.codes}
         self._u_format = graph[self.ports.input].qformat

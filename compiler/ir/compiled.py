@@ -31,7 +31,12 @@ from .graph import Graph
 from .interpret import Trace
 from .nodes import Kind
 from .qformat import QFormat
+from .resumable import make_resumable, reset_state
 from .shared_source import shared_kernel_source
+
+# the signature lines of the baked and the shared fixed-point kernels (pendc.ir.kernel_module)
+_SIGNATURE = {False: "def kernel(ins, steps, every, tab, rst, sel, out, track, mx, mn, ov):",
+              True: "def kernel(ins, steps, every, tab, rst, qp, sel, out, track, mx, mn, ov):"}
 
 
 def quantize(values, fmt: QFormat) -> np.ndarray:
@@ -71,6 +76,10 @@ class CompiledGraph:
             else (None, None, [])
         if not params:
             source, offsets = kernel_source(graph, mode, runtime_data=True)
+        if mode == "fixed":     # one compile for runs from reset and runs resumed (pendc.ir.resumable)
+            source = make_resumable(source, graph, "pendc.ir.compiled", _SIGNATURE[bool(params)])
+            self.start = reset_state(graph)
+            self.start.setflags(write=False)
         self.source, self.params = source, np.asarray(params, dtype=np.int64) if params else None
         tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
@@ -109,6 +118,16 @@ class CompiledGraph:
                 ins[j] = quantize(a, node.qformat)
         return ins, steps
 
+    def call(self, ins, steps: int, every: int, sel, out, ov, st, k0: int, track: bool = False, mx=None, mn=None):
+        """The fixed-point kernel itself: ``steps`` steps of ``ins`` from the state ``st`` (updated
+        in place; :func:`pendc.ir.resumable.state_indices` order) counting steps from ``k0``,
+        every ``every``-th row of the nodes ``sel`` into ``out[column, row]`` (C-contiguous: another
+        array layout is another numba signature, another compile); returns the rows written."""
+        if mx is None:
+            mx = mn = np.zeros(len(self.graph.nodes), np.int64)
+        data = (self.tables, self.resets) if self.params is None else (self.tables, self.resets, self.params)
+        return self._kernel(ins, steps, every, *data, sel, out, track, mx, mn, ov, st, k0)
+
     def run(self, inputs: dict, steps: int | None = None, every: int = 1, track_max: bool = False,
             record: tuple = ()) -> Trace:
         """Run ``steps`` steps (default: as many as input values), recording every ``every``-th row.
@@ -135,8 +154,10 @@ class CompiledGraph:
         else:
             mx, mn = np.full(n, -np.inf), np.full(n, np.inf)
         ov = np.full(n, -1, np.int64)
-        data = (self.tables, self.resets) if self.params is None else (self.tables, self.resets, self.params)
-        self._kernel(ins, steps, every, *data, sel, out, bool(track_max), mx, mn, ov)
+        if self.mode == "fixed":
+            self.call(ins, steps, every, sel, out, ov, self.start.copy(), 0, track=bool(track_max), mx=mx, mn=mn)
+        else:
+            self._kernel(ins, steps, every, self.tables, self.resets, sel, out, bool(track_max), mx, mn, ov)
         outputs = {c: out[j] for j, c in enumerate(columns)}
         nodes = self.graph.nodes
         extremes = {}

@@ -20,11 +20,11 @@ from .nodes import Kind
 def kernel_source(graph: Graph, mode: str, runtime_data: bool = False) -> tuple[str, dict]:
     """(source of the kernel module, {LUT node name: offset into the table array}).
 
-    ``runtime_data=True`` is the form :class:`~pendc.ir.compiled.CompiledGraph` compiles: register
-    resets come from the argument ``rst`` (a graph differing only in a reset, like the spinning
-    training run, reuses the machine code) and ``out`` is indexed [column, row], so a column is
-    contiguous. The default keeps the shape :func:`pendc.golden.resumable_source` rewrites
-    (resets inline, ``out[row, column]``, no ``rst``)."""
+    ``runtime_data=True`` is the form :class:`~pendc.ir.compiled.CompiledGraph` compiles (made
+    resumable by :mod:`pendc.ir.resumable` in fixed point): register resets come from the argument
+    ``rst`` (a graph differing only in a reset, like the spinning training run, reuses the machine
+    code) and ``out`` is indexed [column, row], so a column is contiguous. The default prints the
+    resets inline and ``out[row, column]``, a form for reading and comparing sources."""
     if mode not in ("fixed", "float"):
         raise ValueError(f"mode must be 'fixed' or 'float', got {mode!r}")
     gen = (_FixedGen if mode == "fixed" else FloatGen)(graph, runtime_data)

@@ -126,13 +126,12 @@ class RetypeTemplate:
 
     def plant(self, params: dict, shared: bool = True, **options):
         """The golden plant of the nominal model with ``params``: stepped by the kernel every
-        sample shares (:mod:`pendc.robust.retyped_stepper`), or with ``shared=False`` by the
-        baked kernel of :class:`~pendc.hil.golden_plant.GoldenPlant` (compiled per sample)."""
+        sample shares (the nodes a sample changes read their numbers from data: see
+        :mod:`pendc.ir.shared_source`; the integers are the baked kernel's), or with
+        ``shared=False`` by the baked kernel (compiled per sample)."""
         from ..hil.golden_plant import GoldenPlant
-        from .retyped_stepper import RetypedGoldenPlant
 
         model = self.build.model.with_params(params)
         build = replace(self.build, model=model, graph=self.graph_for(model))
-        if shared:
-            return RetypedGoldenPlant(model, build, like=self.build.graph, **options)
-        return GoldenPlant(model, dt=build.options.dt, build=build, **options)
+        like = self.build.graph if shared else None
+        return GoldenPlant(model, dt=build.options.dt, build=build, like=like, **options)
