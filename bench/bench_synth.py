@@ -18,7 +18,7 @@ step, real time at the model's dt) and ``smallest_real_time`` the part with the 
 cells on which each preset fits and routes to a step within dt.
 
     .venv/bin/python bench/bench_synth.py [-o bench/out/synth.json] [--presets fast,small]
-        [--targets ecp5-85k,gw2a-18|all] [--jobs 1]
+        [--targets ecp5-85k,gw2a-18,ice40-up5k:default|all] [--jobs 1]
 """
 
 from __future__ import annotations
@@ -41,11 +41,12 @@ def synth_presets(presets, target: str = "ecp5-85k", log=print, jobs: int = 2) -
     return synth_targets(presets, [target], log, jobs)[target]
 
 
-def synth_targets(presets, targets, log=print, jobs: int = 2) -> dict:
+def synth_targets(presets, targets, log=print, jobs: int = 2, only: dict | None = None) -> dict:
     """{target: {preset: report synth JSON + ratios against the thesis}}. Each preset's HDL comes from
     its own build (the step-time presets build the short-chain arithmetic), once for every target;
     ``jobs`` syntheses run at a time (the tools are single-threaded processes), presets in the order
-    given, each preset on every target before the next preset."""
+    given, each preset on every target before the next preset; ``only``: {target: the presets it
+    runs} for a target not worth every preset (a part that the tables alone overflow)."""
     import pendtb
     from pendc.codegen import cache_dir
     from pendc.synth import design_files, design_hash
@@ -60,6 +61,8 @@ def synth_targets(presets, targets, log=print, jobs: int = 2) -> dict:
             report, files = design_files(hdl)
             prep = time.time() - t0
             for target in targets:
+                if preset not in (only or {}).get(target, [preset]):
+                    continue
                 key = design_hash(files, target, report["top"], FREQ_MHZ)
                 if key in first_of:             # the same design as an earlier preset: one run serves both
                     log(f"  {target} {preset}: the same design as --preset {first_of[key][1]} (hash {key})")
@@ -135,16 +138,19 @@ def main(argv=None) -> int:
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
     ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb and fmax too)")
     ap.add_argument("--target", help="one target (the same as --targets NAME)")
-    ap.add_argument("--targets", default="ecp5-85k", help="comma-separated targets, or 'all': every target "
-                    f"with an open place-and-route ({', '.join(t for t in TARGETS if TARGETS[t].pnr)})")
+    ap.add_argument("--targets", default="ecp5-85k", help="comma-separated targets (TARGET:P1+P2 runs only those "
+                    "presets on it), or 'all': every target with an open place-and-route "
+                    f"({', '.join(t for t in TARGETS if TARGETS[t].pnr)})")
     ap.add_argument("--jobs", type=int, default=2, help="designs synthesised at a time (default 2: CI's cores)")
     args = ap.parse_args(argv)
     targets = ([args.target] if args.target else
                [t for t in TARGETS if TARGETS[t].pnr] if args.targets == "all" else args.targets.split(","))
-    unknown = [t for t in targets if t not in TARGETS]
+    unknown = [t for t in targets if t.split(":")[0] not in TARGETS]
     if unknown:
         ap.error(f"unknown target '{unknown[0]}' (known: {', '.join(TARGETS)})")
-    results = synth_targets(args.presets.split(","), targets, jobs=args.jobs)
+    only = {t.split(":")[0]: t.split(":")[1].split("+") for t in targets if ":" in t}
+    targets = [t.split(":")[0] for t in targets]
+    results = synth_targets(args.presets.split(","), targets, jobs=args.jobs, only=only)
     fresh = [r for ps in results.values() for r in ps.values() if not r.get("cached")]
     result = {"target": targets[0], "presets": results[targets[0]],      # the first target, as before
               "targets": results, "rows": rows(results), "smallest_real_time": smallest_real_time(results),

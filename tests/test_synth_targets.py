@@ -157,8 +157,8 @@ def test_gowin_routes_in_the_harness_and_flags_its_untimed_multiplier(tmp_path, 
     r = json.loads(capsys.readouterr().out)
     assert r["target"] == "gw2a-18" and r["dsp"] == 1 and r["cells"].get("MULT18X18") == 1
     assert r["fits"] is True and r["misfit"] == []
-    # the harness (34+2 serial-input and 8 fold flip-flops, its XOR tree) is measured and taken off
-    assert r["harness"]["DFF"] == 36 + 8 and "MULT18X18" not in r["harness"]
+    # the counts are the core's alone (no pin buffers); the harness's flip-flops and XORs come on top
+    assert not {"IBUF", "OBUF"} & set(r["cells"]) and r["harness"]["DFF"] > 0 and "MULT18X18" not in r["harness"]
     assert r["utilisation"]["MULT18X18"] == [1, 48]                       # nextpnr's figure for the part
     # Apicula has no DSP timing: the routed figure is only an upper bound, and no real-time verdict
     assert r["fmax_mhz"] > 0 and r["fmax_bound"] == "upper" and r["real_time"] is None
