@@ -379,7 +379,9 @@ def format_synth_report(r: SynthReport) -> str:
         worst = sorted(r.routed_critical_path, key=lambda seg: -(seg[2] + seg[3]))[:4]
         lines.append("  slowest cells on it: " + ", ".join(f"{c[:40]} {lg:g}+{w:g} ns" for c, _, lg, w in worst))
     if r.critical_path:
-        lines.append("longest netlist path: " + " -> ".join(r.critical_path))
+        # Yosys names a mapped cell after the nets it drives, which runs to hundreds of characters
+        lines.append("longest netlist path: " + " -> ".join(c if len(c) <= 60 else c[:57] + "..."
+                                                            for c in r.critical_path))
     if r.pnr_note:
         lines.append(f"note: {r.pnr_note}")
     lines.append(f"thesis: {th['device']}, {th['slices']} slices; estimate: `pendc report resources`")
