@@ -32,3 +32,23 @@ def build_model(model, args):
     options = options_from_model(model, target=getattr(args, "target", None),
                                  **preset_options(getattr(args, "preset", None)))
     return compile_cached(model, options, use_cache=not getattr(args, "no_cache", False), on_miss=tell)
+
+
+def check_sweep_arguments(command: str, args, sweep_options: tuple, manifest: str) -> None:
+    """The checks ``pendc robust`` and ``pendc explore`` share on the engine's options: --workers
+    sizes a LocalCluster only, and --resume takes neither sweep options nor another --out (the
+    sweep continues as its ``manifest`` describes, in its own folder)."""
+    from pathlib import Path
+
+    from .errors import PendcError
+
+    if args.workers is not None and args.workers < 1:
+        raise PendcError(f"{command}: --workers must be at least 1, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise PendcError(f"{command}: --workers sizes the LocalCluster; a --scheduler's cluster has its own workers")
+    if args.resume:
+        given = [f"--{o}" for o in sweep_options if getattr(args, o) not in (None, [])]
+        if given:
+            raise PendcError(f"{command}: --resume continues the sweep its {manifest} describes; drop {', '.join(given)}")
+        if args.out and Path(args.out) != Path(args.resume):
+            raise PendcError(f"{command}: --resume writes into the sweep's own folder; drop --out")

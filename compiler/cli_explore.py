@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .cli_common import check_sweep_arguments
 from .cli_data import MODEL_HELP, positive
 from .errors import PendcError
 
@@ -54,16 +55,8 @@ def cmd_explore(args) -> int:
                                 write_manifest)
     from .sweep.pareto import format_table, pareto_rows, write_table
 
-    if args.workers is not None and args.workers < 1:
-        raise PendcError(f"explore: --workers must be at least 1, got {args.workers}")
-    if args.workers is not None and args.scheduler:
-        raise PendcError("explore: --workers sizes the LocalCluster; a --scheduler's cluster has its own workers")
+    check_sweep_arguments("explore", args, _SWEEP_OPTIONS, "explore.json")
     if args.resume:
-        given = [f"--{o}" for o in _SWEEP_OPTIONS if getattr(args, o) not in (None, [])]
-        if given:
-            raise PendcError(f"explore: --resume continues the sweep its explore.json describes; drop {', '.join(given)}")
-        if args.out and Path(args.out) != Path(args.resume):
-            raise PendcError("explore: --resume writes into the sweep's own folder; drop --out")
         folder = Path(args.resume)
         manifest = read_manifest(folder)
     else:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .cli_common import check_sweep_arguments
 from .cli_data import MODEL_HELP, positive
 from .errors import PendcError
 
@@ -88,18 +89,10 @@ def cmd_robust(args) -> int:
     from .robust.engine import MANIFEST, read_manifest, run_sweep, write_manifest
     from .robust.results import write_results
 
-    if args.workers is not None and args.workers < 1:
-        raise PendcError(f"robust: --workers must be at least 1, got {args.workers}")
-    if args.workers is not None and args.scheduler:
-        raise PendcError("robust: --workers sizes the LocalCluster; a --scheduler's cluster has its own workers")
     if args.replay is not None and not args.resume:
         raise PendcError("robust: --replay K replays run K of a finished sweep: give its folder with --resume DIR")
+    check_sweep_arguments("robust", args, _SWEEP_OPTIONS, "sweep.json")
     if args.resume:
-        given = [f"--{o}" for o in _SWEEP_OPTIONS if getattr(args, o) not in (None, [])]
-        if given:
-            raise PendcError(f"robust: --resume continues the sweep its sweep.json describes; drop {', '.join(given)}")
-        if args.out and Path(args.out) != Path(args.resume):
-            raise PendcError("robust: --resume writes into the sweep's own folder; drop --out")
         if args.replay is not None:
             return _replay(args)
         folder = Path(args.resume)

@@ -38,6 +38,8 @@ SLOWEST_FIRST = (
     "test_robust_engine.py",        # ~130 s (under load): Dask scheduler and workers as processes, faults, resume
     "test_robust_cli.py",           # ~60 s (under load): a 20-sample sweep, its page in headless Chromium
     "test_robust_golden_retype.py", # ~35 s (under load): the retyped core against the baked kernel
+    "test_explore.py",              # 45-90 s warm, ~200 s with a cold synthesis cache: a DC motor's build, xc7 syntheses, Dask
+    "test_fuzz_engine.py",          # ~35 s: fuzz batches on 1 and 2 Dask workers
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
     "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
