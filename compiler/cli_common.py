@@ -52,3 +52,13 @@ def check_sweep_arguments(command: str, args, sweep_options: tuple, manifest: st
             raise PendcError(f"{command}: --resume continues the sweep its {manifest} describes; drop {', '.join(given)}")
         if args.out and Path(args.out) != Path(args.resume):
             raise PendcError(f"{command}: --resume writes into the sweep's own folder; drop --out")
+
+
+def add_engine_arguments(p, default_out: str, resumed: str) -> None:
+    """The sweep engine's options ``pendc robust`` and ``pendc explore`` share (``resumed``: what a
+    resume runs, for its help)."""
+    p.add_argument("--out", help=f"sweep folder (default {default_out})")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a "
+                   "LocalCluster on this machine's cores)")
+    p.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
+    p.add_argument("--resume", metavar="DIR", help=f"continue the sweep in DIR (only its missing {resumed})")

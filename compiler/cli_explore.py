@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .cli_common import check_sweep_arguments
+from .cli_common import add_engine_arguments, check_sweep_arguments
 from .cli_data import MODEL_HELP, positive
 from .errors import PendcError
 
@@ -122,11 +122,7 @@ def add_parser(sub) -> None:
                    f"(repeatable; default {DEFAULT_TARGET}; a target without an open place-and-route gives the "
                    "scheduler's estimated step time)")
     p.add_argument("--freq", type=positive, help="clock goal for nextpnr in MHz (default 100)")
-    p.add_argument("--out", help=f"sweep folder (default {DEFAULT_OUT})")
-    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a "
-                   "LocalCluster on this machine's cores)")
-    p.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
-    p.add_argument("--resume", metavar="DIR", help="continue the sweep in DIR (only its missing design points)")
+    add_engine_arguments(p, DEFAULT_OUT, "design points")
     p.add_argument("--json", action="store_true", help="print the table as JSON (the rows of pareto.json)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_explore)

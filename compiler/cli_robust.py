@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .cli_common import check_sweep_arguments
+from .cli_common import add_engine_arguments, check_sweep_arguments
 from .cli_data import MODEL_HELP, positive
 from .errors import PendcError
 
@@ -161,11 +161,7 @@ def add_parser(sub) -> None:
                    help="draw NAME uniformly on [LO, HI] (repeatable); without it: the fit's covariance or "
                         "intervals in the model file, else +-5 %% of each constant and +-20 %% of each effect parameter")
     p.add_argument("--seconds", type=positive, help="simulated seconds per run (default 12)")
-    p.add_argument("--out", help=f"sweep folder (default {DEFAULT_OUT})")
-    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a "
-                   "LocalCluster on this machine's cores)")
-    p.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
-    p.add_argument("--resume", metavar="DIR", help="continue the sweep in DIR (only its missing runs)")
+    add_engine_arguments(p, DEFAULT_OUT, "runs")
     p.add_argument("--replay", type=int, metavar="K", help="with --resume DIR: run K alone, its record into DIR/replay_K")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_robust)
