@@ -3,7 +3,7 @@
 Usage: .venv/bin/python bench/bench_read_csv.py [--rows 10000000] [-o bench/out/read_csv.json]
 Writes a file of ``--rows`` rows (t,u,x,theta at 1 kHz, encoder-quantised) to a
 temporary folder, then reads it in a fresh process the way the identification
-commands do (pendc.cli_data: all checks, resolution estimates, uniform grid) and
+commands do (pendc.cli.data: all checks, resolution estimates, uniform grid) and
 records the peak resident memory above the process's baseline, bytes per row and time.
 """
 

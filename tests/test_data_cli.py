@@ -225,7 +225,7 @@ def test_one_experiment_per_file_and_options_from_a_namespace(tmp_path, capsys):
     """load_datasets takes any object with the options' attributes (absent ones: defaults)."""
     import argparse
 
-    from pendc.cli_data import load_datasets
+    from pendc.cli.data import load_datasets
 
     held = tmp_path / "held.csv"
     held.write_text(csv({"t": BASE["t"], "theta": BASE["theta"]}))
@@ -246,7 +246,7 @@ def test_one_experiment_per_file_and_options_from_a_namespace(tmp_path, capsys):
 def test_reading_arguments_round_trip(tmp_path):
     """The words reading_arguments gives back parse to the same reading options."""
     from pendc.cli import build_parser
-    from pendc.cli_data import read_options, reading_arguments
+    from pendc.cli.data import read_options, reading_arguments
 
     given = ["compare", "run.csv", "--columns", "t=Zeit [s],theta=Winkel", "--theta-unit", "deg", "--theta-zero",
              "upright", "--theta-sign", "-1", "--experiment", "cart_held", "--u-value", "5.2", "--rate", "500",

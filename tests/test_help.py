@@ -92,7 +92,7 @@ def test_help_words_follow_the_plant():
     from pathlib import Path
 
     import pendc
-    from pendc.cli_help import fill, plant_words
+    from pendc.cli.help import fill, plant_words
     from pendc.sim.signals import signals_of
 
     furuta = signals_of(pendc.load_model(Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"))
@@ -107,7 +107,7 @@ def test_help_words_follow_the_plant():
 def test_signal_options_are_any_signal_of_any_plant():
     """--<SIGNAL>-unit/-zero/-sign VALUE is --unit/--zero/--sign SIGNAL=VALUE, for a name the CLI
     never heard of; the settings add up, and a missing value is a one-line usage error."""
-    from pendc.cli_data import expand_signal_options
+    from pendc.cli.data import expand_signal_options
     from pendc.errors import PendcError
 
     args = build_parser().parse_args(["compare", "r.csv", "--arm-angle-unit", "deg", "--unit", "t=ms",
@@ -128,7 +128,7 @@ def test_the_value_of_an_absent_input_names_the_models_input():
     from pathlib import Path
 
     import pendc
-    from pendc.cli_data import read_options
+    from pendc.cli.data import read_options
     from pendc.errors import PendcError
 
     cart = pendc.load_model()

@@ -88,7 +88,7 @@ def test_fit_recovers_the_friction_and_the_error_falls(recording, tmp_path, caps
 
 ROOT = Path(pendc.__file__).resolve().parent
 SCANNED = sorted([*ROOT.glob("sim/*.py"), *ROOT.glob("ident/*.py"),
-                  *(ROOT / n for n in ("cli_ident.py", "cli_compare.py", "cli_data.py"))])
+                  *(ROOT / "cli" / n for n in ("ident.py", "compare.py", "data.py", "options.py"))])
 
 
 # The cart-pendulum's states and input, as issue 12 lists them (its interface costs a symbolic

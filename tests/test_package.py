@@ -49,7 +49,7 @@ def test_every_module_the_compile_imports_changes_the_cache_key(tmp_path, monkey
         copy.write_bytes(original)
     assert build_cache._compiler_digest() == base
     # a front end that only consumes builds does not throw the cache away
-    (package / "cli_data.py").write_bytes((package / "cli_data.py").read_bytes() + b"\n# edited\n")
+    (package / "cli" / "data.py").write_bytes((package / "cli" / "data.py").read_bytes() + b"\n# edited\n")
     assert build_cache._compiler_digest() == base
 
 

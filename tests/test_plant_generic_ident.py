@@ -38,7 +38,7 @@ PACKAGE = ROOT / "compiler"
 # the modules issue 21 makes plant-free here (stimuli.py and encoders.py are checked by their owners)
 SCANNED = sorted([*(PACKAGE / "ident").glob("*.py"),
                   *(p for p in (PACKAGE / "sim").glob("*.py") if p.name not in ("stimuli.py", "encoders.py")),
-                  PACKAGE / "cli_ident.py", PACKAGE / "cli_compare.py", PACKAGE / "cli_data.py"])
+                  *(PACKAGE / "cli" / n for n in ("ident.py", "compare.py", "data.py", "options.py"))])
 KEYWORD_ARGUMENT = re.compile(r"=(?!=)")      # name=value in a call, not name == value
 
 

@@ -16,7 +16,7 @@ import pendc
 from pendc.errors import PendcError
 from pendc.ir.graph import Graph
 from pendc.passes.qformats import thesis_format
-from pendc.reports import format_qformat_report, qformat_report
+from pendc.cli.report import format_qformat_report, qformat_report
 from plants import DEFAULT
 from test_plantfile import example
 

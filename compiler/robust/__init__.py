@@ -7,5 +7,5 @@ against one sampled plant and returns one row, ``golden_retype`` gives a sampled
 plant from the nominal build without a new compile, ``engine`` distributes the rows over a Dask
 cluster, ``results`` writes the rows (Parquet and CSV), the summary and the worst runs,
 ``sensitivity`` ranks the parameters (SALib), ``report`` draws the HTML page. The package may
-import the rest of pendc; nothing outside it imports it but the CLI (``cli_robust``).
+import the rest of pendc; nothing outside it imports it but the CLI (``cli/robust.py``).
 """

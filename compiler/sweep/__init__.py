@@ -6,5 +6,5 @@ resumes without repeating a task and keeps what finished on Ctrl-C: ``pendc robu
 explore`` and ``make fuzz`` all run on it. ``explore`` is ``pendc explore``'s work: a build and a
 synthesis per (schedule, target), and the Pareto table of step time against multipliers and LUTs.
 The package may import the rest of pendc; nothing outside it imports it but ``pendc.robust``'s
-engine, the CLI (``cli_explore``) and bench/fuzz.py.
+engine, the CLI (``cli/explore.py``) and bench/fuzz.py.
 """

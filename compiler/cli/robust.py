@@ -9,9 +9,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .cli_common import add_engine_arguments, check_sweep_arguments
-from .cli_data import MODEL_HELP, positive
-from .errors import PendcError
+from .options import MODEL_HELP, add_engine_arguments, check_sweep_arguments, positive
+from ..errors import PendcError
 
 DEFAULT_OUT = "robust_out"
 # options that define a sweep: a resumed sweep takes them from its sweep.json, never from the command line
@@ -21,10 +20,10 @@ _SWEEP_OPTIONS = ("model", "design", "controller", "scenario", "samples", "plant
 
 def _new_sweep(args):
     """(spec, plan) of the sweep the options describe."""
-    from .model.model_writer import dumps_model
-    from .model.modelfile import fit_uncertainty_of, load_model, parse_model, read_model_text
-    from .robust.sampling import parse_vary, plan_for
-    from .robust.scenario_runner import SweepSpec, check_spec
+    from ..model.model_writer import dumps_model
+    from ..model.modelfile import fit_uncertainty_of, load_model, parse_model, read_model_text
+    from ..robust.sampling import parse_vary, plan_for
+    from ..robust.scenario_runner import SweepSpec, check_spec
 
     text, source = read_model_text(args.model)
     model = parse_model(text, source=source)
@@ -47,8 +46,8 @@ def _prepare_golden(spec, plan, defaulted: bool):
     A parameter whose range ends change the core's structure (an exponent leaving 1) cannot be
     retyped: held at its nominal value when the ranges are the defaults (said in the output),
     a one-line error when the user asked for it."""
-    from .robust.golden_retype import RetypeTemplate
-    from .robust.scenario_runner import WorkerCache
+    from ..robust.golden_retype import RetypeTemplate
+    from ..robust.scenario_runner import WorkerCache
 
     model = WorkerCache().models(spec)[0]
     template = RetypeTemplate.of(model)
@@ -68,9 +67,9 @@ def _prepare_golden(spec, plan, defaulted: bool):
 
 
 def _replay(args) -> int:
-    from .hil.records import write_run
-    from .robust.engine import read_manifest
-    from .robust.scenario_runner import run_alone
+    from ..hil.records import write_run
+    from ..robust.engine import read_manifest
+    from ..robust.scenario_runner import run_alone
 
     spec, plan = read_manifest(args.resume)
     params = plan.params_of(args.replay)
@@ -86,8 +85,8 @@ def _replay(args) -> int:
 
 
 def cmd_robust(args) -> int:
-    from .robust.engine import MANIFEST, read_manifest, run_sweep, write_manifest
-    from .robust.results import write_results
+    from ..robust.engine import MANIFEST, read_manifest, run_sweep, write_manifest
+    from ..robust.results import write_results
 
     if args.replay is not None and not args.resume:
         raise PendcError("robust: --replay K replays run K of a finished sweep: give its folder with --resume DIR")
@@ -142,7 +141,7 @@ def _print_summary(summary: dict, outcome, folder: Path) -> None:
     print(f"wrote {folder}/rows.parquet, rows.csv, summary.json, report.html")
 
 
-def add_parser(sub) -> None:
+def add_parsers(sub) -> None:
     """Register ``robust`` on the top-level subparsers."""
     p = sub.add_parser("robust", help="Monte-Carlo HIL on Dask: does the controller hold on every plant the "
                                       "model's uncertainty allows, and which parameter breaks it")

@@ -1,17 +1,40 @@
-"""What several commands share: writing a command's output, compiling its model with its options.
+"""What several commands share: the argument types and the --model help, writing a command's
+output, compiling its model with its options, the sweep engine's options (robust, explore).
 
-The commands' modules (:mod:`pendc.cli` and the ``cli_*`` modules) import this one; it imports
-none of them.
+The command modules of :mod:`pendc.cli` import this one; it imports none of them.
 """
 
 from __future__ import annotations
 
+import argparse
+import math
 import sys
+
+MODEL_HELP = "model file (default: the shipped default model, which models/DEFAULT names; '-': standard input)"
+
+
+def finite(text: str) -> float:
+    """An argparse type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def positive(text: str) -> float:
+    """An argparse type: a finite number above zero (a step, a rate, a time)."""
+    value = finite(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
 
 
 def write_output(output: str | None, text: str) -> None:
     """``text`` to standard output (no ``-o``, or ``-o -``) or, atomically, to the file ``output``."""
-    from .atomic import write_atomic
+    from ..atomic import write_atomic
 
     if output in (None, "-"):
         sys.stdout.write(text)
@@ -21,8 +44,8 @@ def write_output(output: str | None, text: str) -> None:
 
 def build_model(model, args):
     """The model compiled with the command's options (from the build cache when it has it)."""
-    from .build_cache import compile_cached
-    from .passes.pipeline import options_from_model, preset_options
+    from ..build_cache import compile_cached
+    from ..passes.pipeline import options_from_model, preset_options
 
     def tell():
         print("pendc: compiling the model (range analysis and error budget, about half a minute; "
@@ -40,7 +63,7 @@ def check_sweep_arguments(command: str, args, sweep_options: tuple, manifest: st
     sweep continues as its ``manifest`` describes, in its own folder)."""
     from pathlib import Path
 
-    from .errors import PendcError
+    from ..errors import PendcError
 
     if args.workers is not None and args.workers < 1:
         raise PendcError(f"{command}: --workers must be at least 1, got {args.workers}")

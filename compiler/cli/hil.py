@@ -9,8 +9,8 @@ from __future__ import annotations
 import json
 import sys
 
-from .cli_data import MODEL_HELP, positive
-from .errors import PendcError
+from .options import MODEL_HELP, positive
+from ..errors import PendcError
 
 
 def _progress(enabled: bool):
@@ -29,7 +29,7 @@ def _progress(enabled: bool):
 
 
 def _address(text: str) -> tuple[str, int]:
-    from .hil.server import parse_loopback_address
+    from ..hil.server import parse_loopback_address
 
     return parse_loopback_address(text)
 
@@ -50,12 +50,12 @@ def _check_out_folder(out: str) -> None:
 
 
 def cmd_hil(args) -> int:
-    from .hil.controller_spec import make_controller
-    from .hil.loop import run_closed_loop
-    from .hil.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
-    from .hil.plant import make_plant, start_counts
-    from .hil.records import write_run
-    from .model.modelfile import load_model
+    from ..hil.controller_spec import make_controller
+    from ..hil.loop import run_closed_loop
+    from ..hil.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
+    from ..hil.plant import make_plant, start_counts
+    from ..hil.records import write_run
+    from ..model.modelfile import load_model
 
     if args.serve and args.controller is not None:
         raise PendcError("hil: --serve and --controller exclude each other (the socket client is the controller)")
@@ -74,7 +74,7 @@ def cmd_hil(args) -> int:
     origin = start_counts(plant.ports, initial)
     progress = _progress(not args.json)
     if address is not None:
-        from .hil.server import serve_loop
+        from ..hil.server import serve_loop
 
         run = serve_loop(plant, address, args.seconds, period=args.period, plant_name=args.plant,
                          timeout=args.timeout, progress=progress, count_origin=origin,
@@ -113,12 +113,12 @@ def cmd_hil(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .hil.animate import animate_run, model_of_run, read_run_input
+    from ..hil.animate import animate_run, model_of_run, read_run_input
 
     model = None
     if args.model is not None:
-        from .hil.core_ports import CorePorts
-        from .model.modelfile import load_model
+        from ..hil.core_ports import CorePorts
+        from ..model.modelfile import load_model
         model = load_model(args.model)
         record = read_run_input(args.run, CorePorts.of_interface(model.interface))
     else:

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .errors import PendcError
+from ..errors import PendcError
+from .options import MODEL_HELP, positive
 
 
 def initial_state(text: str) -> tuple:
@@ -29,25 +30,25 @@ def _check_x0(x0, iface) -> None:
 
 def cmd_simulate(args) -> int:
     """Run the model (float, or bit-accurate with ``--fixed``) on the input file; CSV out."""
-    from .model.modelfile import load_model
-    from .sim.measurements import format_csv, read_measurements
-    from .atomic import check_file_output
-    from .sim.signals import TIME
-    from .sim.simulator import Simulator
-    from .cli_common import build_model, write_output
+    from ..model.modelfile import load_model
+    from ..sim.measurements import format_csv, read_measurements
+    from ..atomic import check_file_output
+    from ..sim.signals import TIME
+    from ..sim.simulator import Simulator
+    from .options import build_model, write_output
 
     if args.output not in (None, "-"):
         check_file_output(args.output)   # before the run, which may compile the model first
     model = load_model(args.model)
     _check_x0(args.x0, model.interface)
-    from .sim.read_options import ReadOptions
+    from ..sim.read_options import ReadOptions
     data = read_measurements(args.input, required=(TIME, model.interface.input.name),
                              options=ReadOptions(plant=model))
     _check_input_range(data, model.interface.input)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
     if args.fixed:
-        from .golden import GoldenModel
+        from ..golden import GoldenModel
 
         if args.method != "euler":
             raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
@@ -82,7 +83,7 @@ def cmd_simulate(args) -> int:
 def _quantize_measured(states: dict, iface) -> None:
     """Replace every sensed state by what its sensor reports (an encoder: counts from the first
     sample times its resolution; a converter: its code's step), as ``--quantize`` asks."""
-    from .sim.encoders import sensor_reading
+    from ..sim.encoders import sensor_reading
 
     for sensor in iface.sensors:
         states[sensor.state] = sensor_reading(sensor, states[sensor.state])
@@ -93,10 +94,36 @@ def _check_input_range(data, inp) -> None:
     full scale): a unit mistake such as millivolts (many rows) or an outlier (a few), named by
     line, before a simulation of nonsense. Only the input: the other columns of a file (a
     simulation's own output, say) are not read."""
-    from .sim import plausibility
-    from .sim.table import Table
+    from ..sim import plausibility
+    from ..sim.table import Table
 
     table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
     mistake = "millivolts" if inp.unit == "V" else f"another unit than {inp.unit}"
     plausibility.check_bounded(table, inp.name, data.u, plausibility.INPUT_MARGIN * inp.full_scale, inp.unit,
                                f"the input takes {inp.range.describe()}", (mistake, f"give {inp.name} in {inp.unit}"))
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("simulate", help="float simulation of a model on an input file")
+    p.add_argument("--model", help=MODEL_HELP)
+    p.add_argument("--input", required=True, help="measurement file with the time and the model's input as columns "
+                   "(the default model: {plant:time} in s and {plant:input} in {plant:input_unit}): pendc's CSV "
+                   "(',' ';' tab or whitespace separated, '# key: value' comments) or MATLAB .mat; '-': standard "
+                   "input; other columns are ignored")
+    p.add_argument("-o", "--output", help="output CSV: the time, the input and the model's states (the default "
+                                          "model: {plant:columns} then the rates); default (or '-'): standard "
+                                          "output")
+    p.add_argument("--dt", type=positive, default=1e-6, help="integration step in s (default 1e-6)")
+    p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
+    p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the model's order (the "
+                                             "default model: {plant:states}; default: at rest, all 0); "
+                                             "with --fixed the state registers start there")
+    p.add_argument("--quantize", action="store_true", help="quantise the states the model's encoders read (the "
+                                                           "default model: {plant:positions}) to x4 encoder counts")
+    p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
+    p.add_argument("--on-overflow", choices=("error", "mark"), default="error",
+                   help="--fixed: a value leaving its Q-format range stops the run with an error naming the node "
+                        "and the time (default), or 'mark' continues and flags every affected row in a column "
+                        "'overflow'")
+    p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    p.set_defaults(func=cmd_simulate)

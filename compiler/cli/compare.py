@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 import sys
 
-from .cli_data import add_data_options, load_datasets, note
-from .errors import PendcError
+from .data import add_data_options, load_datasets, note
+from ..errors import PendcError
 
 EPILOG = """\
 examples:
@@ -22,12 +22,12 @@ was fitted: compare draws its 95 %% prediction band and says how often the data 
 def cmd_compare(args) -> int:
     import numpy as np
 
-    from .ident.outputs import parse_outputs
-    from .ident.report_html import write_html_report
-    from .ident.report_text import text_report
-    from .ident.sidebyside import compare_models
-    from .model.modelfile import fit_uncertainty_of, parse_model, read_model_text
-    from .sim.signals import signals_of
+    from ..ident.outputs import parse_outputs
+    from ..ident.report_html import write_html_report
+    from ..ident.report_text import text_report
+    from ..ident.sidebyside import compare_models
+    from ..model.modelfile import fit_uncertainty_of, parse_model, read_model_text
+    from ..sim.signals import signals_of
 
     if not args.horizon > 0:
         raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
@@ -58,11 +58,11 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
+def add_parsers(sub) -> None:
     """``pendc compare``: its data options, models and outputs."""
     import argparse
 
-    from .model.fit_uncertainty import BAND_SAMPLES
+    from ..model.fit_uncertainty import BAND_SAMPLES
 
     p = sub.add_parser("compare", help="compare a model (or several) with measurements: fit, where and why it fails",
                        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -1,18 +1,22 @@
-"""Reports on a compiled model: Q-formats with their evidence, resources, and error drift.
+"""``pendc report``: reports on a compiled model (Q-formats with their evidence, resources, and
+error drift) and ``report synth`` on a build folder.
 
-Each report is a plain dict (what ``--json`` prints) plus a text rendering of it.
+Each report is a plain dict (what ``--json`` prints) plus a text rendering of it. The compiler's
+modules are imported where a report is made: every command line builds this module's parser, and
+``pendc --help`` should not wait for the compiler.
 """
 
 from __future__ import annotations
 
+import json
 import re
+import sys
+from typing import TYPE_CHECKING
 
-import numpy as np
+from .options import MODEL_HELP, build_model, positive
 
-from .ir.nodes import Kind
-from .passes.pipeline import BuildResult
-from .model.reference_formats import FIX
-from .passes.qformats import thesis_format
+if TYPE_CHECKING:
+    from ..passes.pipeline import BuildResult
 
 DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0)
 
@@ -26,6 +30,10 @@ def qformat_report(build: BuildResult) -> dict:
     """Per node: meaning, simulated max, a published design's max/format where the plant file
     gives one (``[reference_formats]``), chosen format, LSB in physical units and max |error|
     against float on the check stimuli."""
+    from ..ir.nodes import Kind
+    from ..model.reference_formats import FIX
+    from ..passes.qformats import thesis_format
+
     g = build.graph
     definition = build.model.definition
     reference = definition.reference_formats
@@ -96,9 +104,11 @@ def format_qformat_report(report: dict) -> str:
 def drift_report(build: BuildResult, stimuli: dict) -> dict:
     """Max |fixed - float| of every encoder-read state (the plant interface's) up to each of
     DRIFT_TIMES, per stimulus (full length): rows ``{"t": limit, <state>: error..., "units": {state: unit}}``."""
-    from .golden import GoldenModel
-    from .model.interface import require_interface
-    from .sim.simulator import Simulator
+    import numpy as np
+
+    from ..golden import GoldenModel
+    from ..model.interface import require_interface
+    from ..sim.simulator import Simulator
     iface = require_interface(build.graph)
     measured = [s.state for s in iface.sensors]
     units = {s: iface.state(s).unit for s in measured}
@@ -122,9 +132,9 @@ def drift_report(build: BuildResult, stimuli: dict) -> dict:
 def resources_report(build: BuildResult, request: dict | None = None) -> dict:
     """The resource estimate, with per product the operand widths it got and why, and the DSP
     blocks of the schedule ``request`` (default: the default preset) once products share units."""
-    from .backend.hdl import schedule_of
-    from .passes.qformats import MULT_SHAPES
-    from .passes.resources import dsp_for, schedule_lut4
+    from ..backend.hdl import schedule_of
+    from ..passes.qformats import MULT_SHAPES
+    from ..passes.resources import dsp_for, schedule_lut4
     out = build.resources.to_json()
     sched = schedule_of(build.graph, dict(request or {}, target=build.options.target))
     shape = MULT_SHAPES[build.options.target]
@@ -143,7 +153,7 @@ def resources_report(build: BuildResult, request: dict | None = None) -> dict:
                     "its LUT count is lower (no calibration for it)"]
     levels = (build.error.levels if build.error else None) or {}
     opt = build.options
-    from .model.interface import graph_interface
+    from ..model.interface import graph_interface
     iface = graph_interface(build.graph)
     budgeted = " or ".join(iface.budgets()) if iface is not None else "a budgeted state"
     why_off = ("multiplier fitting off (fit_multipliers = false): the thesis' 32-bit rule"
@@ -191,3 +201,70 @@ def format_resources_report(r: dict) -> str:
         for p in r["products"]:
             lines.append(f"  {p['node']:28s} {p['kind']:5s} {p['widths']:>7s} {p['dsp']} block(s)  {p.get('why', '')}")
     return "\n".join(lines) + "\n"
+
+
+def _emit_json(obj) -> None:
+    json.dump(obj, sys.stdout, indent=2, sort_keys=False)
+    sys.stdout.write("\n")
+
+
+def cmd_report(args) -> int:
+    from ..model.modelfile import load_model
+
+    if args.what == "synth":
+        from ..synth import format_synth_report, synthesize
+        result = synthesize(args.build_dir, args.target, freq_mhz=args.freq, use_cache=not args.no_cache,
+                            log=lambda text: print(f"pendc: {text}", file=sys.stderr))
+        if args.json:
+            _emit_json(result.to_json())
+        else:
+            sys.stdout.write(format_synth_report(result))
+        return 0
+    model = load_model(args.model)
+    build = build_model(model, args)
+    if args.what == "qformat":
+        report = qformat_report(build)
+        if args.drift:
+            from ..sim.stimuli import Stimuli
+            on = Stimuli(model.interface.input)
+            report["drift"] = drift_report(build, {"chirp": on.chirp(), "swing_up": on.swing_up()})
+        text = format_qformat_report(report)
+    else:
+        report = resources_report(build)
+        text = format_resources_report(report)
+    if args.json:
+        _emit_json(report)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def add_parsers(sub) -> None:
+    """``report qformat|resources|synth``: a sub-parser per kind, so each takes (and its --help
+    lists) only the options that mean something for it."""
+    p = sub.add_parser("report", help="reports on the compiled model: qformat, resources, or synth "
+                       "(Yosys + nextpnr on a build folder)",
+                       description="Reports on the compiled model. Each kind takes its own options: "
+                                   "pendc report KIND --help.")
+    kinds = p.add_subparsers(dest="what", metavar="KIND", required=True)  # a _Parser, like `p`
+    q = kinds.add_parser("qformat", help="per signal its range, chosen Q-format and error against float")
+    r = kinds.add_parser("resources", help="the resource estimate and DSP blocks per product")
+    s = kinds.add_parser("synth", help="Yosys + nextpnr on a `pendc build` output folder (--build-dir)")
+    for k in (q, r):
+        k.add_argument("--model", help=MODEL_HELP)
+        k.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7"),
+                       help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
+        k.add_argument("--json", action="store_true", help="machine-readable output")
+        k.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
+    q.add_argument("--drift", action="store_true", help="also measure fixed-vs-float drift on the full 20 s chirp "
+                   "and 5 s swing-up")
+    s.add_argument("--build-dir", default="hdl_out", help="the `pendc build` output folder (default hdl_out)")
+    from ..synth_targets import TARGETS
+    s.add_argument("--target", choices=tuple(TARGETS), default="ecp5-85k",
+                   help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only; "
+                        "docs/hardware.md lists them)")
+    s.add_argument("--freq", type=positive, default=100.0, help="clock goal for nextpnr in MHz (default 100)")
+    s.add_argument("--json", action="store_true", help="machine-readable output: target, top, ii, fmax_mhz, "
+                   "step_ns, lut, ff, carry, dsp, bram, logic_depth, critical_path, cells, estimate, thesis")
+    s.add_argument("--no-cache", action="store_true", help="run Yosys and nextpnr even if a cached result exists")
+    p.set_defaults(func=cmd_report)

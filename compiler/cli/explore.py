@@ -10,9 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .cli_common import add_engine_arguments, check_sweep_arguments
-from .cli_data import MODEL_HELP, positive
-from .errors import PendcError
+from .options import MODEL_HELP, add_engine_arguments, check_sweep_arguments, positive
+from ..errors import PendcError
 
 DEFAULT_OUT = "explore_out"
 DEFAULT_TARGET = "ecp5-85k"
@@ -39,9 +38,9 @@ def _point_line(points: list):
 
 def _new_sweep(args) -> dict:
     """The manifest of the sweep the options describe (written once the cluster answers)."""
-    from .model.model_writer import dumps_model
-    from .model.modelfile import load_model
-    from .sweep.explore import points_for
+    from ..model.model_writer import dumps_model
+    from ..model.modelfile import load_model
+    from ..sweep.explore import points_for
 
     points = points_for(args.preset or [], args.target or [DEFAULT_TARGET], args.ii or [])
     model = load_model(args.model)
@@ -50,10 +49,10 @@ def _new_sweep(args) -> dict:
 
 
 def cmd_explore(args) -> int:
-    from .sweep.engine import Task, run_tasks
-    from .sweep.explore import (MANIFEST, ROWS, build_and_synthesize, keep_build, read_manifest, sweep_key,
+    from ..sweep.engine import Task, run_tasks
+    from ..sweep.explore import (MANIFEST, ROWS, build_and_synthesize, keep_build, read_manifest, sweep_key,
                                 write_manifest)
-    from .sweep.pareto import format_table, pareto_rows, write_table
+    from ..sweep.pareto import format_table, pareto_rows, write_table
 
     check_sweep_arguments("explore", args, _SWEEP_OPTIONS, "explore.json")
     if args.resume:
@@ -104,7 +103,7 @@ def cmd_explore(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
+def add_parsers(sub) -> None:
     """Register ``explore`` on the top-level subparsers."""
     p = sub.add_parser("explore", help="the synthesis design space on Dask: a build and a synthesis per schedule "
                                        "and target, a Pareto table of step time against DSP blocks and LUTs",

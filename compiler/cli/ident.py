@@ -1,4 +1,4 @@
-"""The identification commands diagnose and fit (a thin layer over pendc.ident); compare is in cli_compare.
+"""The identification commands diagnose and fit (a thin layer over pendc.ident); compare is in cli/compare.py.
 
 Every figure printed says what it is (the 0.5 s horizon fit or the free-run fit, pooled
 or for which file); notes about what was left out go to stderr as ``pendc: note: ...``.
@@ -10,8 +10,8 @@ import json
 import math
 import sys
 
-from .cli_data import add_data_options, load_datasets, load_model_and_data, note
-from .errors import PendcError
+from .data import add_data_options, load_datasets, load_model_and_data, note
+from ..errors import PendcError
 
 
 def _progress(enabled: bool):
@@ -52,7 +52,7 @@ def _notes(lines) -> None:
 
 def _figure_lines(fig: dict, indent: str = "") -> list:
     """The pooled figure, then one line per file when there are several."""
-    from .ident.figures import describe, values_text
+    from ..ident.figures import describe, values_text
 
     lines = [indent + describe(fig) + (f" (pooled over {len(fig['files'])} files)" if len(fig["files"]) > 1 else "")]
     if len(fig["files"]) > 1:
@@ -62,12 +62,12 @@ def _figure_lines(fig: dict, indent: str = "") -> list:
 
 
 def cmd_diagnose(args) -> int:
-    from .ident.diagnose import diagnose
-    from .ident.evidence import parameter_hint
-    from .ident.parameter_trials import try_parameters
-    from .model.modelfile import fitted_parameters
-    from .ident.outputs import parse_outputs
-    from .ident.shooting import horizon_figures
+    from ..ident.diagnose import diagnose
+    from ..ident.evidence import parameter_hint
+    from ..ident.parameter_trials import try_parameters
+    from ..model.modelfile import fitted_parameters
+    from ..ident.outputs import parse_outputs
+    from ..ident.shooting import horizon_figures
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
@@ -132,14 +132,14 @@ def cmd_diagnose(args) -> int:
 
 def _default_model() -> str:
     """The shipped default model's file as a command names it (``models/<file>``)."""
-    from .model.modelfile import default_model_path
+    from ..model.modelfile import default_model_path
 
     return f"models/{default_model_path().name}"
 
 
 def _data_words(args) -> str:
     """The data files and the reading options they were read with, for a command to suggest or record."""
-    from .cli_data import reading_arguments
+    from .data import reading_arguments
 
     return " ".join([*args.data, *reading_arguments(args)])
 
@@ -158,7 +158,7 @@ def _command(args) -> str:
 
 def _provenance(args, free: list, before: dict, after: dict) -> dict:
     """Where a fitted model came from: source model, data (by content hash), command, figures."""
-    from .model.modelfile import data_fingerprint
+    from ..model.modelfile import data_fingerprint
 
     meta = {"generator": "pendc fit", "source_model": args.model or _default_model(),
             "data": "; ".join(data_fingerprint(p) for p in args.data),
@@ -176,15 +176,15 @@ def _provenance(args, free: list, before: dict, after: dict) -> dict:
 def cmd_fit(args) -> int:
     from pathlib import Path
 
-    from .ident.diagnose import free_parameters
-    from .ident.figures import free_run_figures
-    from .ident.fit import fit_parameters
-    from .ident.outputs import parse_outputs
-    from .ident.shooting import horizon_figures
-    from .atomic import write_atomic
-    from .model.modelfile import default_model_path
-    from .model.model_writer import dumps_fitted
-    from .sim.signals import signals_of
+    from ..ident.diagnose import free_parameters
+    from ..ident.figures import free_run_figures
+    from ..ident.fit import fit_parameters
+    from ..ident.outputs import parse_outputs
+    from ..ident.shooting import horizon_figures
+    from ..atomic import write_atomic
+    from ..model.modelfile import default_model_path
+    from ..model.model_writer import dumps_fitted
+    from ..sim.signals import signals_of
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
@@ -234,7 +234,7 @@ def cmd_fit(args) -> int:
     lines += ["after:  " + line for line in _figure_lines(free_after)]
     angles = set(signals_of(model).periodic)
     if any(v < 0 for f in (free_before, free_after) for o, v in f["pooled"].items() if o in angles):
-        from .ident.figures import UNWRAPPED_NOTE
+        from ..ident.figures import UNWRAPPED_NOTE
         lines.append(f"(free-run: {UNWRAPPED_NOTE})")
     for p in free:
         lo, hi = result.ci95[p]
@@ -259,10 +259,6 @@ def _add_ident_options(p) -> None:
 
 
 def add_parsers(sub) -> None:
-    from .cli_compare import add_parser as add_compare_parser
-
-    add_compare_parser(sub)
-
     p = sub.add_parser("diagnose", help="which catalogue effect is missing from the model?")
     add_data_options(p)
     _add_ident_options(p)

@@ -14,10 +14,10 @@ import math
 import re
 import sys
 
-MODEL_HELP = "model file (default: the shipped default model, which models/DEFAULT names; '-': standard input)"
+from .options import finite, positive
 
 # The examples name the default model's signals ({plant:WORD}: filled from its interface when
-# the help is printed, pendc.cli_help); the rules hold for any model's signals.
+# the help is printed, pendc.cli.help); the rules hold for any model's signals.
 FORMATS_HELP = """\
 measurement files:
   CSV (pendc's own): '# key: value' comment lines, a header naming the time and the
@@ -114,7 +114,7 @@ def _settings(kind: str, check):
 
 
 def _zero(text: str) -> str:
-    from .sim.signals import ZERO_NAMES
+    from ..sim.signals import ZERO_NAMES
 
     if text not in ZERO_NAMES:
         raise argparse.ArgumentTypeError(f"{text!r}: use {' or '.join(ZERO_NAMES)}")
@@ -129,7 +129,7 @@ def _sign(text: str) -> float:
 
 def _unit_text(text: str) -> str:
     """A unit name or a positive number (checked against the signal's unit when read)."""
-    from .sim.signals import UNIT_SCALES
+    from ..sim.signals import UNIT_SCALES
 
     names = {n for scales in UNIT_SCALES.values() for n in scales}
     if text not in names:
@@ -153,33 +153,14 @@ def _input_value(text: str) -> tuple:
 
 def _checked_input_value(args, plant) -> float:
     """The value of an absent input from ``--input-value``; a name given must be ``plant``'s input."""
-    from .errors import PendcError
-    from .sim.signals import signals_of
+    from ..errors import PendcError
+    from ..sim.signals import signals_of
 
     name, value = getattr(args, "input_value", None) or (None, 0.0)
     if name is not None and name != signals_of(plant).input:
         raise PendcError(f"--{name.replace('_', '-')}-value: '{name}' is not the model's input "
                          f"(its input is '{signals_of(plant).input}')")
     return float(value)
-
-
-def finite(text: str) -> float:
-    """An argparse type: a finite number."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
-    return value
-
-
-def positive(text: str) -> float:
-    """An argparse type: a finite number above zero (a step, a rate, a time)."""
-    value = finite(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
-    return value
 
 
 # --<SIGNAL>-unit/-zero/-sign VALUE: --unit/--zero/--sign SIGNAL=VALUE, for any signal of any plant;
@@ -208,7 +189,7 @@ def expand_signal_options(words: list, known) -> list:
         name, setting, value = match.group(1).replace("-", "_"), match.group(2), match.group(3)
         if value is None:
             if i + 1 == len(words):
-                from .errors import PendcError
+                from ..errors import PendcError
 
                 raise PendcError(f"argument {word}: expected one argument")
             value, i = words[i + 1], i + 1
@@ -226,7 +207,7 @@ class _MergeSettings(argparse.Action):
 
 def add_data_options(p, many: bool = True) -> None:
     """The positional data file(s) and every reading option, added to parser ``p`` (with examples)."""
-    from .model.modelfile import shipped_plants
+    from ..model.modelfile import shipped_plants
 
     experiments = "; ".join(f"{', '.join(model.experiments)} ({name})" for name, model in shipped_plants().items())
 
@@ -291,9 +272,9 @@ def example_experiments() -> dict:
     """The default model's experiments the examples cite, from its plant file: ``held`` holds
     the driven coordinate alone, ``other`` is the next experiment besides free (NAME when the
     file declares none)."""
-    from .ident.plant_roles import driven_coordinate, holding_experiment
-    from .model.equations import DEFAULT_EXPERIMENT
-    from .model.modelfile import default_model_path, shipped_plants
+    from ..ident.plant_roles import driven_coordinate, holding_experiment
+    from ..model.equations import DEFAULT_EXPERIMENT
+    from ..model.modelfile import default_model_path, shipped_plants
 
     model = next((m for m in shipped_plants().values() if m.source == str(default_model_path())), None)
     if model is None:
@@ -340,8 +321,8 @@ def note(text: str) -> None:
 def read_options(args, experiment: str | None = None, plant=None):
     """The :class:`~pendc.sim.readers.ReadOptions` that ``args`` ask for (missing attributes:
     defaults), for the signals of ``plant`` (a model; default the default model)."""
-    from .sim.csvread import separator_from_name
-    from .sim.readers import ReadOptions
+    from ..sim.csvread import separator_from_name
+    from ..sim.readers import ReadOptions
 
     missing = tuple(a.strip() for a in (getattr(args, "missing", "") or "").split(",") if a.strip())
     units, zero, sign = (dict(getattr(args, k, None) or {}) for k in ("unit", "zero", "sign"))
@@ -363,7 +344,7 @@ def experiments_for(args, paths: list, positional: bool = True) -> list:
     One name applies to every file; a list names the positional data files in order,
     and other files (``--validate``) then declare theirs (``# experiment:``).
     """
-    from .errors import PendcError
+    from ..errors import PendcError
 
     names = [n.strip() for n in (getattr(args, "experiment", None) or "").split(",") if n.strip()]
     if not names:
@@ -382,8 +363,8 @@ def load_datasets(args, paths=None, plant=None) -> list:
     """Read ``paths`` (default: ``args.data``) with the reading options in ``args``, as
     measurements of ``plant`` (a model: its interface names the columns; default the
     default model); print notes."""
-    from .errors import PendcError
-    from .sim.measurements import read_measurements
+    from ..errors import PendcError
+    from ..sim.measurements import read_measurements
 
     positional = paths is None
     paths = list(args.data if paths is None else paths)
@@ -402,7 +383,7 @@ def load_datasets(args, paths=None, plant=None) -> list:
 
 def load_model_and_data(args):
     """The model of ``--model`` (default: the shipped default model) and the data sets."""
-    from .model.modelfile import load_model
+    from ..model.modelfile import load_model
 
     model = load_model(args.model)
     return model, load_datasets(args, plant=model)

@@ -22,8 +22,8 @@ def plant_words(signals=None) -> dict:
     (the first periodic position), ``position`` (the first other position, else the second
     position), ``positions``/``states``/``columns`` (comma-separated), each position's unit and
     encoder step, ``body`` (the interface's name) and ``constants`` (every shipped plant's constants)."""
-    from .model.modelfile import shipped_plants
-    from .sim.signals import TIME, signals_of
+    from ..model.modelfile import shipped_plants
+    from ..sim.signals import TIME, signals_of
 
     sig = signals_of(signals)
     iface = sig.interface
@@ -84,7 +84,7 @@ def effects_by_body() -> str:
     """The effect catalogue of every shipped plant, grouped by plant (the names ``--add`` and
     ``--effects`` take; parameters in brackets, free them with ``--free``). A plant file of
     one's own lists its own in ``[catalogue]``."""
-    from .model.modelfile import default_model_path, shipped_plants
+    from ..model.modelfile import default_model_path, shipped_plants
 
     default = next((name for name, model in shipped_plants().items()
                     if model.source == str(default_model_path())), None)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import sys
 
-from .atomic import write_atomic
-from .errors import PendcError
+from ..atomic import write_atomic
+from ..errors import PendcError
 
 SKELETON = '''# {name}: a plant file (docs/plant_files.md is the reference of every table).
 # Check it with `pendc plant check {name}.toml`, build it with `pendc build --model {name}.toml`.
@@ -155,7 +155,7 @@ def cmd_plant_new(args) -> int:
 def cmd_plant_check(args) -> int:
     import sympy as sp
 
-    from .model.modelfile import load_model
+    from ..model.modelfile import load_model
 
     model = load_model(args.file)
     d, eq, iface = model.definition, model.equations, model.interface
