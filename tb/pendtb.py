@@ -34,7 +34,7 @@ def model_and_build(model_path=None, request: dict | None = None):
     """The model and its compiled build, with the arithmetic ``pendc build`` takes for the
     schedule ``request``'s preset (the step-time presets build the short chain)."""
     from pendc import load_model
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.passes.pipeline import options_from_model, preset_options
     model = load_model(model_path)
     return model, compile_cached(model, options_from_model(model, **preset_options((request or {}).get("preset"))))

@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendc.objcache import objcache_env
+from pendc.caching.objcache import objcache_env
 from tbconfig import (MIN_VERILATOR, TB_DIR, TB_TOP, verilog_files)
 
 
@@ -87,7 +87,7 @@ def get_runner(sim: str):
             base()
             old = runner.env.get("MAKEFLAGS", "")
             runner.env["MAKEFLAGS"] = f"{old} {VERILATOR_MAKE_VARS}".strip()
-            # Verilator's runtime objects come from earlier builds (pendc.objcache)
+            # Verilator's runtime objects come from earlier builds (pendc.caching.objcache)
             runner.env.update({k: v for k, v in objcache_env(runner.env).items()
                                if k in ("OBJCACHE", "PENDC_OBJCACHE_DIR")})
         runner._set_env_build = set_env_build

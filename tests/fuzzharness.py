@@ -34,7 +34,7 @@ from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
 from pendc.ir.nodes import Kind
-from pendc.objcache import objcache_env
+from pendc.caching.objcache import objcache_env
 
 from graphgen import FuzzCase
 

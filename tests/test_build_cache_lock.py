@@ -13,7 +13,7 @@ SCRIPT = textwrap.dedent("""
     import os, sys, time
     from dataclasses import dataclass
     from pathlib import Path
-    import pendc.build_cache as bc
+    import pendc.caching.build_cache as bc
     from pendc import load_model
 
     @dataclass(frozen=True)

@@ -77,7 +77,7 @@ def test_fmax_build_is_bit_exact_in_icarus(tmp_path):
     import numpy as np
     from test_schedule import STEPS, run_icarus
 
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     from pendc.ir.compiled import CompiledGraph
     from pendc.model.modelfile import load_model
     from pendc.passes.schedule import schedule_for

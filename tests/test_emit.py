@@ -10,7 +10,7 @@ import pytest
 
 from pendc import load_model
 from pendc.backend.hdl import build_hdl, write_hdl
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.ir.nodes import Kind
 
 ROOT = Path(__file__).resolve().parents[1]

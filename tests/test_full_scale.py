@@ -68,7 +68,7 @@ def test_a_pendulum_spun_over_twenty_turns_is_right_after_every_turn(tmp_path):
 def test_leaving_a_range_stops_the_run_with_the_node_and_the_time(tmp_path, capsys):
     """Table 14 has no track ends: pushed full scale from 0.1 m below the end of x's format, the
     cart leaves it; the error names the node and the time the float model crosses the limit."""
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     model = load_model()
     limit = compile_cached(model).graph.output("x").qformat.max_value
     x0 = f"{limit - 0.1!r},0,0,0"

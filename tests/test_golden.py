@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pendc import Simulator, load_model
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.ir.interpret import FixedInterpreter
 from pendc.passes.ranges import per_step

@@ -81,7 +81,7 @@ def test_bad_requests_are_one_line_errors(model, kind, n, u, message):
 
 @pytest.fixture(scope="module")
 def build(model):
-    from pendc.build_cache import compile_cached
+    from pendc.caching.build_cache import compile_cached
     return compile_cached(model)
 
 

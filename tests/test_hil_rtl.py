@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.hil.plant import make_plant
 from pendc.model.modelfile import load_model
 from pendc.passes.ranges import full_scale_switching

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.errors import PendcError
 from pendc.hil.plant import Plant, make_plant
 from pendc.hil.rtl_cpp import VerilatorCppPlant, main_source

@@ -152,7 +152,7 @@ def test_fingerprint_and_build_key_ignore_what_no_build_reads():
     """Identification advice, operating points and the drawing are read by diagnose, hil and
     animate, never by the compile: editing them rebuilds nothing (same fingerprint, same cached
     build); a renamed core is another Verilog module, so another build."""
-    from pendc.build_cache import build_key
+    from pendc.caching.build_cache import build_key
     from pendc.model.modelfile import default_model_path, model_fingerprint
     from pendc.passes.pipeline import BuildOptions
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.cli import main
 from pendc.ident.datagen import make_dataset
 from pendc.model.modelfile import load_model

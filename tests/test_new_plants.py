@@ -15,7 +15,7 @@ import scipy.linalg
 import sympy as sp
 
 import pendc
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.ir.nodes import Kind
 from pendc.hil.controllers import FilteredDifference

@@ -1,4 +1,4 @@
-"""pendc.objcache, the OBJCACHE launcher of Verilator builds: a runtime source compiled twice
+"""pendc.caching.objcache, the OBJCACHE launcher of Verilator builds: a runtime source compiled twice
 with the same compiler, flags and headers is compiled once; anything that changes the
 preprocessed source or the flags compiles again; the design's own files and failed compiles are
 never stored."""
@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from pendc.atomic import current_umask
-from pendc.objcache import cacheable, objcache_env, run
+from pendc.caching.objcache import cacheable, objcache_env, run
 
 pytestmark = pytest.mark.skipif(shutil.which("c++") is None, reason="no C++ compiler")
 
@@ -82,7 +82,7 @@ def test_design_files_and_failures_are_never_stored(setup):
 def test_environment_switch(monkeypatch, tmp_path):
     monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path / "c"))
     env = objcache_env({})
-    assert env["OBJCACHE"].split() == [sys.executable, "-S", str(Path(__file__).parents[1] / "compiler" / "objcache.py")]
+    assert env["OBJCACHE"].split() == [sys.executable, "-S", str(Path(__file__).parents[1] / "compiler" / "caching" / "objcache.py")]
     assert Path(env["PENDC_OBJCACHE_DIR"]).is_dir()
     assert "OBJCACHE" not in objcache_env({"PENDC_OBJCACHE": "0"})
     monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path / "with space"))

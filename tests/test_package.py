@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from pendc import build_cache
+from pendc.caching import build_cache
 
 ROOT = Path(__file__).resolve().parents[1]
 

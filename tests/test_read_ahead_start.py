@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pendc
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel, register_integers
 from pendc.passes.lower import READ_AHEAD_KEY
 from pendc.passes.pipeline import options_from_model, preset_options

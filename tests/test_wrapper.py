@@ -16,7 +16,7 @@ from pendc import load_model
 from pendc.backend.emit import build_id, render_core
 from pendc.backend.hdl import port_formats
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
-from pendc.build_cache import compile_cached
+from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import SensorSpec

@@ -44,7 +44,7 @@ def write_output(output: str | None, text: str) -> None:
 
 def build_model(model, args):
     """The model compiled with the command's options (from the build cache when it has it)."""
-    from ..build_cache import compile_cached
+    from ..caching.build_cache import compile_cached
     from ..passes.pipeline import options_from_model, preset_options
 
     def tell():

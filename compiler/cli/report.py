@@ -212,7 +212,7 @@ def cmd_report(args) -> int:
     from ..model.modelfile import load_model
 
     if args.what == "synth":
-        from ..synth import format_synth_report, synthesize
+        from ..synth.flow import format_synth_report, synthesize
         result = synthesize(args.build_dir, args.target, freq_mhz=args.freq, use_cache=not args.no_cache,
                             log=lambda text: print(f"pendc: {text}", file=sys.stderr))
         if args.json:
@@ -259,7 +259,7 @@ def add_parsers(sub) -> None:
     q.add_argument("--drift", action="store_true", help="also measure fixed-vs-float drift on the full 20 s chirp "
                    "and 5 s swing-up")
     s.add_argument("--build-dir", default="hdl_out", help="the `pendc build` output folder (default hdl_out)")
-    from ..synth_targets import TARGETS
+    from ..synth.targets import TARGETS
     s.add_argument("--target", choices=tuple(TARGETS), default="ecp5-85k",
                    help="FPGA target (default ecp5-85k: LFE5U-85F speed 6; xc7: Yosys counts only; "
                         "docs/hardware.md lists them)")

@@ -20,7 +20,7 @@ from .plant_state import PlantState, check_initial, check_step_request, x4_count
 def build_for(model: PlantModel, dt: float, build=None):
     """The compiled core of ``model`` (from the build cache), checked against the plant step ``dt``."""
     if build is None:
-        from ..build_cache import compile_cached
+        from ..caching.build_cache import compile_cached
         from ..passes.pipeline import options_from_model
         build = compile_cached(model, options_from_model(model))
     if abs(build.options.dt - dt) > 1e-15:

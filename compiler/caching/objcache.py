@@ -127,7 +127,7 @@ def objcache_env(env: dict | None = None) -> dict:
     """``env`` (default: this process's) with OBJCACHE and PENDC_OBJCACHE_DIR set, so the make
     run by a Verilator build compiles its runtime through this script. Unchanged when
     PENDC_OBJCACHE=0, or when a path holds a space (make splits the OBJCACHE command on spaces)."""
-    from .codegen import cache_dir
+    from ..codegen import cache_dir
     env = dict(os.environ if env is None else env)
     if env.get("PENDC_OBJCACHE", "1") == "0":
         return env

@@ -21,7 +21,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from .errors import PendcError
+from ..errors import PendcError
 
 HARNESS_TOP = "pendc_harness"
 HARNESS_VERSION = 2               # part of the cache key: a new harness, or a new way of counting through it
@@ -201,7 +201,7 @@ def harness_verilog(top: str, ports: list, outputs: int) -> str:
     shift = f"{{in_sr[{n_in - 2}:0], sin}}" if n_in > 1 else "sin"
     bits = [", ".join(f"outs[{i}]" for i in range(k, n_out, outputs)) or "1'b0" for k in range(outputs)]
     folds = "\n".join(f"        fold[{k}] <= ^{{{b}}};" for k, b in enumerate(bits))
-    return f"""// pendc report synth: the core's ports on {outputs + 2} pins (see pendc.synth_targets)
+    return f"""// pendc report synth: the core's ports on {outputs + 2} pins (see pendc.synth.targets)
 module {HARNESS_TOP} (input wire clk, input wire sin, output reg [{outputs - 1}:0] fold);
     reg [{n_in - 1}:0] in_sr;
     wire [{max(n_out, 1) - 1}:0] outs;
