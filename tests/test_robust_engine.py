@@ -12,7 +12,7 @@ import pytest
 
 from dask_processes import dask_cluster
 from pendc.robust.engine import read_manifest, read_rows, run_sweep
-from robust_helpers import ROOT, rows_of, start_pendc, sweep_args, wait_for_rows
+from robust_helpers import HANG_GUARD_S, ROOT, rows_of, start_pendc, sweep_args, wait_for_rows
 
 SAMPLES = 8
 
@@ -22,7 +22,7 @@ def reference(tmp_path_factory):
     """The undisturbed sweep, made by the CLI and run on one worker."""
     out = tmp_path_factory.mktemp("reference") / "sweep"
     proc = start_pendc(sweep_args(out, SAMPLES, "--workers", "1"))
-    stdout, stderr = proc.communicate(timeout=300)
+    stdout, stderr = proc.communicate(timeout=HANG_GUARD_S)
     assert proc.returncode == 0, stderr
     rows = rows_of(out)
     assert [r["index"] for r in rows] == list(range(SAMPLES))
@@ -47,7 +47,7 @@ def test_a_killed_worker_on_a_real_scheduler_loses_nothing(reference, tmp_path):
         wait_for_rows(out, 2, sweep)
         assert sweep.poll() is None, "the sweep ended before a worker could be killed"
         workers[0].send_signal(signal.SIGKILL)
-        stdout, stderr = sweep.communicate(timeout=300)
+        stdout, stderr = sweep.communicate(timeout=HANG_GUARD_S)
         assert sweep.returncode == 0, stderr
         assert workers[0].wait(timeout=10) == -signal.SIGKILL
         assert f"({address})" in stdout
@@ -60,7 +60,7 @@ def test_ctrl_c_keeps_what_finished_and_resume_completes(reference, tmp_path):
     wait_for_rows(out, 3, proc)
     assert proc.poll() is None, "the sweep ended before it could be interrupted"
     os.kill(proc.pid, signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
+    stdout, stderr = proc.communicate(timeout=HANG_GUARD_S)
     assert proc.returncode == 130, stderr
     assert "interrupted" in stderr and f"--resume {out}" in stderr
     kept = rows_of(out)
@@ -68,7 +68,7 @@ def test_ctrl_c_keeps_what_finished_and_resume_completes(reference, tmp_path):
     assert kept == [r for r in reference[1] if r["index"] in {k["index"] for k in kept}]
     assert (out / "rows.parquet").exists() and (out / "summary.json").exists()   # what finished is written
     proc = start_pendc(["robust", "--resume", str(out), "--no-progress", "--workers", "2"])
-    stdout, stderr = proc.communicate(timeout=300)
+    stdout, stderr = proc.communicate(timeout=HANG_GUARD_S)
     assert proc.returncode == 0, stderr
     assert f"ran {SAMPLES - len(kept)} runs" in stdout
     assert rows_of(out) == reference[1]
@@ -79,7 +79,7 @@ def test_a_run_that_raises_is_a_failed_row(tmp_path):
     out = tmp_path / "sweep"
     proc = start_pendc(sweep_args(out, 3, "--workers", "1", "--controller", "robust_helpers:ResetRaises"),
                        cwd=ROOT / "tests")
-    stdout, stderr = proc.communicate(timeout=300)
+    stdout, stderr = proc.communicate(timeout=HANG_GUARD_S)
     assert proc.returncode == 0, stderr
     rows = rows_of(out)
     assert [r["index"] for r in rows] == [0, 1, 2]
