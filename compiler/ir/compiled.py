@@ -76,10 +76,10 @@ class CompiledGraph:
             else (None, None, [])
         if not params:
             source, offsets = kernel_source(graph, mode, runtime_data=True)
-        if mode == "fixed":     # one compile for runs from reset and runs resumed (pendc.ir.resumable)
-            source = make_resumable(source, graph, "pendc.ir.compiled", _SIGNATURE[bool(params)])
-            self.start = reset_state(graph)
-            self.start.setflags(write=False)
+        # one compile for runs from reset and runs resumed (pendc.ir.resumable), in both modes
+        source = make_resumable(source, graph, "pendc.ir.compiled", _SIGNATURE[bool(params)])
+        self.start = reset_state(graph, mode)
+        self.start.setflags(write=False)
         self.source, self.params = source, np.asarray(params, dtype=np.int64) if params else None
         tables = [np.asarray(graph[name].params.table, dtype=np.int64) for name in offsets]
         self.tables = np.concatenate(tables) if tables else np.zeros(0, np.int64)
@@ -119,12 +119,16 @@ class CompiledGraph:
         return ins, steps
 
     def call(self, ins, steps: int, every: int, sel, out, ov, st, k0: int, track: bool = False, mx=None, mn=None):
-        """The fixed-point kernel itself: ``steps`` steps of ``ins`` from the state ``st`` (updated
-        in place; :func:`pendc.ir.resumable.state_indices` order) counting steps from ``k0``,
-        every ``every``-th row of the nodes ``sel`` into ``out[column, row]`` (C-contiguous: another
-        array layout is another numba signature, another compile); returns the rows written."""
+        """The kernel itself: ``steps`` steps of ``ins`` from the state ``st`` (updated in place;
+        :func:`pendc.ir.resumable.state_indices` order; int64 in fixed point, float64 in float)
+        counting steps from ``k0``, every ``every``-th row of the nodes ``sel`` into
+        ``out[column, row]`` (C-contiguous: another array layout is another numba signature,
+        another compile); returns the rows written."""
         if mx is None:
-            mx = mn = np.zeros(len(self.graph.nodes), np.int64)
+            if self.mode == "fixed":
+                mx = mn = np.zeros(len(self.graph.nodes), np.int64)
+            else:
+                mx, mn = np.full(len(self.graph.nodes), -np.inf), np.full(len(self.graph.nodes), np.inf)
         data = (self.tables, self.resets) if self.params is None else (self.tables, self.resets, self.params)
         return self._kernel(ins, steps, every, *data, sel, out, track, mx, mn, ov, st, k0)
 
@@ -154,10 +158,7 @@ class CompiledGraph:
         else:
             mx, mn = np.full(n, -np.inf), np.full(n, np.inf)
         ov = np.full(n, -1, np.int64)
-        if self.mode == "fixed":
-            self.call(ins, steps, every, sel, out, ov, self.start.copy(), 0, track=bool(track_max), mx=mx, mn=mn)
-        else:
-            self._kernel(ins, steps, every, self.tables, self.resets, sel, out, bool(track_max), mx, mn, ov)
+        self.call(ins, steps, every, sel, out, ov, self.start.copy(), 0, track=bool(track_max), mx=mx, mn=mn)
         outputs = {c: out[j] for j, c in enumerate(columns)}
         nodes = self.graph.nodes
         extremes = {}

@@ -21,7 +21,7 @@ def kernel_source(graph: Graph, mode: str, runtime_data: bool = False) -> tuple[
     """(source of the kernel module, {LUT node name: offset into the table array}).
 
     ``runtime_data=True`` is the form :class:`~pendc.ir.compiled.CompiledGraph` compiles (made
-    resumable by :mod:`pendc.ir.resumable` in fixed point): register resets come from the argument
+    resumable by :mod:`pendc.ir.resumable`): register resets come from the argument
     ``rst`` (a graph differing only in a reset, like the spinning training run, reuses the machine
     code) and ``out`` is indexed [column, row], so a column is contiguous. The default prints the
     resets inline and ``out[row, column]``, a form for reading and comparing sources."""

@@ -1,10 +1,12 @@
-"""The fixed-point kernel made resumable: its state is an argument, read at the start and written back.
+"""The kernel made resumable: its state is an argument, read at the start and written back.
 
-Every fixed-point kernel :class:`~pendc.ir.compiled.CompiledGraph` compiles has this form, so one
+Every kernel :class:`~pendc.ir.compiled.CompiledGraph` compiles has this form, so one
 compile serves a run from reset (the state argument holds the reset values), a run continued from
 where another stopped (:class:`pendc.golden.GoldenStepper`, the HIL golden plant, windows of the
 cocotb vectors) and the error budget's check runs; before, a stepping golden model compiled a
-second kernel of the same graph (about 8 s of numba per model).
+second kernel of the same graph (about 8 s of numba per model). A float kernel's state is float64
+(FSM states too, as whole numbers): the error budget's segmented check
+(:mod:`pendc.passes.segmented_error`) runs a graph and its float twin side by side in pieces.
 
 The rewrite of the printed kernel: the state variables (registers, FSM states) start from ``st``
 (in :func:`state_indices` order) instead of their resets, and are written back to ``st`` before
@@ -29,12 +31,17 @@ def state_indices(graph: Graph) -> list:
     return [i for i, n in enumerate(graph.nodes) if n.kind.stateful]
 
 
-def reset_state(graph: Graph) -> np.ndarray:
-    """The integers ``st`` holds at reset (register resets in their formats, FSM reset states)."""
-    st = np.empty(len(state_indices(graph)), np.int64)
+def reset_state(graph: Graph, mode: str = "fixed") -> np.ndarray:
+    """What ``st`` holds at reset: in fixed point the integers (register resets in their formats,
+    FSM reset states), in float the register resets and FSM reset states as float64."""
+    fixed = mode == "fixed"
+    st = np.empty(len(state_indices(graph)), np.int64 if fixed else np.float64)
     for p, i in enumerate(state_indices(graph)):
         n = graph.nodes[i]
-        st[p] = n.params.reset_index if n.kind is Kind.FSM else n.qformat.from_float(float(n.params.reset))
+        if n.kind is Kind.FSM:
+            st[p] = n.params.reset_index
+        else:
+            st[p] = n.qformat.from_float(float(n.params.reset)) if fixed else float(n.params.reset)
     return st
 
 
