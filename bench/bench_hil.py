@@ -26,9 +26,9 @@ SIM_SECONDS = {"float": 5.0, "golden": 5.0, "verilator": 1.0, "icarus": 0.02}
 def bench_plant(kind: str, model, seconds: float) -> dict:
     """Build the plant (timed apart), then run the builtin controller for ``seconds``."""
     from pendc.errors import PendcError
-    from pendc.hil.controller_spec import make_controller
+    from pendc.hil.controllers.controller_spec import make_controller
     from pendc.hil.loop import run_closed_loop
-    from pendc.hil.plant import make_plant
+    from pendc.hil.plants.plant import make_plant
 
     t0 = time.perf_counter()
     try:
@@ -56,11 +56,11 @@ class IdlePlant:
     dt = 1e-6
 
     def __init__(self, model):
-        from pendc.hil.core_ports import CorePorts
+        from pendc.hil.plants.core_ports import CorePorts
         self.ports = CorePorts.of_interface(model.interface)
 
     def reset(self):
-        from pendc.hil.plant import PlantState
+        from pendc.hil.plants.plant import PlantState
         self.state = PlantState.at_rest(self.ports)
         return self.state
 
@@ -105,7 +105,7 @@ def main() -> int:
     ap.add_argument("--plants", default="float,golden,verilator,icarus")
     args = ap.parse_args()
     from pendc import load_model
-    from pendc.hil.plant import make_plant
+    from pendc.hil.plants.plant import make_plant
 
     model = load_model()
     plants = {}

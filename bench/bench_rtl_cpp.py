@@ -43,8 +43,8 @@ def cpu_seconds(pid: int) -> float:
 
 def speed(args) -> dict:
     from pendc import load_model
-    from pendc.hil.rtl_cpp import VerilatorCppPlant
-    from pendc.hil.rtl_plant import RtlPlant
+    from pendc.hil.plants.rtl_cpp import VerilatorCppPlant
+    from pendc.hil.plants.rtl_plant import RtlPlant
 
     model = load_model()
     makers = {"cpp_comb": lambda: VerilatorCppPlant(model, on_overflow="mark", schedule={"preset": "comb"}),
@@ -92,8 +92,8 @@ def speed(args) -> dict:
 
 def full_scale(seconds: float) -> dict:
     from pendc.caching.build_cache import compile_cached
-    from pendc.hil.golden_plant import GoldenPlant
-    from pendc.hil.rtl_cpp import VerilatorCppPlant
+    from pendc.hil.plants.golden_plant import GoldenPlant
+    from pendc.hil.plants.rtl_cpp import VerilatorCppPlant
     from pendc.model.modelfile import load_model
     from pendc.passes.ranges import full_scale_switching
 
@@ -129,8 +129,8 @@ def spin(turns: int = 20, rate: float = 30.0) -> dict:
     """The pendulum spun at ``rate`` rad/s and left alone, through the C++ plant from that state
     until ``turns`` turns, compared with the golden plant after every 1 ms request."""
     from pendc.caching.build_cache import compile_cached
-    from pendc.hil.golden_plant import GoldenPlant
-    from pendc.hil.rtl_cpp import VerilatorCppPlant
+    from pendc.hil.plants.golden_plant import GoldenPlant
+    from pendc.hil.plants.rtl_cpp import VerilatorCppPlant
     from pendc.model.modelfile import load_model
 
     model = load_model(str(REPO / "models" / "sct_rig.toml"))

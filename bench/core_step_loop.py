@@ -7,7 +7,7 @@ of ``chunk`` model steps read from stdin, running ``chunk * ii`` clock cycles pe
 records the reported states at every chunk boundary and times the loop itself with the
 process CPU clock (``std::clock``: the rate on one core, whatever else the shared machine
 runs) and a steady wall clock. Only a rising edge calls ``eval()``; the falling edge resets
-Verilator's edge detector where the model exposes it (as :mod:`pendc.hil.rtl_cpp` does), so
+Verilator's edge detector where the model exposes it (as :mod:`pendc.hil.plants.rtl_cpp` does), so
 each clock cycle costs one evaluation of the core.
 
 :func:`run_step_loop` checks the rows bit for bit against the golden model
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendc.hil.rtl_cpp import CPP_PORT_HELPERS, cpp_int_type
+from pendc.hil.plants.rtl_cpp import CPP_PORT_HELPERS, cpp_int_type
 
 REPO = Path(__file__).resolve().parents[1]
 EXECUTABLE = "pendc_bench_step_loop"
@@ -115,7 +115,7 @@ int main(int argc, char** argv) {{
 def build(hdl_files: dict, main_cpp: str, module: str, make_vars: str, work: Path) -> tuple[Path, float]:
     """The executable for these Verilog files and this main, built under ``work`` (reused when
     the same sources and flags were built there before); and the build's wall time."""
-    from pendc.hil.rtl_build import VERILATOR_MAKE_VARS, find_tool
+    from pendc.hil.plants.rtl_build import VERILATOR_MAKE_VARS, find_tool
     digest = hashlib.sha256(make_vars.encode() + main_cpp.encode())
     for name in sorted(hdl_files):
         digest.update(name.encode() + b"\0" + hdl_files[name].encode())
@@ -147,7 +147,7 @@ def run_step_loop(hdl_dir: Path, report: dict, build_, u_ints: np.ndarray, chunk
     C++ step loop on one input integer per ``chunk`` steps; rates per CPU and wall second,
     the real-time factor at the build's dt, and the bit-exact check against the golden model."""
     from pendc.golden import GoldenModel
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
 
     core = CorePorts.of_graph(build_.graph)
     files = {p.name: p.read_text() for p in sorted(Path(hdl_dir).glob(f"{core.module}*.v"))}

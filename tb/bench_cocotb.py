@@ -28,7 +28,7 @@ async def throughput(dut):
     with open(os.environ["PENDC_BENCH_IN"]) as fh:
         cfg = json.load(fh)
     from pendc import load_model
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
     ports = CorePorts.of_interface(load_model(os.environ.get("PENDC_BENCH_MODEL")).interface)
     ii, period, chunk = cfg["ii"], cfg["period_ns"], cfg["chunk"]
     mask = (1 << cfg["u_width"]) - 1

@@ -74,8 +74,8 @@ def _state_nodes(graph) -> list:
 
 def _rtl_state(graph, state: dict) -> dict:
     """Golden state (node -> integer) as RTL register deposits: name -> (value, width), the
-    registers the HIL harnesses deposit into (:func:`pendc.hil.rtl_plant.deposit_registers`)."""
-    from pendc.hil.rtl_plant import deposit_registers
+    registers the HIL harnesses deposit into (:func:`pendc.hil.plants.rtl_plant.deposit_registers`)."""
+    from pendc.hil.plants.rtl_plant import deposit_registers
     from pendc.ir.nodes import Kind
     out = {}
     for n, (reg, width) in zip(_state_nodes(graph), deposit_registers(graph)):
@@ -85,7 +85,7 @@ def _rtl_state(graph, state: dict) -> dict:
 
 
 def _ports(graph):
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
     return CorePorts.of_graph(graph)
 
 

@@ -102,9 +102,9 @@ def repo_hdl_current(model=None, build=None) -> bool:
 
 
 def core_ports_of(build):
-    """The core's module and port names (:class:`pendc.hil.core_ports.CorePorts`) from the
+    """The core's module and port names (:class:`pendc.hil.plants.core_ports.CorePorts`) from the
     plant interface the build's graph carries."""
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
     return CorePorts.of_graph(build.graph)
 
 
@@ -116,7 +116,7 @@ def tb_top_source(ports: dict, core) -> str:
     B (up when A leads); their counts include a change of the lines in the current cycle, so at
     a step boundary they already count the state just written. ``enc_err`` is sticky on a
     change of both lines of an encoder at once (not a quadrature step)."""
-    from pendc.hil.core_ports import instance_line, verilog_decl
+    from pendc.hil.plants.core_ports import instance_line, verilog_decl
     lines = [
         "// Testbench top for the cocotb regression (tb/pendtb.py); not part of the design.",
         "`default_nettype none",

@@ -35,7 +35,7 @@ def vectors() -> dict:
 
 
 def core_ports():
-    """The core's names (:class:`pendc.hil.core_ports.CorePorts`: input, states, encoders), as
+    """The core's names (:class:`pendc.hil.plants.core_ports.CorePorts`: input, states, encoders), as
     the plant interface of the build under test gives them."""
     return vectors()["core_ports"]
 

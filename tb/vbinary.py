@@ -1,6 +1,6 @@
 """The core under ``verilator --binary --timing`` without cocotb: the HIL plants' lockstep harness.
 
-One harness serves every standalone simulation of the core: :mod:`pendc.hil.rtl_harness`
+One harness serves every standalone simulation of the core: :mod:`pendc.hil.plants.rtl_harness`
 (``step`` held high, one request line per input change, one answer line per request). Here
 the input changes every CHUNK steps and each answer (the reported states, the encoder lines
 and the overflow flag) is one row, so a run is one process and a few pipe round trips per
@@ -22,7 +22,7 @@ from pendtb import CHUNK, core_ports_of, model_and_build, steps_of, use_venv_too
 
 def build(hdl_dir: Path, report: dict, core_ports, log=print) -> tuple[Path, float]:
     """The harness executable for the core in ``hdl_dir`` (cached per design) and the build time."""
-    from pendc.hil.rtl_harness import build_harness
+    from pendc.hil.plants.rtl_harness import build_harness
     use_venv_tools()
     files = {p.name: p.read_text() for p in verilog_files(hdl_dir)}
     t0 = time.time()
@@ -34,7 +34,7 @@ def run(binary: Path, core_ports, u_chunks: np.ndarray, chunk: int = CHUNK) -> t
     """Run the harness from reset with one input integer per chunk of ``chunk`` steps; rows
     (len(u_chunks)+1, outputs+1): the states, the encoder lines and the overflow flag at every
     chunk boundary; and the wall time."""
-    from pendc.hil.rtl_harness import HarnessLink
+    from pendc.hil.plants.rtl_harness import HarnessLink
     link = HarnessLink(binary, "verilator", core_ports)
     try:
         t0 = time.perf_counter()

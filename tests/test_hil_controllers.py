@@ -8,12 +8,12 @@ import pytest
 
 from pendc import load_model
 from pendc.errors import PendcError
-from pendc.hil.controllers import (EnergySwingUp, FilteredDifference, LqrBalance, Measurement,
-                                   PendulumConstants, Supervisor, wrap_upright)
-from pendc.hil.linearize import design_lqr, linearise_upright
+from pendc.hil.controllers.measurement import FilteredDifference, Measurement, wrap_upright
+from pendc.hil.controllers.pendulum import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+from pendc.hil.controllers.linearize import design_lqr, linearise_upright
 from pendc.hil.loop import dac, run_closed_loop, steps_per_period, upright_stretch
-from pendc.hil.core_ports import CorePorts
-from pendc.hil.plant import PlantState
+from pendc.hil.plants.core_ports import CorePorts
+from pendc.hil.plants.plant import PlantState
 
 FINAL = "models/sct_thesis_final.toml"
 INITIAL = "models/sct_thesis_initial.toml"
@@ -172,7 +172,7 @@ def test_supervisor_switches_with_hysteresis():
 
 
 def test_linearisation_through_a_dead_zone_and_a_motor_lag():
-    from pendc.hil.linearize import U_SPAN
+    from pendc.hil.controllers.linearize import U_SPAN
 
     base = load_model(FINAL)
     plain = linearise_upright(base)

@@ -1,4 +1,4 @@
-"""The LQR about a plant file's operating point (pendc.hil.operating_point_lqr) and the sampled
+"""The LQR about a plant file's operating point (pendc.hil.controllers.operating_point_lqr) and the sampled
 converters in the loop: codes in the plant state, the measurement and the run record.
 
 Most runs use the float plant; one golden run (through the command line) on the ball and beam."""
@@ -12,12 +12,13 @@ import pytest
 
 from cli_capture import run_cli
 from pendc.errors import PendcError
-from pendc.hil.controller_spec import make_controller
-from pendc.hil.controllers import Measurement, Supervisor
-from pendc.hil.core_ports import CorePorts
+from pendc.hil.controllers.controller_spec import make_controller
+from pendc.hil.controllers.measurement import Measurement
+from pendc.hil.controllers.pendulum import Supervisor
+from pendc.hil.plants.core_ports import CorePorts
 from pendc.hil.loop import run_closed_loop
-from pendc.hil.operating_point_lqr import OperatingPointLqr, hold_summary, start_state
-from pendc.hil.plant import PlantState, make_plant, start_counts
+from pendc.hil.controllers.operating_point_lqr import OperatingPointLqr, hold_summary, start_state
+from pendc.hil.plants.plant import PlantState, make_plant, start_counts
 from pendc.hil.records import read_run
 from pendc.model.modelfile import load_model
 

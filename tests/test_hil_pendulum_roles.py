@@ -4,7 +4,7 @@ derivation, and the LQR holding the Furuta upright in the bit-exact golden model
 
 The controllers (pendc.hil.controllers) name no state of either plant: they find the actuated
 coordinate and the pendulum angle from the plant interface and the model's equations
-(pendc.hil.pendulum_roles). The textbook formulas here are written from the model files'
+(pendc.hil.controllers.pendulum_roles). The textbook formulas here are written from the model files'
 constants, a path independent of pendc's derivation.
 """
 
@@ -19,11 +19,12 @@ import pytest
 
 from pendc import load_model
 from pendc.errors import PendcError
-from pendc.hil.controller_spec import make_controller
-from pendc.hil.controllers import EnergySwingUp, LqrBalance, Measurement, PendulumConstants, Supervisor
+from pendc.hil.controllers.controller_spec import make_controller
+from pendc.hil.controllers.pendulum import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+from pendc.hil.controllers.measurement import Measurement
 from pendc.hil.loop import run_closed_loop
-from pendc.hil.pendulum_roles import pendulum_roles
-from pendc.hil.plant import make_plant
+from pendc.hil.controllers.pendulum_roles import pendulum_roles
+from pendc.hil.plants.plant import make_plant
 
 ROOT = Path(__file__).resolve().parents[1]
 FINAL = ROOT / "models" / "sct_thesis_final.toml"

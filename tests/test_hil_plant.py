@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pendc.errors import PendcError
-from pendc.hil.plant import FloatPlant, Plant, PlantState, make_plant
+from pendc.hil.plants.plant import FloatPlant, Plant, PlantState, make_plant
 from pendc.model.modelfile import load_model
 from plants import THETA_COUNT, X_COUNT
 from pendc.sim.encoders import counts
@@ -94,7 +94,7 @@ def _batch(build, us, n):
 
 
 def test_golden_plant_continues_the_batch_run_bit_for_bit(model, build):
-    from pendc.hil.plant import x4_count_delta
+    from pendc.hil.plants.plant import x4_count_delta
     us = _switching_input(7, 150, levels=(0.0, 10.0, 3.3, 7.1))
     plant = make_plant("golden", model, build=build)
     ref = _batch(build, us, 1000)

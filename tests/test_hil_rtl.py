@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from pendc.caching.build_cache import compile_cached
-from pendc.hil.plant import make_plant
+from pendc.hil.plants.plant import make_plant
 from pendc.model.modelfile import load_model
 from pendc.passes.ranges import full_scale_switching
 

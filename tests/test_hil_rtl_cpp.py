@@ -2,7 +2,7 @@
 
 Thousands of random requests (random volts, 1 to 1000 steps, a reset half way) must give the
 golden plant's PlantState, port integers and overflow record after every one; a short run must
-match :class:`pendc.hil.rtl_plant.RtlPlant` under Verilator answer line for answer line. The
+match :class:`pendc.hil.plants.rtl_plant.RtlPlant` under Verilator answer line for answer line. The
 executable is built once per design and cached (the first run compiles the core: ~1.5 min).
 """
 
@@ -16,9 +16,9 @@ import pytest
 
 from pendc.caching.build_cache import compile_cached
 from pendc.errors import PendcError
-from pendc.hil.plant import Plant, make_plant
-from pendc.hil.rtl_cpp import VerilatorCppPlant, main_source
-from pendc.hil.rtl_plant import RtlPlant
+from pendc.hil.plants.plant import Plant, make_plant
+from pendc.hil.plants.rtl_cpp import VerilatorCppPlant, main_source
+from pendc.hil.plants.rtl_plant import RtlPlant
 from pendc.model.modelfile import load_model
 
 RIG = str(Path(__file__).resolve().parents[1] / "models" / "sct_rig.toml")
@@ -87,7 +87,7 @@ def test_cpp_harness_rejects_a_bad_request(cpp):
 
 
 def test_ports_wider_than_64_bits_are_refused():
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
     core = CorePorts.of_interface(load_model().interface)
     ports = {p: {"signed": True, "width": 40, "frac": 30} for p in (core.input, *core.states)}
     src = main_source(core, ports, 14)

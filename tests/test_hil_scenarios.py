@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pendc import load_model
-from pendc.hil.plant import make_plant
+from pendc.hil.plants.plant import make_plant
 from pendc.hil.records import run_csv_text
 from pendc.hil.scenarios import (STEP_AT, balance_activity, model_mismatch, step_disturbance,
                                  swing_up_and_balance, swing_up_only)

@@ -1,7 +1,7 @@
 """Closed loop on a second plant: the rotary (Furuta) pendulum through the golden plant.
 
 The same loop, plants, records and controller loader as the cart-pendulum's; nothing names the
-Furuta's states but its plant interface. A PD hold of the arm (pendc.hil.position_hold, gains
+Furuta's states but its plant interface. A PD hold of the arm (pendc.hil.controllers.position_hold, gains
 from the model's own response at rest) moves it to 0.5 rad; the bit-exact golden plant and the
 float plant (an independent code path: the float simulator) must both get there and agree
 within a few encoder counts all the way, and the hanging pendulum must be set swinging by the
@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from pendc.errors import PendcError
-from pendc.hil.controller_spec import make_controller
+from pendc.hil.controllers.controller_spec import make_controller
 from pendc.hil.loop import run_closed_loop
-from pendc.hil.plant import make_plant
-from pendc.hil.position_hold import PositionHold
+from pendc.hil.plants.plant import make_plant
+from pendc.hil.controllers.position_hold import PositionHold
 from pendc.hil.records import read_run, run_csv_text
 
 FURUTA = Path(__file__).resolve().parents[1] / "models" / "furuta_qube.toml"
@@ -61,7 +61,7 @@ def test_the_arm_is_held_at_its_set_point_on_both_plants(furuta, runs):
 
 
 def test_the_run_file_names_the_plants_columns(furuta, runs, tmp_path):
-    from pendc.hil.core_ports import CorePorts
+    from pendc.hil.plants.core_ports import CorePorts
     iface = furuta.interface
     text = run_csv_text(runs["golden"])
     header = next(line for line in text.splitlines() if not line.startswith("#"))

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from pendc.errors import PendcError
-from pendc.hil.plant import make_plant
+from pendc.hil.plants.plant import make_plant
 from pendc.hil.records import run_csv_text
 from pendc.hil.server import parse_loopback_address, serve_loop
 

@@ -18,11 +18,11 @@ import pendc
 from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.ir.nodes import Kind
-from pendc.hil.controllers import FilteredDifference
+from pendc.hil.controllers.measurement import FilteredDifference
 from pendc.hil.loop import run_closed_loop
-from pendc.hil.numeric_model import NumericModel
-from pendc.hil.plant import make_plant
-from pendc.hil.position_hold import PositionHold
+from pendc.hil.controllers.numeric_model import NumericModel
+from pendc.hil.plants.plant import make_plant
+from pendc.hil.controllers.position_hold import PositionHold
 from pendc.model.expressions import parse_expression
 from pendc.passes.pipeline import BuildOptions
 

@@ -240,7 +240,7 @@ def test_no_pass_names_a_state_of_the_plant():
 
 # The whole package outside model/ is scanned (issue 12 point 1). Files that still name a state of
 # one of the plants: the list only shrinks (a listed file that is clean fails the test). The
-# cart-pendulum's own controllers (hil/controllers.py) and the thesis' published formats
+# cart-pendulum's own controllers (hil/controllers/pendulum.py) and the thesis' published formats
 # (cli/report.py) are physics of that plant and belong in model/ eventually; the rest are help texts
 # and examples that should come from the interface.
 OUTSIDE_MODEL_NOT_YET_CONVERTED = frozenset()

@@ -28,9 +28,9 @@ import numpy as np
 import pytest
 
 from pendc.caching.build_cache import compile_cached
-from pendc.hil.golden_plant import GoldenPlant
-from pendc.hil.rtl_cpp import VerilatorCppPlant
-from pendc.hil.rtl_plant import RtlPlant
+from pendc.hil.plants.golden_plant import GoldenPlant
+from pendc.hil.plants.rtl_cpp import VerilatorCppPlant
+from pendc.hil.plants.rtl_plant import RtlPlant
 from pendc.model.modelfile import load_model
 from pendc.passes.pipeline import BuildOptions
 from pendc.passes.ranges import full_scale_switching

@@ -30,8 +30,8 @@ DX0 = 0.3
 @pytest.fixture(scope="module")
 def prepared(tmp_path_factory):
     from pendc.golden import GoldenModel, OverflowStop
-    from pendc.hil.golden_plant import GoldenPlant
-    from pendc.hil.rtl_plant import deposit_registers
+    from pendc.hil.plants.golden_plant import GoldenPlant
+    from pendc.hil.plants.rtl_plant import deposit_registers
 
     work = tmp_path_factory.mktemp("debug_status")
     model, build = pendtb.model_and_build()

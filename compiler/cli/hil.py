@@ -50,10 +50,10 @@ def _check_out_folder(out: str) -> None:
 
 
 def cmd_hil(args) -> int:
-    from ..hil.controller_spec import make_controller
+    from ..hil.controllers.controller_spec import make_controller
     from ..hil.loop import run_closed_loop
-    from ..hil.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
-    from ..hil.plant import make_plant, start_counts
+    from ..hil.controllers.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
+    from ..hil.plants.plant import make_plant, start_counts
     from ..hil.records import write_run
     from ..model.modelfile import load_model
 
@@ -117,7 +117,7 @@ def cmd_animate(args) -> int:
 
     model = None
     if args.model is not None:
-        from ..hil.core_ports import CorePorts
+        from ..hil.plants.core_ports import CorePorts
         from ..model.modelfile import load_model
         model = load_model(args.model)
         record = read_run_input(args.run, CorePorts.of_interface(model.interface))

@@ -2,7 +2,7 @@
 
 One row per control period: the time, the measured positions the controller saw
 (one per state an encoder or a sampled converter of the plant interface reads, named by that
-state: :attr:`~pendc.hil.core_ports.CorePorts.measured`), the volts it
+state: :attr:`~pendc.hil.plants.core_ports.CorePorts.measured`), the volts it
 answered (after the 12-bit DAC) and its mode. A run ends early, with
 the rows so far and the reason, when the plant or the controller fails; the caller
 writes that partial record, it never silently continues.
@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PendcError
-from .controllers import Measurement, wrap_upright
+from .controllers.measurement import Measurement, wrap_upright
 
 DAC_BITS = 12
 UPRIGHT_TOLERANCE = 0.05   # rad: "upright" for the summary and the scenarios
@@ -125,7 +125,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
     ``answer(measurement) -> volts`` replaces ``controller.step`` (the socket server
     uses it); ``progress(fraction)`` is called now and then. The DAC spans the controller's
     ``input_range`` (low and high) if it declares one, else the range of the plant's input (its ports').
-    ``count_origin`` ({encoder: count}, :func:`pendc.hil.plant.start_counts`) is added to every
+    ``count_origin`` ({encoder: count}, :func:`pendc.hil.plants.plant.start_counts`) is added to every
     count since reset, so a plant started elsewhere than at 0 is measured from the grid's zero
     (as a rig with homed encoders is). A :class:`PendcError` from
     the plant or the controller ends the run: the result keeps the rows so far and

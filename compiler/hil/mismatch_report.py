@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from ..model.modelfile import load_model
-from .controllers import wrap_upright
-from .plant import make_plant
+from .controllers.measurement import wrap_upright
+from .plants.plant import make_plant
 from .records import write_bytes_atomic
 from .scenarios import balance_activity, model_mismatch
 

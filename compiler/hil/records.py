@@ -90,7 +90,7 @@ def plot_png(run: HilRun, title: str = "") -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .controllers import wrap_upright
+    from .controllers.measurement import wrap_upright
 
     t, mode = run.t, run.mode
     units = dict(run.units)
@@ -149,7 +149,7 @@ class RunRecord:
 
 def read_run(path, ports=None) -> RunRecord:
     """Read a run.csv (or any CSV with t and the measured positions; the input and mode optional).
-    ``ports`` (:class:`~pendc.hil.core_ports.CorePorts`) names the input and the positions
+    ``ports`` (:class:`~pendc.hil.plants.core_ports.CorePorts`) names the input and the positions
     (default: the plant interface of the model the header names, ``# model: PATH`` as ``pendc
     hil`` writes it, when that file exists; else the default model's)."""
     path = Path(path)
@@ -167,7 +167,7 @@ def read_run(path, ports=None) -> RunRecord:
         raise PendcError(f"{path}: no header row")
     if ports is None:
         from ..model.modelfile import load_model
-        from .core_ports import CorePorts
+        from .plants.core_ports import CorePorts
         named = meta.get("model")
         ports = CorePorts.of_interface(load_model(named if named and Path(named).is_file() else None).interface)
     measured = list(ports.measured)

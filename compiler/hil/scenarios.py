@@ -6,7 +6,7 @@ criteria that failed (empty when it passes). The plants start hanging at rest (p
 so the step-disturbance scenario first swings the pendulum up and then, balanced, moves
 the cart's set point 4 cm to the left as Fig. IV.21 does. The criteria are the thesis' for
 a cart on a track (metres); the states are named as the plant interface names them
-(:class:`~pendc.hil.controllers.PendulumConstants`: the actuated position, the pendulum angle).
+(:class:`~pendc.hil.controllers.pendulum.PendulumConstants`: the actuated position, the pendulum angle).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.plant import PlantModel
-from .controllers import CATCH_ANGLE, EnergySwingUp, PendulumConstants, Supervisor
+from .controllers.pendulum import CATCH_ANGLE, EnergySwingUp, PendulumConstants, Supervisor
 from .loop import UPRIGHT_TOLERANCE, HilRun, run_closed_loop
 
 TRACK_LIMIT = 0.3        # m: |x| allowed throughout (the track ends at ±0.375 m)

@@ -92,7 +92,7 @@ class RetypeTemplate:
     @classmethod
     def of(cls, model) -> "RetypeTemplate":
         """The template of ``model``'s build (compiled once, then read from the build cache)."""
-        from ..hil.golden_plant import build_for
+        from ..hil.plants.golden_plant import build_for
 
         build = build_for(model, 1e-6)
         if build.options.short_chain:
@@ -129,7 +129,7 @@ class RetypeTemplate:
         sample shares (the nodes a sample changes read their numbers from data: see
         :mod:`pendc.ir.shared_source`; the integers are the baked kernel's), or with
         ``shared=False`` by the baked kernel (compiled per sample)."""
-        from ..hil.golden_plant import GoldenPlant
+        from ..hil.plants.golden_plant import GoldenPlant
 
         model = self.build.model.with_params(params)
         build = replace(self.build, model=model, graph=self.graph_for(model))

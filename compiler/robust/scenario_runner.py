@@ -107,7 +107,7 @@ def make_sampled_plant(spec: SweepSpec, params: dict, cache: WorkerCache):
     nominal, _ = cache.models(spec)
     if spec.plant == "golden":
         return cache.golden_template(spec).plant(params)
-    from ..hil.plant import make_plant
+    from ..hil.plants.plant import make_plant
     return make_plant("float", nominal.with_params(params))
 
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..hil.controllers import PendulumConstants
-from ..hil.controller_spec import make_controller
+from ..hil.controllers.pendulum import PendulumConstants
+from ..hil.controllers.controller_spec import make_controller
 from ..hil.loop import UPRIGHT_TOLERANCE, run_closed_loop
 from ..hil.scenarios import HOLD_SECONDS, TRACK_LIMIT, ScenarioResult
 

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from ..model.plant import PlantModel
+from ...model.plant import PlantModel
 
 
 def _no_delta(expr: sp.Expr) -> sp.Expr:

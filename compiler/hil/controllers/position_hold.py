@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
-from .controllers import FilteredDifference, Measurement
+from ...errors import PendcError
+from ...model.plant import PlantModel
+from .measurement import FilteredDifference, Measurement
 from .linearize import U_SPAN, _solve_hold_input
 from .numeric_model import _no_delta
 

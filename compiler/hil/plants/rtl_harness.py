@@ -1,7 +1,7 @@
 """The lockstep Verilog harness around a generated core, and the process that speaks to it.
 
 One harness for every use of the core in a simulator outside cocotb: the HIL plants
-(:mod:`pendc.hil.rtl_plant`) and the testbench's standalone Verilator runs (``tb/vbinary.py``).
+(:mod:`pendc.hil.plants.rtl_plant`) and the testbench's standalone Verilator runs (``tb/vbinary.py``).
 It instantiates the core with its ``step`` input held high (one model step every ``ii`` clock
 cycles, as the bus wrapper's lockstep bursts run it) and reads one request per line from
 standard input:
@@ -12,8 +12,8 @@ standard input:
                                     list (see :func:`harness_source`), then answer
 
 and answers each with one line of integers: the reported states (the output ports' integers,
-in :class:`~pendc.hil.core_ports.CorePorts` order), one ×4 count since reset per encoder
-(decoded from the channel lines at every step exactly as :func:`pendc.hil.plant.x4_count_delta`
+in :class:`~pendc.hil.plants.core_ports.CorePorts` order), one ×4 count since reset per encoder
+(decoded from the channel lines at every step exactly as :func:`pendc.hil.plants.plant.x4_count_delta`
 does), the channel levels, the sticky ``overflow`` flag and ``lost`` (a step in which both
 channels of an encoder changed). The simulation waits for stdin without advancing time, so
 the exchange is lockstep. Every name comes from the plant interface; none is spelled here.
@@ -26,7 +26,7 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import PendcError
+from ...errors import PendcError
 from .core_ports import CorePorts, core_instance
 from .rtl_build import VERILATOR_MAKE_VARS, build_cached, find_tool
 
@@ -61,7 +61,7 @@ def harness_source(ports: CorePorts, formats: dict, ii: int, deposit: tuple = ()
         f"            if (h_d{i} == 2'd2) h_lost = 1;\n" for i, e in enc) + restart("            ")
     regs = "".join(f"    reg signed [63:0] h_cnt{i};\n    reg [1:0] h_prev{i}, h_d{i};\n" for i, _ in enc)
     zero = "".join(f"            h_cnt{i} = 0;\n" for i, _ in enc)
-    return f"""// pendc HIL harness (pendc.hil.rtl_harness, format {HARNESS_FORMAT}): lockstep over stdin/stdout.
+    return f"""// pendc HIL harness (pendc.hil.plants.rtl_harness, format {HARNESS_FORMAT}): lockstep over stdin/stdout.
 `timescale 1ns/1ps
 module {TOP};
     reg clk = 1'b0;

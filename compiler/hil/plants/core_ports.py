@@ -1,6 +1,6 @@
 """The generated core's ports as the plant interface names them: one place for every harness.
 
-The HIL plants (:mod:`pendc.hil.rtl_plant`, :mod:`pendc.hil.rtl_cpp`), the golden plant and the
+The HIL plants (:mod:`pendc.hil.plants.rtl_plant`, :mod:`pendc.hil.plants.rtl_cpp`), the golden plant and the
 cocotb testbench (``tb/``) all talk to the same module: ``clk``, ``rst``, ``step``, ``ready``,
 the plant's one input, its reported states, two channel lines per encoder, one code port per
 sampled converter (ADC) and ``overflow``.
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..model.interface import require_interface
+from ...model.interface import require_interface
 
 
 @dataclass(frozen=True)
@@ -63,7 +63,7 @@ class AdcPorts:
     def code(self, value) -> int:
         """The code of state ``value``, by the interface's rule
         (:func:`pendc.model.sensors.converter_code`: floor, clipped to the range)."""
-        from ..model.sensors import converter_code
+        from ...model.sensors import converter_code
         return int(converter_code(float(value), self.lo, self.hi, self.bits))
 
 

@@ -13,7 +13,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from ..errors import PendcError
+from ...errors import PendcError
 
 MAX_STEPS_PER_CALL = 100_000_000   # 100 s at 1 us: a larger request is a caller's mistake
 
@@ -77,7 +77,7 @@ def start_counts(ports, initial) -> dict:
 @runtime_checkable
 class Plant(Protocol):
     """What every plant offers: a model step ``dt`` (s), the core's names ``ports``
-    (:class:`~pendc.hil.core_ports.CorePorts`: its input, reported states and encoders, from the
+    (:class:`~pendc.hil.plants.core_ports.CorePorts`: its input, reported states and encoders, from the
     plant interface), ``reset()`` and ``step(u_volts, n_steps)``."""
 
     dt: float

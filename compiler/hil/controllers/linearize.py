@@ -2,7 +2,7 @@
 
 The balance controller is designed on this linear model, so it follows whatever the
 model file says (parameters and effects) instead of gains typed in for one rig. The states
-are addressed by role (:mod:`pendc.hil.pendulum_roles`: the actuated coordinate, a cart or a
+are addressed by role (:mod:`pendc.hil.controllers.pendulum_roles`: the actuated coordinate, a cart or a
 rotary arm, and the pendulum's angle), so one linearisation serves every such plant.
 
 Non-smooth terms need a rule. Coulomb and Stribeck friction jump at zero velocity of the
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...model.plant import PlantModel
 from .numeric_model import NumericModel
 from .pendulum_roles import PendulumRoles, pendulum_roles, restoring_stiffness
 
@@ -55,7 +55,7 @@ class DiscreteLqr:
 
 def mechanical_order(model: PlantModel) -> list:
     """Indices into the model's states of (actuated position, its rate, pendulum angle, its
-    rate), by role (:func:`pendc.hil.pendulum_roles.pendulum_roles`), followed by every other
+    rate), by role (:func:`pendc.hil.controllers.pendulum_roles.pendulum_roles`), followed by every other
     state (a motor lag...)."""
     return pendulum_roles(model).order(len(model.equations.states))
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import PendcError
-from ..golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
+from ...model.plant import PlantModel
 from .core_ports import CorePorts
 from .plant_state import PlantState, check_initial, check_step_request, x4_count_delta  # noqa: F401
 
@@ -20,8 +20,8 @@ from .plant_state import PlantState, check_initial, check_step_request, x4_count
 def build_for(model: PlantModel, dt: float, build=None):
     """The compiled core of ``model`` (from the build cache), checked against the plant step ``dt``."""
     if build is None:
-        from ..caching.build_cache import compile_cached
-        from ..passes.pipeline import options_from_model
+        from ...caching.build_cache import compile_cached
+        from ...passes.pipeline import options_from_model
         build = compile_cached(model, options_from_model(model))
     if abs(build.options.dt - dt) > 1e-15:
         raise PendcError(f"the core was built for a step of {build.options.dt:g} s, not {dt:g} s")

@@ -1,6 +1,6 @@
 """The generated Verilog as a stepping plant under a plain C++ Verilator harness (no ``--timing``).
 
-Same request/answer line protocol and the same integers as :mod:`pendc.hil.rtl_plant`'s Verilog
+Same request/answer line protocol and the same integers as :mod:`pendc.hil.plants.rtl_plant`'s Verilog
 harness, whose clock schedule it reproduces edge for edge:
 
 * reset: ``step`` low, ``rst`` high for three clock cycles (three rising edges), then ``rst``
@@ -8,11 +8,11 @@ harness, whose clock schedule it reproduces edge for edge:
   decoder's starting point;
 * ``0 u n``: ``u`` applied and ``step`` held high (it stays high until the next reset) for
   ``n * ii`` clock cycles; after every falling edge the four channel lines are decoded like
-  :func:`pendc.hil.plant.x4_count_delta` (Gray index difference mod 4: +1, -1, or 2 = lost);
+  :func:`pendc.hil.plants.plant.x4_count_delta` (Gray index difference mod 4: +1, -1, or 2 = lost);
 * ``2 i v``: ``step`` low, the integer ``v`` written into state register ``i`` (made public
   through a Verilator configuration file, so the core's text is unchanged), one idle cycle;
 * each answer: the reported states, one count per encoder, the channel levels, ``overflow`` and
-  ``lost`` (as :mod:`pendc.hil.rtl_harness` answers), flushed at once.
+  ``lost`` (as :mod:`pendc.hil.plants.rtl_harness` answers), flushed at once.
 
 The C++ ``main`` toggles ``clk`` and calls ``eval()`` itself, which runs several hundred
 times faster than the event-driven ``--timing`` harness. Each design (core files + main) is
@@ -23,8 +23,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
+from ...errors import PendcError
+from ...model.plant import PlantModel
 from .core_ports import CorePorts
 from .rtl_build import VERILATOR_MAKE_VARS, find_tool, build_cached
 from .rtl_plant import RtlPlant
@@ -92,7 +92,7 @@ def main_source(core: CorePorts, ports: dict, ii: int, deposit: tuple = ()) -> s
     shown = ([value[p] for p in core.states] + [f"cnt{i}" for i, _ in enc]
              + [f"(long long)core->{c}" for c in core.channels] + ["(long long)core->overflow", "(long long)lost"])
     fmt = " ".join(["%lld"] * len(shown))
-    return f"""// pendc HIL plant (pendc.hil.rtl_cpp, format {MAIN_FORMAT}): lockstep over stdin/stdout.
+    return f"""// pendc HIL plant (pendc.hil.plants.rtl_cpp, format {MAIN_FORMAT}): lockstep over stdin/stdout.
 #include "V{CORE}.h"
 #include "V{CORE}___024root.h"
 #include "verilated.h"

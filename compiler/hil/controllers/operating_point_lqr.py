@@ -7,9 +7,9 @@ derivatives are affine in the input for the catalogue's drive laws, so two evalu
 them as ``d0 + b u`` and the hold input is the least-squares ``u`` of ``d0 + b u = 0`` (a
 one-line error if that leaves a derivative non-zero: nothing holds the plant there). Dry
 friction jumps at zero rate and a sticking rule would make a coordinate look immovable, so,
-as :mod:`pendc.hil.linearize` does for the pendulums, every evaluation is the mean of the
+as :mod:`pendc.hil.controllers.linearize` does for the pendulums, every evaluation is the mean of the
 plant with all its rates slowly positive and slowly negative: the Coulomb jumps cancel, the
-slopes stay. A and B are the model's Jacobian there (:class:`~pendc.hil.numeric_model.NumericModel`;
+slopes stay. A and B are the model's Jacobian there (:class:`~pendc.hil.controllers.numeric_model.NumericModel`;
 B the mean slope over ``u* +- span/40``, so a dead zone's edges count), sampled exactly at
 the control period (zero-order hold), and the gain is the discrete LQR with
 
@@ -18,8 +18,8 @@ the control period (zero-order hold), and the gain is the discrete LQR with
 * R = 1/(span/10)^2 from the input's range (1/(2 V)^2 for +-10 V).
 
 The controller sees what a rig's controller sees: the measured positions (encoders' and
-sampled converters', :attr:`~pendc.hil.core_ports.CorePorts.measured`) and their filtered
-differences (:class:`~pendc.hil.controllers.FilteredDifference`). So every state of the model
+sampled converters', :attr:`~pendc.hil.plants.core_ports.CorePorts.measured`) and their filtered
+differences (:class:`~pendc.hil.controllers.measurement.FilteredDifference`). So every state of the model
 must be a measured position or the rate of one (a one-line error names the state it cannot
 see), and the linearisation must be controllable (checked, one-line error otherwise).
 Periodic positions are wrapped about the operating point's value.
@@ -33,10 +33,10 @@ import numpy as np
 import scipy.linalg
 import sympy as sp
 
-from ..errors import PendcError
-from ..model.plant import PlantModel
-from .controllers import FilteredDifference, Measurement
-from .core_ports import CorePorts
+from ...errors import PendcError
+from ...model.plant import PlantModel
+from .measurement import FilteredDifference, Measurement
+from ..plants.core_ports import CorePorts
 from .numeric_model import NumericModel
 
 EPS_RATE = 1e-6            # "moving slowly" (each rate's unit) for the one-sided evaluations
@@ -87,7 +87,7 @@ def operating_state(model: PlantModel, point: str | None = None) -> tuple[str, d
 
 def parse_value(text, symbols, where):
     """An operating point's value, parsed without executing code (:func:`pendc.model.expressions.parse_expression`)."""
-    from ..model.expressions import parse_expression
+    from ...model.expressions import parse_expression
     return parse_expression(text, symbols, where)
 
 

@@ -1,15 +1,15 @@
-"""Reference controllers: energy swing-up, LQR balance and the supervisor that switches.
+"""Reference controllers of a pendulum plant: energy swing-up, LQR balance and the supervisor
+that switches.
 
-A controller is any object with ``reset()`` and ``step(measurement) -> volts``; it sees
-only what the rig's controller sees, a :class:`Measurement` (time, the ×4 encoder
-counts and the converters' codes, also converted to positions). An optional ``mode`` attribute (a short word)
-is logged per period. Velocities come from a filtered difference of the positions.
+A controller is any object with ``reset()`` and ``step(measurement) -> volts``; it sees only
+what the rig's controller sees, a :class:`~pendc.hil.controllers.measurement.Measurement`.
+Velocities come from a filtered difference of the positions.
 
 The controllers here drive any plant that is one pendulum on one driven coordinate (a
 cart-pendulum, a Furuta pendulum's rotary arm): they address its states by role
-(:mod:`pendc.hil.pendulum_roles`: the actuated coordinate, the pendulum angle, counted from
+(:mod:`pendc.hil.controllers.pendulum_roles`: the actuated coordinate, the pendulum angle, counted from
 hanging down, upright half a turn away), and every gain in volts comes from the model's own
-linearisation (:mod:`pendc.hil.linearize`). The swing-up is pendulum physics: the energy of
+linearisation (:mod:`pendc.hil.controllers.linearize`). The swing-up is pendulum physics: the energy of
 the pendulum swinging about its pivot with the actuated coordinate held, per unit of its
 inertia, and the push on the pivot that changes it.
 
@@ -24,13 +24,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.plant import PlantModel
+from ...model.plant import PlantModel
 from .linearize import DiscreteLqr, UprightLinearModel, design_lqr, linearise_at_rest
+from .measurement import FilteredDifference, Measurement, wrap_upright
 from .numeric_model import NumericModel
 from .pendulum_roles import PendulumRoles, pendulum_roles
 
 FRICTION_SMOOTHING = 0.05     # V, width of the smoothed sign in the friction compensation
-VELOCITY_TAU = 0.004           # s, time constant of the velocity filter
 # LQR weights: 1/(acceptable excursion)^2 for the actuated position, its rate, the angle from
 # the upright, its rate and the input (each in its state's unit, the input in volts)
 LQR_Q = (1 / 0.01**2, 1 / 0.5**2, 1 / 0.02**2, 1 / 0.5**2)
@@ -44,99 +44,6 @@ CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
 # m L is 0.581 kg x 0.138867 m (the values the swing-up was first tuned with)
 SWING_PIVOT_ACCEL = 5.0 / 9.80665
 SWING_GAIN = 100 * 0.581 * 0.138867
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """What a controller gets each period: time, each encoder's ×4 count since reset and each
-    sampled converter's (ADC's) code.
-
-    ``counts`` are ``(encoder, count)`` pairs and ``encoders`` the encoders' descriptions
-    (:class:`~pendc.hil.core_ports.EncoderPorts`: the state each reads, its resolution);
-    ``codes`` are ``(converter, code)`` pairs and ``adcs`` the converters' descriptions
-    (:class:`~pendc.hil.core_ports.AdcPorts`), all in the plant interface's order.
-    :meth:`position` converts a count or a code to its state's unit; a sensor's name reads as
-    its count or code and a measured state's name as its position (``meas.<state>``), so a
-    controller names the plant's states as its interface does."""
-
-    t: float
-    counts: tuple
-    encoders: tuple = ()
-    codes: tuple = ()
-    adcs: tuple = ()
-
-    @classmethod
-    def of(cls, t: float, state, ports, count_origin: dict | None = None) -> "Measurement":
-        """The measurement of a plant state (:class:`~pendc.hil.plant.PlantState`) at time ``t``;
-        ``count_origin`` ({encoder: count}) is added to the counts since reset (encoders homed
-        to their grid's zero when the plant starts elsewhere: :func:`pendc.hil.plant.start_counts`)."""
-        origin = count_origin or {}
-        adcs = tuple(getattr(ports, "adcs", ()))
-        return cls(t=t, counts=tuple((e.name, int(state.count(e.name)) + origin.get(e.name, 0))
-                                     for e in ports.encoders),
-                   encoders=ports.encoders, codes=tuple((a.name, int(state.code(a.name))) for a in adcs), adcs=adcs)
-
-    def count(self, encoder: str) -> int:
-        """The ×4 count since reset of the encoder called ``encoder``."""
-        return dict(self.counts)[encoder]
-
-    def code(self, adc: str) -> int:
-        """The code of the converter called ``adc``."""
-        return dict(self.codes)[adc]
-
-    def position(self, state: str) -> float:
-        """The measured position of ``state``: its encoder's count times the encoder's resolution,
-        or what its converter's code stands for (:meth:`~pendc.hil.core_ports.AdcPorts.reading`)."""
-        for e in self.encoders:
-            if e.state == state:
-                return self.count(e.name) * e.resolution
-        for a in self.adcs:
-            if a.state == state:
-                return a.reading(self.code(a.name))
-        raise KeyError(f"no sensor reads '{state}'")
-
-    def __getattr__(self, name: str):
-        # only reached when ordinary lookup fails: a sensor's count or code, a measured state's position
-        d = self.__dict__
-        for e in d.get("encoders", ()):
-            if e.name == name:
-                return self.count(name)
-            if e.state == name:
-                return self.position(name)
-        for a in d.get("adcs", ()):
-            if a.name == name:
-                return self.code(name)
-            if a.state == name:
-                return self.position(name)
-        raise AttributeError(f"the measurement has no '{name}'")
-
-
-def wrap_upright(angle: float, period: float = 2 * math.pi) -> float:
-    """Angle from the upright, in (-period/2, period/2]: 0 at half a period from hanging down
-    (pi, 3 pi, -pi ... for radians)."""
-    half = 0.5 * period
-    return half - (half - (angle - half)) % period
-
-
-class FilteredDifference:
-    """Velocity of a quantised position: first difference through a first-order low-pass."""
-
-    def __init__(self, period: float, tau: float = VELOCITY_TAU):
-        self.period = period
-        self.gain = period / (tau + period)
-        self.reset()
-
-    def reset(self) -> None:
-        """Forget the history (the next sample gives velocity 0)."""
-        self.last = None
-        self.value = 0.0
-
-    def update(self, position: float) -> float:
-        """Feed one sample, return the filtered velocity."""
-        if self.last is not None:
-            self.value += self.gain * ((position - self.last) / self.period - self.value)
-        self.last = position
-        return self.value
 
 
 @dataclass(frozen=True)
@@ -275,7 +182,7 @@ class EnergySwingUp(_VelocityObserver):
 class LqrBalance(_VelocityObserver):
     """Discrete LQR about the upright on (p - p_ref, v, phi, dphi): the actuated position and
     its rate, the angle from the upright (wrapped) and its rate. The gain comes from the
-    model's own linearisation (see :mod:`pendc.hil.linearize`). ``position_ref`` (the actuated
+    model's own linearisation (see :mod:`pendc.hil.controllers.linearize`). ``position_ref`` (the actuated
     coordinate's set point) may be a float or a function of time (the 4 cm step scenario)."""
 
     mode = "balance"
