@@ -4,7 +4,8 @@ way only, so each can be read, tested and moved knowing what it stands on.
 The graph is read from the source (every ``import`` statement, those inside functions too: a
 deferred import is still a dependency, only a later one), with a package's ``__init__`` left
 out as a target (the package face re-exports; ``from .. import __version__`` reads the face, not
-a module). A circle names its modules; docs/architecture.md says which way each pair goes.
+a module). A circle names its modules; docs/architecture.md says which way each pair goes. The folders
+(``hil/plants`` and ``hil/controllers`` each a folder of its own) must form no circle either.
 """
 
 from __future__ import annotations
@@ -84,14 +85,53 @@ def circles(graph: dict) -> list:
     return sorted(out)
 
 
+# subfolders that are folders of their own in the folder graph (the rest count as their parent)
+OWN_FOLDERS = ("pendc.hil.plants", "pendc.hil.controllers")
+
+
+def folder(name: str) -> str:
+    """The folder (or top-level module) a module belongs to: ``pendc.passes.lower`` -> ``passes``,
+    ``pendc.hil.plants.rtl_cpp`` -> ``hil.plants``, ``pendc.golden`` -> ``golden``."""
+    for own in OWN_FOLDERS:
+        if name == own or name.startswith(own + "."):
+            return own.removeprefix("pendc.")
+    parts = name.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def folder_graph(graph: dict) -> dict:
+    """{folder: the other folders its modules import}."""
+    out = {folder(name): set() for name in graph}
+    for name, deps in graph.items():
+        out[folder(name)] |= {folder(d) for d in deps} - {folder(name)}
+    return out
+
+
 def test_the_reader_sees_imports_inside_functions_and_relative_ones():
     known = modules()
     deps = imports_of("pendc.sim.readers", known["pendc.sim.readers"], known)
     assert "pendc.sim.signals" in deps and "pendc.errors" in deps and "pendc.sim.csvread" in deps
+    # three levels down, relative imports two folders up, and make_plant's deferred imports
+    deps = imports_of("pendc.hil.plants.plant", known["pendc.hil.plants.plant"], known)
+    assert {"pendc.hil.plants.golden_plant", "pendc.hil.plants.rtl_cpp", "pendc.sim.simulator", "pendc.errors"} <= deps
+    assert "pendc.cli.program" in known and "pendc.hil.controllers.measurement" in known
     assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert folder("pendc.hil.plants.rtl_cpp") == "hil.plants" and folder("pendc.hil.loop") == "hil"
+    assert folder_graph({"pendc.ir.a": {"pendc.passes.b"}, "pendc.passes.b": {"pendc.ir.c"}, "pendc.ir.c": set()}) \
+        == {"ir": {"passes"}, "passes": {"ir"}}
 
 
 def test_no_import_circle_in_the_package():
     known = modules()
     graph = {name: imports_of(name, path, known) for name, path in known.items()}
     assert circles(graph) == []
+
+
+def test_no_import_circle_between_folders():
+    """Folders import one another one way (docs/architecture.md's table): ir never imports passes
+    back, the plants never the controllers, nothing but the command line imports cli."""
+    known = modules()
+    graph = folder_graph({name: imports_of(name, path, known) for name, path in known.items()})
+    assert {"cli", "hil", "hil.plants", "hil.controllers", "caching", "synth"} <= set(graph)
+    assert circles(graph) == []
+    assert not [f for f, deps in graph.items() if "cli" in deps and f != "pendc"]
