@@ -45,7 +45,8 @@ def main(argv=None) -> int:
     ap.add_argument("--waves", action="store_true", help="record waveforms")
     ap.add_argument("--json", help="write a summary JSON here")
     ap.add_argument("--model", help="model file whose HDL to test (default: the default model)")
-    ap.add_argument("--preset", choices=("default", "fast", "fmax", "small", "comb"), help="schedule preset (as pendc build)")
+    ap.add_argument("--preset", choices=("default", "fast", "fmax", "small", "comb", "thesis"),
+                    help="schedule preset (as pendc build)")
     ap.add_argument("--ii", type=int, help="clock cycles per model step (as pendc build --ii)")
     ap.add_argument("--dsp", type=int, help="DSP-block budget (as pendc build --dsp)")
     args = ap.parse_args(argv)

@@ -44,11 +44,10 @@ def build_hdl(graph: Graph, resources: dict, source: str = "", bus: str = "rapto
     sticky overflow bit per node readable over the bus (OVERFLOW_STATUS_k registers)."""
     schedule = schedule_of(graph, request)
     view, files = render_core(graph, source, schedule=schedule, debug_status=debug_status)
-    if schedule.units:      # shared multipliers: the blocks the units need, not one set per product
+    if schedule.units:      # shared multipliers: the blocks the units need, and one per product without a unit
         from ..passes.qformats import MULT_SHAPES
-        from ..passes.resources import dsp_for
-        shape = MULT_SHAPES[schedule.target]
-        resources = dict(resources, dsp_scheduled=sum(dsp_for(*u.widths, shape) for u in schedule.units))
+        from ..passes.share import scheduled_blocks
+        resources = dict(resources, dsp_scheduled=scheduled_blocks(graph, schedule, MULT_SHAPES[schedule.target]))
     ident = build_id(files)
     status = status_nodes(view) if debug_status else ()
     wrapper_files, regmap = render_wrapper(view, port_formats(graph), ident, bus, status_nodes=status)

@@ -65,11 +65,13 @@ def add_parsers(sub) -> None:
     p.add_argument("--no-cache", action="store_true", help="recompile even if a cached build exists")
     p.add_argument("--target", choices=("ecp5-85k", "ice40-up5k", "xc7", "xcu"),
                    help="FPGA whose multiplier shape the formats fit (default ecp5-85k: 18x18)")
-    p.add_argument("--preset", choices=("default", "fast", "fmax", "small", "comb"),
+    p.add_argument("--preset", choices=("default", "fast", "fmax", "small", "comb", "thesis"),
                    help="schedule: default = shortest step within 24 DSP blocks, fast = shortest step at 100 MHz "
                         "(clock goals up to 9.5 ns, a multiplier per product, the short-chain arithmetic), fmax = a "
                         "10 ns clock goal (partial-product registers, the short-chain arithmetic), small = 4 shared "
-                        "DSP blocks, comb = no pipelining")
+                        "DSP blocks, comb = no pipelining, thesis = shortest step within 24 DSP blocks at clock goals "
+                        "up to 25 ns (the short-chain arithmetic, products narrowed where the error budget allows, "
+                        "only products off the critical chain sharing a multiplier)")
     p.add_argument("--ii", type=int, help="clock cycles per model step: the scheduler packs the step into "
                    "exactly N cycles with the shortest clock it can")
     p.add_argument("--dsp", type=int, help="DSP-block budget: if a multiplier per product exceeds it, products "

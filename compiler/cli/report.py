@@ -13,6 +13,7 @@ import re
 import sys
 from typing import TYPE_CHECKING
 
+from .heldout import format_budget, held_out_check
 from .options import MODEL_HELP, build_model, positive
 
 if TYPE_CHECKING:
@@ -84,14 +85,7 @@ def format_qformat_report(report: dict) -> str:
         mx = "" if r["max"] is None else f"{r['max']:.5g}"
         lines.append(f"{r['name']:28s} {r['kind']:5s} {mx:>11s} {published:>19s} {r['format']:>9s} "
                      f"{r['lsb']:>10.3g} {r['unit']:8s} {err:>12s}  {r['meaning']}")
-    eb = report["error_budget"]
-    if eb:
-        lines += ["", f"Error budget over the first {eb['seconds']:g} s (bit-accurate vs float): "
-                  + ("met" if eb["met"] else "NOT met")]
-        for stim, errs in eb["errors"].items():
-            lines.append(f"  {stim:10s} " + "  ".join(f"{s} {v:.3g}" for s, v in errs.items()))
-        for a in eb["actions"]:
-            lines.append(f"  round: {a}")
+    lines += format_budget(report["error_budget"], report.get("held_out"))
     if report.get("drift"):
         lines += ["", "Drift after the budget horizon (max |fixed - float| up to t):"]
         for stim, rows in report["drift"].items():
@@ -134,12 +128,13 @@ def resources_report(build: BuildResult, request: dict | None = None) -> dict:
     blocks of the schedule ``request`` (default: the default preset) once products share units."""
     from ..backend.hdl import schedule_of
     from ..passes.qformats import MULT_SHAPES
-    from ..passes.resources import dsp_for, schedule_lut4
+    from ..passes.resources import schedule_lut4
+    from ..passes.share import scheduled_blocks
     out = build.resources.to_json()
     sched = schedule_of(build.graph, dict(request or {}, target=build.options.target))
     shape = MULT_SHAPES[build.options.target]
     out["schedule"] = {"preset": sched.preset or None, "ii": sched.ii, "units": len(sched.units)}
-    out["dsp_scheduled"] = (sum(dsp_for(*u.widths, shape) for u in sched.units) if sched.units else out["dsp"])
+    out["dsp_scheduled"] = scheduled_blocks(build.graph, sched, shape) if sched.units else out["dsp"]
     extra = schedule_lut4(sched.to_json())
     out["lut4_scheduled"] = out["lut4_est"] + extra["lut4"]
     out["schedule"].update(estimated_period_ns=sched.estimated_period_ns, estimated_step_ns=sched.estimated_step_ns)
@@ -224,6 +219,8 @@ def cmd_report(args) -> int:
     build = build_model(model, args)
     if args.what == "qformat":
         report = qformat_report(build)
+        if build.error is not None:         # the budget on inputs it was not tuned on (cli/heldout.py)
+            report["held_out"] = held_out_check(build)
         if args.drift:
             from ..sim.stimuli import Stimuli
             on = Stimuli(model.interface.input)

@@ -73,6 +73,18 @@ class DelayModel:
         return period - self.overhead()
 
 
+def operand_mux_delay(model: DelayModel, uses: int) -> float:
+    """The phase-selected operand mux in front of a multiplier unit shared by ``uses`` products:
+    up to four, one LUT level (a 4:1 mux: the default preset's units of 3-4 products routed
+    within 1 ns of a model that charged one level); beyond, the phase decode and the nested
+    ``?:`` chain in ``log2(uses) + 1`` levels (``--preset small``, units of 11-15 products,
+    routed a period 5.8 ns longer than one level: about five). docs/hardware.md has both; the
+    scheduler charges it to every product of a shared unit, pendc.passes.share to the ones it shares."""
+    if uses <= 4:
+        return model.mux(uses)
+    return model.lut_level * (math.ceil(math.log2(uses)) + 1)
+
+
 ECP5_SPEED6 = DelayModel(
     name="ecp5-speed6 (nextpnr-ecp5 0.11.1, calibrated 2026-11-23)",
     clk_to_q=0.52, setup=0.3,

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, fields
 from ..errors import PendcError
 from ..ir.graph import Graph, GraphError
 from ..ir.limits import MAX_LUT_ADDR_BITS
+from ..ir.nodes import Kind
 from ..ir.qformat import QFormat
 from ..ir.verify import verify
 from ..model.interface import PlantInterface
@@ -25,6 +26,7 @@ from .eliminate_common import eliminate_common_subexpressions
 from .error_budget import BudgetError, ErrorReport, meet_error_budget
 from .fold_constants import fold_constants
 from .lower import lower_model
+from .narrow_products import narrow_products
 from .qformats import MAX_LEVEL, MULT_SHAPES, assign_qformats, product_kinds
 from .ranges import Ranges, analyze_ranges
 from .reassociate import add_last_term_to_state
@@ -63,6 +65,9 @@ class BuildOptions:
     # clamp compared on the increment, a selected term added in each branch; a different arithmetic
     # (and golden model) from the default build's, held to the same error budget
     short_chain: bool = False
+    # after the budget is met, the products it raised to two DSP blocks without needing them go
+    # back to one (pendc.passes.narrow_products): fewer blocks and a shorter step, same budget
+    narrow_products: bool = False
 
     def __getattr__(self, name: str):
         # Transitional, read-only: ``options.budget_<state>`` as before the plant interface (the
@@ -104,7 +109,8 @@ class BuildResult:
 
 # The arithmetic a schedule preset builds with (the CLI passes these to options_from_model): the
 # step-time presets take the short-chain arithmetic; the others keep the default build's.
-PRESET_OPTIONS = {"fast": {"short_chain": True}, "fmax": {"short_chain": True}}
+PRESET_OPTIONS = {"fast": {"short_chain": True}, "fmax": {"short_chain": True},
+                  "thesis": {"short_chain": True, "narrow_products": True}}
 
 
 def preset_options(preset: str | None) -> dict:
@@ -238,6 +244,10 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
         try:
             final, error = meet_error_budget(typed, budgets, opt.dt, seconds, engine=opt.engine, products=products,
                                              max_level=MAX_LEVEL)
+            if opt.narrow_products and products:
+                grown = {n.name: error.addr_bits[n.name] for n in graph.of_kind(Kind.LUT)
+                         if error.addr_bits.get(n.name, n.params.addr_bits) != n.params.addr_bits}
+                final, error = narrow_products(typed, final, error, budgets, opt.dt, seconds, shape, opt.engine, grown)
         except BudgetError as exc:
             raise PendcError(str(exc)) from None
     else:

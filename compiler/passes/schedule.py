@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 from ..errors import PendcError
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
-from .delays import DelayModel, model_for
+from .delays import DelayModel, model_for, operand_mux_delay
 from .node_delay import interp_delay, node_delay, overflow_term
 from .resources import dsp_for, product_widths
 
@@ -60,6 +60,11 @@ PRESETS = {
     # every cycle within 10 ns: two-block products are registered at their partial products (routed
     # 103.9 MHz, ii 21, 202 ns per step, 2026-11-23; docs/hardware.md)
     "fmax": (10.0, None, "the shortest estimated step at a 100 MHz clock goal, a multiplier per product"),
+    # issue 23: the thesis' core did a step in 77.5 ns with 24 MULT18; a few long cycles (ii 3 at
+    # about 24 ns) with products narrowed by the error budget, and only the products that afford an
+    # operand mux sharing a unit (pendc.passes.share), docs/hardware.md
+    "thesis": (25.0, 24, "shortest estimated step within the thesis' 24 multipliers, clock goals up to 25 ns; "
+                         "only products off the critical chain share a multiplier"),
 }
 DEFAULT_PRESET = "default"
 # presets whose clock goal is the one given, not the best of the goals up to it (a tighter goal
@@ -70,11 +75,14 @@ FIXED_GOAL = ("fmax",)
 # carry none): the step-time presets of the short chain; the others charge every node but
 # MAY_OVERFLOW_NOT, as before (docs/hardware.md: counted exactly, the default preset's schedule,
 # and so hdl_out/, would change)
-EXACT_OVERFLOW_TERMS = ("fast", "fmax")
+EXACT_OVERFLOW_TERMS = ("fast", "fmax", "thesis")
 MAY_OVERFLOW_NOT = SOURCES + (Kind.COMPARE, Kind.SLICE)
 # presets that search their goals loosest first: a tighter goal must be strictly shorter on the
 # estimate to be kept (ties: the loosest goal, fast's 10 ns, as routed; docs/hardware.md)
 LOOSEST_FIRST = ("fast",)
+# presets whose DSP budget is met by sharing only products that afford the operand mux
+# (pendc.passes.share), not by every product behind a mux
+SELECTIVE_SHARING = ("thesis",)
 
 
 @dataclass(frozen=True)
@@ -130,8 +138,13 @@ def _is_product(graph: Graph, n) -> bool:
 
 
 def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = None,
-                   shape: tuple = (18, 18), preset: str = "", target: str = "ecp5-85k") -> Schedule:
-    """List-schedule ``graph`` (typed) for a clock goal and an optional DSP budget (see module doc)."""
+                   shape: tuple = (18, 18), preset: str = "", target: str = "ecp5-85k",
+                   muxed: dict | None = None) -> Schedule:
+    """List-schedule ``graph`` (typed) for a clock goal and an optional DSP budget (see module doc).
+    ``muxed``: product -> the delay of the operand mux in front of the unit it shares
+    (pendc.passes.share picks them), charged to that product alone, which is then never
+    registered at its product or partial products (its unit's product holds only in its cycle)."""
+    muxed = muxed or {}
     model = model_for(target)
     # offsets are logic time after the launching flip-flop's clock-to-out; a cycle holds
     # ``budget`` of it before the capturing flip-flop's setup
@@ -191,13 +204,13 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
             c, o = place(c, o, d)
             lut_addr[n.name] = c
             longest[c] = max(longest.get(c, 0.0), o + d)
-            di = interp_delay(graph, n, model, shape) + (share_mux if product else 0.0)
+            di = interp_delay(graph, n, model, shape) + (share_mux if product else 0.0) + muxed.get(n.name, 0.0)
             c, o = c + 1, rom_offset
             if di and o + di > budget_ns:
                 rom_reg.append(n.name)
                 longest[c] = max(longest.get(c, 0.0), o)
                 c, o = c + 1, 0.0
-            if di and slots is None and di + model.lut_level > budget_ns:
+            if di and slots is None and n.name not in muxed and di + model.lut_level > budget_ns:
                 cut = register_cut(model, *product_widths(graph, n), shape, budget_ns)
                 if cut is not None:       # slope x fraction from registers; rounded and summed a cycle later
                     dm, after, partial = cut
@@ -210,9 +223,9 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
                 c, o = place(c, o, di, n)
             done(n.name, c, o + di)
             continue
-        d += share_mux if product else 0.0
+        d += (share_mux if product else 0.0) + muxed.get(n.name, 0.0)
         tail = model.lut_level if has_term(n) else 0.0
-        if product and slots is None:
+        if product and slots is None and n.name not in muxed:
             split = _split_product(graph, n, model, shape, stage, c, o, d, tail, budget_ns)
             if split is not None:
                 p, rest, partial = split
@@ -247,17 +260,6 @@ def schedule_graph(graph: Graph, clock_ns: float = math.inf, dsp: int | None = N
     return Schedule(ii=ii, clock_ns=clock_ns, dsp_budget=budget, stage=stage, lut_addr=lut_addr,
                     rom_reg=tuple(rom_reg), units=units, preset=preset, target=target, estimated_period_ns=period,
                     product_reg=split_at, partial_reg=partial_at)
-
-
-def operand_mux_delay(model: DelayModel, uses: int) -> float:
-    """The phase-selected operand mux in front of a multiplier unit shared by ``uses`` products:
-    up to four, one LUT level (a 4:1 mux: the default preset's units of 3-4 products routed
-    within 1 ns of a model that charged one level); beyond, the phase decode and the nested
-    ``?:`` chain in ``log2(uses) + 1`` levels (``--preset small``, units of 11-15 products,
-    routed a period 5.8 ns longer than one level: about five). docs/hardware.md has both."""
-    if uses <= 4:
-        return model.mux(uses)
-    return model.lut_level * (math.ceil(math.log2(uses)) + 1)
 
 
 def _split_product(graph: Graph, n, model: DelayModel, shape: tuple, stage: dict, c: int, o: float, d: float,
@@ -324,6 +326,8 @@ def fastest(graph: Graph, shape: tuple, goals=FAST_GOALS, dsp: int | None = None
     (``ii`` x estimated period; ties: the higher clock). A tighter goal is not always faster: a
     product or table read that no longer fits a cycle's remainder starts the next one, so the
     step is searched, not derived."""
+    if preset in SELECTIVE_SHARING and dsp is not None:
+        return _fastest_shared(graph, shape, goals, dsp, preset, target)
     best = None
     for goal in goals:
         s = schedule_graph(graph, goal, dsp, shape, preset, target)
@@ -331,6 +335,32 @@ def fastest(graph: Graph, shape: tuple, goals=FAST_GOALS, dsp: int | None = None
                                                                             best.estimated_period_ns):
             best = s
     return best
+
+
+def _fastest_shared(graph: Graph, shape: tuple, goals, dsp: int, preset: str, target: str) -> Schedule:
+    """:func:`fastest` with the DSP budget met by :func:`pendc.passes.share.share_to_budget`: the
+    goals in the order of their unshared estimate (a lower bound of the shared one: a mux only
+    adds), until no unshared schedule left could beat the best shared one."""
+    from .share import scheduled_blocks, share_to_budget
+
+    def at(goal):
+        return lambda muxed=None: schedule_graph(graph, goal, None, shape, preset, target, muxed)
+
+    plain = sorted(((at(g)(), g) for g in goals), key=lambda sg: (sg[0].estimated_step_ns, sg[0].estimated_period_ns))
+    best = None
+    for s, goal in plain:
+        if best is not None and not best[0][0] and s.estimated_step_ns >= best[0][1]:
+            break
+        shared, groups = share_to_budget(graph, s, dsp, shape, at(goal))
+        widths = [[product_widths(graph, graph[p]) for p in g] for g in groups]
+        units = tuple(Unit(f"mul{j}", (max(w[0] for w in ws), max(w[1] for w in ws)),
+                           tuple(sorted(((p, shared.stage[p]) for p in g), key=lambda u: u[1])))
+                      for j, (g, ws) in enumerate(zip(groups, widths)))
+        shared = replace(shared, units=units, dsp_budget=dsp)
+        key = (scheduled_blocks(graph, shared, shape) > dsp, shared.estimated_step_ns, shared.estimated_period_ns)
+        if best is None or key < best[0]:
+            best = (key, shared)
+    return best[1]
 
 
 def schedule_for(graph: Graph, shape: tuple, ii: int | None = None, dsp: int | None = None,
