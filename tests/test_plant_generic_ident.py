@@ -99,7 +99,8 @@ def test_the_scan_finds_what_it_looks_for():
 
 
 # A plant no shipped file declares: a carriage on a rail (s) with a bob on a rod (phi), driven by
-# a voltage about an offset; its data hide viscous drag on the rail.
+# a voltage about an offset; its data hide viscous drag on the rail. Written out here rather than
+# from `pendc plant new`'s skeleton (the same mechanism, other names): the test must not follow it.
 PLANT = """
 [plant]
 name = "rail_bob"

@@ -23,9 +23,26 @@ KERNEL_FORMAT = 7  # bump when the generated source changes shape
 CSE_ABOVE = 20_000
 
 
-def _tuple(items) -> str:
+def tuple_text(items) -> str:
+    """The source of a tuple of the source texts ``items`` (with its comma when it has one item)."""
     items = list(items)
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+
+
+def integration_step(ns: int, pad: str) -> str:
+    """The source of one integration step of the state tuple ``S`` (``ns`` states): RK4 when
+    ``use_rk4``, else Euler, of step ``h`` (``h2``, ``h6``: its half and sixth) with the input
+    ``uk`` held, then ``bound``; each line indented by ``pad``. The simulator's loop and the HIL
+    float plant's (:mod:`pendc.hil.plants.plant`) print this same step."""
+    def combine(a, b, c):
+        return tuple_text(f"{a}[{i}] + {c}*{b}[{i}]" for i in range(ns))
+
+    rk4_sum = tuple_text(f"S[{i}] + h6*(k1[{i}] + 2.0*k2[{i}] + 2.0*k3[{i}] + k4[{i}])" for i in range(ns))
+    lines = ("if use_rk4:", "    k1 = rhs(S, uk, P)", f"    k2 = rhs({combine('S', 'k1', 'h2')}, uk, P)",
+             f"    k3 = rhs({combine('S', 'k2', 'h2')}, uk, P)", f"    k4 = rhs({combine('S', 'k3', 'h')}, uk, P)",
+             f"    S = {rk4_sum}", "else:", "    d = rhs(S, uk, P)", f"    S = {combine('S', 'd', 'h')}",
+             "S = bound(S, P)")
+    return "".join(f"{pad}{line}\n" for line in lines)
 
 
 def _clamped_index(eq: Equations, clamped) -> int | None:
@@ -60,7 +77,7 @@ def _shared_body(eq: Equations, pr) -> tuple:
     inlined = [eq.inline(d) for d in eq.derivatives]
     shared, reduced = sp.cse(inlined, symbols=sp.numbered_symbols("_cse"))
     body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in shared)
-    return body, f"    return {_tuple(pr.doprint(d) for d in reduced)}\n"
+    return body, f"    return {tuple_text(pr.doprint(d) for d in reduced)}\n"
 
 
 def kernel_source(eq: Equations, clamped: str | None = None) -> str:
@@ -78,7 +95,7 @@ def kernel_source(eq: Equations, clamped: str | None = None) -> str:
     alias = f"    {eq.input.name} = inp\n"
 
     body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in eq.assignments)
-    result = f"    return {_tuple(pr.doprint(d) for d in eq.derivatives)}\n"
+    result = f"    return {tuple_text(pr.doprint(d) for d in eq.derivatives)}\n"
     if len(body) + len(result) > CSE_ABOVE:
         body, result = _shared_body(eq, pr)
     rhs = "@njit(cache=True)\ndef rhs(S, inp, P):\n" + unpack_s + unpack_p + alias + body + result
@@ -88,28 +105,24 @@ def kernel_source(eq: Equations, clamped: str | None = None) -> str:
     if index is not None:
         limit = pr.doprint(eq.velocity_bound)
         held[index] = f"min(max({names[index]}, -({limit})), {limit})"
-    bound = "@njit(cache=True)\ndef bound(S, P):\n" + unpack_s + unpack_p + f"    return {_tuple(held)}\n"
+    bound = "@njit(cache=True)\ndef bound(S, P):\n" + unpack_s + unpack_p + f"    return {tuple_text(held)}\n"
 
     inits = [f"float({pr.doprint(e)})" for e in eq.initial]  # a literal 0 would make the tuple mixed-type
     force_body = "".join(f"    {sym.name} = {pr.doprint(expr)}\n" for sym, expr in _needed_assignments(eq, eq.initial))
     init = (f"@njit(cache=True)\ndef start(SM, inp, P):\n    {', '.join(mech)}, = SM\n" + unpack_p + alias + force_body
-            + f"    return {_tuple(mech + inits)}\n")
+            + f"    return {tuple_text(mech + inits)}\n")
 
-    def combine(a, b, c):
-        return _tuple(f"{a}[{i}] + {c}*{b}[{i}]" for i in range(ns))
-
-    rk4_sum = _tuple(f"S[{i}] + h6*(k1[{i}] + 2.0*k2[{i}] + 2.0*k3[{i}] + k4[{i}])" for i in range(ns))
     delay_index = pnames.index(eq.delay.name) if eq.delay is not None else -1
     loop = f'''
 @njit(cache=True)
 def simulate(t, u, s0, p, dt, use_rk4, k0=0):
     """States at the sample times t; u held constant (ZOH) from t[k] to t[k+1].
     The run starts at row k0 from s0; earlier rows only supply input history (delays)."""
-    P = {_tuple(f"p[{i}]" for i in range(len(pnames)))}
+    P = {tuple_text(f"p[{i}]" for i in range(len(pnames)))}
     n = t.shape[0]
     out = np.empty((n, {ns}))
     k_first = {"0" if ns > nm else "k0"}
-    S = start({_tuple(f"s0[{i}]" for i in range(nm))}, u[k_first], P)
+    S = start({tuple_text(f"s0[{i}]" for i in range(nm))}, u[k_first], P)
     tau = {f"P[{delay_index}]" if delay_index >= 0 else "0.0"}
     j = 0
     for r in range(k0 + 1):
@@ -119,7 +132,7 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
         if k == k0:
             # extra states (e.g. a motor lag) were pre-rolled over the input history;
             # the mechanical state starts here from s0
-            S = {_tuple([f"s0[{i}]" for i in range(nm)] + [f"S[{i}]" for i in range(nm, ns)])}
+            S = {tuple_text([f"s0[{i}]" for i in range(nm)] + [f"S[{i}]" for i in range(nm, ns)])}
             for i in range({ns}):
                 out[k0, i] = S[i]
         span = t[k + 1] - t[k]
@@ -136,17 +149,7 @@ def simulate(t, u, s0, p, dt, use_rk4, k0=0):
                 while j + 1 < n and t[j + 1] <= ts + 1e-3 * h:
                     j += 1
                 uk = u[j]
-            if use_rk4:
-                k1 = rhs(S, uk, P)
-                k2 = rhs({combine("S", "k1", "h2")}, uk, P)
-                k3 = rhs({combine("S", "k2", "h2")}, uk, P)
-                k4 = rhs({combine("S", "k3", "h")}, uk, P)
-                S = {rk4_sum}
-            else:
-                d = rhs(S, uk, P)
-                S = {combine("S", "d", "h")}
-            S = bound(S, P)
-        for i in range({ns}):
+{integration_step(ns, "            ")}        for i in range({ns}):
             out[k + 1, i] = S[i]
         if not math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))}):
             return out, k + 1

@@ -28,6 +28,19 @@ def build_for(model: PlantModel, dt: float, build=None):
     return build
 
 
+def core_of(model: PlantModel, dt: float, build, on_overflow: str) -> tuple:
+    """What every plant of the compiled core starts from, the golden and the RTL ones: the build
+    (:func:`build_for`) and its core's ports (:class:`CorePorts`), ``on_overflow`` checked."""
+    if on_overflow not in OVERFLOW_CHOICES:
+        raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
+    build = build_for(model, dt, build)
+    try:
+        ports = CorePorts.of_graph(build.graph)
+    except ValueError as exc:
+        raise PendcError(str(exc)) from None
+    return build, ports
+
+
 class GoldenPlant:
     """Stateful, bit-exact plant over the compiled golden kernel.
 
@@ -41,15 +54,9 @@ class GoldenPlant:
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, build=None, on_overflow: str = "error",
                  initial: tuple | None = None, like=None):
-        if on_overflow not in OVERFLOW_CHOICES:
-            raise PendcError(f"on_overflow must be one of {', '.join(OVERFLOW_CHOICES)}, got {on_overflow!r}")
-        self.build = build_for(model, dt, build)
+        self.build, self.ports = core_of(model, dt, build, on_overflow)
         self.model, self.dt, self.on_overflow = model, float(dt), on_overflow
         graph = self.build.graph
-        try:
-            self.ports = CorePorts.of_graph(graph)
-        except ValueError as exc:
-            raise PendcError(str(exc)) from None
         self.stepper = GoldenStepper(graph, like=like)
         self._col = {p: self.stepper.ports.index(p) for p in self.ports.outputs}
         self._lsb = {p: graph.output(p).qformat.lsb for p in self.ports.states + self.ports.codes}

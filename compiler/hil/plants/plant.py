@@ -26,16 +26,9 @@ PLANT_KINDS = ("float", "golden", "verilator", "icarus")
 def _step_source(n_states: int, n_params: int, n_start: int) -> str:
     """A stepping loop appended to the float kernel's module (it uses its ``rhs``/``bound``/``start``);
     ``start`` takes the first ``n_start`` states (the mechanical ones) and makes the rest."""
+    from ...sim.kernel import integration_step, tuple_text as tup
+
     ns = n_states
-
-    def tup(items):
-        items = list(items)
-        return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
-
-    def combine(a, b, c):
-        return tup(f"{a}[{i}] + {c}*{b}[{i}]" for i in range(ns))
-
-    rk4 = tup(f"S[{i}] + h6*(k1[{i}] + 2.0*k2[{i}] + 2.0*k3[{i}] + k4[{i}])" for i in range(ns))
     return f'''
 
 @njit(cache=True)
@@ -59,17 +52,7 @@ def plant_advance(s, u, p, dt, use_rk4):
     h6 = dt / 6.0
     for m in range(u.shape[0]):
         uk = u[m]
-        if use_rk4:
-            k1 = rhs(S, uk, P)
-            k2 = rhs({combine("S", "k1", "h2")}, uk, P)
-            k3 = rhs({combine("S", "k2", "h2")}, uk, P)
-            k4 = rhs({combine("S", "k3", "h")}, uk, P)
-            S = {rk4}
-        else:
-            d = rhs(S, uk, P)
-            S = {combine("S", "d", "h")}
-        S = bound(S, P)
-    out = np.empty({ns})
+{integration_step(ns, "        ")}    out = np.empty({ns})
     for i in range({ns}):
         out[i] = S[i]
     return out, math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))})

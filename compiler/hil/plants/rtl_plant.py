@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ...errors import PendcError
 from ...model.plant import PlantModel
-from .golden_plant import build_for
+from .golden_plant import core_of
 from .plant_state import PlantState, check_initial, check_step_request
 from .rtl_harness import HarnessLink, build_harness
 
@@ -64,17 +64,10 @@ class RtlPlant:
         from ...backend.hdl import build_hdl, port_formats
         from ...golden import register_integers
         from ...ir.nodes import Kind
-        from .core_ports import CorePorts
 
-        if on_overflow not in ("error", "mark"):
-            raise PendcError(f"on_overflow must be error or mark, got {on_overflow!r}")
-        self.build = build_for(model, dt, build)
+        self.build, self.ports = core_of(model, dt, build, on_overflow)
         self.model, self.dt, self.on_overflow = model, float(dt), on_overflow
         graph = self.build.graph
-        try:
-            self.ports = CorePorts.of_graph(graph)
-        except ValueError as exc:
-            raise PendcError(str(exc)) from None
         if self.ports.adcs:   # the harnesses answer states, counts and channel levels, not codes
             raise PendcError(f"the RTL plant does not read converter codes yet (plant '{model.interface.name}' has "
                              f"{', '.join(a.name for a in self.ports.adcs)}): use --plant golden, bit-exact with it")
