@@ -52,6 +52,7 @@ def _hdl(work: Path, log, request: dict | None = None) -> tuple[Path, dict, str]
 
 def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps: int) -> dict:
     import pendtb
+    from pendc.backend.memory_files import put_memory_files
     from pendc.golden import GoldenModel
     from pendc.sim.stimuli import Stimuli
 
@@ -67,6 +68,8 @@ def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps:
     runner = pendtb.get_runner("verilator")
     bdir = work / "cocotb_build"
     sources = [p for p in pendtb.verilog_files(hdl) if p.name.startswith("pendulum_core")]
+    bdir.mkdir(parents=True, exist_ok=True)
+    put_memory_files(hdl, bdir)       # the simulation runs in bdir (test_dir) and reads the tables' words there
     t0 = time.time()
     runner.build(sources=sources, hdl_toplevel="pendulum_core", build_args=pendtb.build_args("verilator"),
                  build_dir=bdir, timescale=("1ns", "1ps"), log_file=work / "cocotb_build.log", always=True)

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendc.backend.memory_files import read_design, verilog_names
 from pendc.hil.plants.rtl_cpp import CPP_PORT_HELPERS, cpp_int_type
 
 REPO = Path(__file__).resolve().parents[1]
@@ -113,8 +114,9 @@ int main(int argc, char** argv) {{
 
 
 def build(hdl_files: dict, main_cpp: str, module: str, make_vars: str, work: Path) -> tuple[Path, float]:
-    """The executable for these Verilog files and this main, built under ``work`` (reused when
-    the same sources and flags were built there before); and the build's wall time."""
+    """The executable for these Verilog and .mem files and this main, built under ``work`` (reused
+    when the same sources and flags were built there before; the .mem files lie beside the
+    sources, where it runs); and the build's wall time."""
     from pendc.hil.plants.rtl_build import VERILATOR_MAKE_VARS, find_tool
     digest = hashlib.sha256(make_vars.encode() + main_cpp.encode())
     for name in sorted(hdl_files):
@@ -128,7 +130,7 @@ def build(hdl_files: dict, main_cpp: str, module: str, make_vars: str, work: Pat
     sources = [folder / "main.cpp"]
     for name, text in sorted(hdl_files.items()):
         (folder / name).write_text(text)
-        sources.append(folder / name)
+    sources += [folder / name for name in verilog_names(hdl_files)]
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
     cmd = [find_tool("verilator"), "--cc", "--exe", "--build", "-j", "2", "--top-module", module,
            "-Mdir", str(folder / "obj_dir"), "-o", EXECUTABLE, *VERILATOR_FLAGS,
@@ -150,12 +152,12 @@ def run_step_loop(hdl_dir: Path, report: dict, build_, u_ints: np.ndarray, chunk
     from pendc.hil.plants.core_ports import CorePorts
 
     core = CorePorts.of_graph(build_.graph)
-    files = {p.name: p.read_text() for p in sorted(Path(hdl_dir).glob(f"{core.module}*.v"))}
+    files = {name: text for name, text in read_design(hdl_dir).items() if name.startswith(core.module)}
     ii = int(report["ii"])
     main_cpp = main_source(core.module, core.input, tuple(core.states), report["ports"], ii)
     exe, build_s = build(files, main_cpp, core.module, FLAG_SETS[flags], work)
     stdin = f"{len(u_ints)} {chunk}\n" + "\n".join(str(int(v)) for v in u_ints) + "\n"
-    r = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True)
+    r = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, cwd=exe.parent.parent)  # the .mem files
     if r.returncode != 0:
         raise RuntimeError(f"step loop exited with status {r.returncode}: {r.stderr.strip()[-300:]}")
     lines = r.stdout.strip().splitlines()

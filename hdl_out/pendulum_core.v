@@ -471,9 +471,10 @@ module pendulum_core (
     wire [16:0] n_F_fric_then_sgn_dx_lut_f = (n_F_fric_then_sgn_dx_lut_below | n_F_fric_then_sgn_dx_lut_above)
         ? 17'd0 : n_F_fric_then_sgn_dx_lut_d[16:0];
     wire [50:0] n_F_fric_then_sgn_dx_lut_q;
-    pendulum_core_rom_F_fric_then_sgn_dx_lut u_rom_F_fric_then_sgn_dx_lut
-        (.clk(clk), .en((ready & step)), .addr(n_F_fric_then_sgn_dx_lut_addr),
-         .q(n_F_fric_then_sgn_dx_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(51), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_F_fric_then_sgn_dx_lut.mem"))
+        u_rom_F_fric_then_sgn_dx_lut (.clk(clk), .en((ready & step)), .addr(n_F_fric_then_sgn_dx_lut_addr),
+             .q(n_F_fric_then_sgn_dx_lut_q));
     reg  [16:0] n_F_fric_then_sgn_dx_lut_f_r;
     reg  n_F_fric_then_sgn_dx_lut_outside_r;
     wire signed [31:0] n_F_fric_then_sgn_dx_lut_y0 = n_F_fric_then_sgn_dx_lut_q[50:19];
@@ -922,8 +923,10 @@ module pendulum_core (
     wire [10:0] n_ddx_F_cart_lut_addr = {1'b0, n_ddx_F_cart_lut_d[26:17]};
     wire [16:0] n_ddx_F_cart_lut_f = n_ddx_F_cart_lut_d[16:0];
     wire [46:0] n_ddx_F_cart_lut_q;
-    pendulum_core_rom_ddx_F_cart_lut u_rom_ddx_F_cart_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_F_cart_lut_addr), .q(n_ddx_F_cart_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(47), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddx_F_cart_lut.mem"))
+        u_rom_ddx_F_cart_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_F_cart_lut_addr),
+             .q(n_ddx_F_cart_lut_q));
     reg  [16:0] n_ddx_F_cart_lut_f_r;
     wire signed [31:0] n_ddx_F_cart_lut_y0 = n_ddx_F_cart_lut_q[46:15];
     wire signed [14:0] n_ddx_F_cart_lut_dy = n_ddx_F_cart_lut_q[14:0];
@@ -946,8 +949,10 @@ module pendulum_core (
     wire [10:0] n_ddx_tau_pend_lut_addr = {1'b0, n_ddx_tau_pend_lut_d[26:17]};
     wire [16:0] n_ddx_tau_pend_lut_f = n_ddx_tau_pend_lut_d[16:0];
     wire [55:0] n_ddx_tau_pend_lut_q;
-    pendulum_core_rom_ddx_tau_pend_lut u_rom_ddx_tau_pend_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_tau_pend_lut_addr), .q(n_ddx_tau_pend_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(56), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddx_tau_pend_lut.mem"))
+        u_rom_ddx_tau_pend_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_tau_pend_lut_addr),
+             .q(n_ddx_tau_pend_lut_q));
     reg  [16:0] n_ddx_tau_pend_lut_f_r;
     wire signed [31:0] n_ddx_tau_pend_lut_y0 = n_ddx_tau_pend_lut_q[55:24];
     wire signed [23:0] n_ddx_tau_pend_lut_dy = n_ddx_tau_pend_lut_q[23:0];
@@ -970,8 +975,10 @@ module pendulum_core (
     wire [10:0] n_ddx_dtheta_lut_addr = {1'b0, n_ddx_dtheta_lut_d[26:17]};
     wire [16:0] n_ddx_dtheta_lut_f = n_ddx_dtheta_lut_d[16:0];
     wire [55:0] n_ddx_dtheta_lut_q;
-    pendulum_core_rom_ddx_dtheta_lut u_rom_ddx_dtheta_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_dtheta_lut_addr), .q(n_ddx_dtheta_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(56), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddx_dtheta_lut.mem"))
+        u_rom_ddx_dtheta_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_dtheta_lut_addr),
+             .q(n_ddx_dtheta_lut_q));
     reg  [16:0] n_ddx_dtheta_lut_f_r;
     wire signed [31:0] n_ddx_dtheta_lut_y0 = n_ddx_dtheta_lut_q[55:24];
     wire signed [23:0] n_ddx_dtheta_lut_dy = n_ddx_dtheta_lut_q[23:0];
@@ -995,8 +1002,9 @@ module pendulum_core (
     wire [10:0] n_ddx_0_lut_addr = {1'b0, n_ddx_0_lut_d[26:17]};
     wire [16:0] n_ddx_0_lut_f = n_ddx_0_lut_d[16:0];
     wire [55:0] n_ddx_0_lut_q;
-    pendulum_core_rom_ddx_0_lut u_rom_ddx_0_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_0_lut_addr), .q(n_ddx_0_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(56), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddx_0_lut.mem"))
+        u_rom_ddx_0_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddx_0_lut_addr), .q(n_ddx_0_lut_q));
     reg  [16:0] n_ddx_0_lut_f_r;
     wire signed [31:0] n_ddx_0_lut_y0 = n_ddx_0_lut_q[55:24];
     wire signed [23:0] n_ddx_0_lut_dy = n_ddx_0_lut_q[23:0];
@@ -1020,8 +1028,10 @@ module pendulum_core (
     wire [10:0] n_ddtheta_tau_pend_lut_addr = {1'b0, n_ddtheta_tau_pend_lut_d[26:17]};
     wire [16:0] n_ddtheta_tau_pend_lut_f = n_ddtheta_tau_pend_lut_d[16:0];
     wire [47:0] n_ddtheta_tau_pend_lut_q;
-    pendulum_core_rom_ddtheta_tau_pend_lut u_rom_ddtheta_tau_pend_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_tau_pend_lut_addr), .q(n_ddtheta_tau_pend_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(48), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddtheta_tau_pend_lut.mem"))
+        u_rom_ddtheta_tau_pend_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_tau_pend_lut_addr),
+             .q(n_ddtheta_tau_pend_lut_q));
     reg  [16:0] n_ddtheta_tau_pend_lut_f_r;
     wire signed [31:0] n_ddtheta_tau_pend_lut_y0 = n_ddtheta_tau_pend_lut_q[47:16];
     wire signed [15:0] n_ddtheta_tau_pend_lut_dy = n_ddtheta_tau_pend_lut_q[15:0];
@@ -1045,8 +1055,10 @@ module pendulum_core (
     wire [10:0] n_ddtheta_0_lut_addr = {1'b0, n_ddtheta_0_lut_d[26:17]};
     wire [16:0] n_ddtheta_0_lut_f = n_ddtheta_0_lut_d[16:0];
     wire [55:0] n_ddtheta_0_lut_q;
-    pendulum_core_rom_ddtheta_0_lut u_rom_ddtheta_0_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_0_lut_addr), .q(n_ddtheta_0_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(56), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddtheta_0_lut.mem"))
+        u_rom_ddtheta_0_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_0_lut_addr),
+             .q(n_ddtheta_0_lut_q));
     reg  [16:0] n_ddtheta_0_lut_f_r;
     wire signed [31:0] n_ddtheta_0_lut_y0 = n_ddtheta_0_lut_q[55:24];
     wire signed [23:0] n_ddtheta_0_lut_dy = n_ddtheta_0_lut_q[23:0];
@@ -1072,8 +1084,10 @@ module pendulum_core (
     wire [10:0] n_ddtheta_dtheta_lut_addr = {1'b0, n_ddtheta_dtheta_lut_d[26:17]};
     wire [16:0] n_ddtheta_dtheta_lut_f = n_ddtheta_dtheta_lut_d[16:0];
     wire [56:0] n_ddtheta_dtheta_lut_q;
-    pendulum_core_rom_ddtheta_dtheta_lut u_rom_ddtheta_dtheta_lut
-        (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_dtheta_lut_addr), .q(n_ddtheta_dtheta_lut_q));
+    pendulum_core_rom #(.ADDR_WIDTH(11), .DATA_WIDTH(57), .DEPTH(1025),
+         .INIT_FILE("pendulum_core_rom_ddtheta_dtheta_lut.mem"))
+        u_rom_ddtheta_dtheta_lut (.clk(clk), .en((phase == 3'd1)), .addr(n_ddtheta_dtheta_lut_addr),
+             .q(n_ddtheta_dtheta_lut_q));
     reg  [16:0] n_ddtheta_dtheta_lut_f_r;
     wire signed [31:0] n_ddtheta_dtheta_lut_y0 = n_ddtheta_dtheta_lut_q[56:25];
     wire signed [24:0] n_ddtheta_dtheta_lut_dy = n_ddtheta_dtheta_lut_q[24:0];

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendc.backend.memory_files import put_memory_files
 from pendc.caching.objcache import objcache_env
 from tbconfig import (MIN_VERILATOR, TB_DIR, TB_TOP, verilog_files)
 
@@ -144,6 +145,7 @@ def run_suite(prep: Prepared, sim: str, suite: str, build_root: Path, profile: s
         sources.append(prep.tb_top)
     build_dir = Path(build_root) / f"{sim}_{suite}"
     build_dir.mkdir(parents=True, exist_ok=True)
+    put_memory_files(hdl_dir, build_dir)      # the simulation runs there (test_dir) and reads the tables' words
     log_build = build_dir / "build.log"
     log_test = build_dir / "test.log"
     runner = get_runner(sim)

@@ -17,14 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from pendtb import CHUNK, core_ports_of, model_and_build, steps_of, use_venv_tools, verilog_files
+from pendtb import CHUNK, core_ports_of, model_and_build, steps_of, use_venv_tools
 
 
 def build(hdl_dir: Path, report: dict, core_ports, log=print) -> tuple[Path, float]:
     """The harness executable for the core in ``hdl_dir`` (cached per design) and the build time."""
+    from pendc.backend.memory_files import read_design
     from pendc.hil.plants.rtl_harness import build_harness
     use_venv_tools()
-    files = {p.name: p.read_text() for p in verilog_files(hdl_dir)}
+    files = read_design(hdl_dir)      # the Verilog and the tables' .mem files
     t0 = time.time()
     binary = build_harness(files, core_ports, report["ports"], report["ii"], "verilator")
     return binary, time.time() - t0

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from pendc.backend import emit
+from pendc.backend.memory_files import verilog_names
 from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
@@ -235,7 +236,7 @@ class BuildFailed(RuntimeError):
         super().__init__(log)
 
 
-_MODULE_IN_ERROR = re.compile(r"/(fz\d+)(?:_rom_\w+)?\.v:\d+")
+_MODULE_IN_ERROR = re.compile(r"/(fz\d+)(?:_rom)?\.v:\d+")
 
 
 def _raise_build_error(log: str, sim: str, code: int) -> None:
@@ -290,9 +291,9 @@ def hdl_rows(cases, rendered, work: Path, sim: str = "verilator", frame_extra: i
     t0 = time.perf_counter()
     views, sources = [v for v, _ in rendered], []
     for _, files in rendered:
-        for name, text in files.items():
+        for name, text in files.items():     # the tables' .mem files too: the simulator runs in work
             (work / name).write_text(text)
-            sources.append(work / name)
+        sources += [work / name for name in verilog_names(files)]
     frame = max(v.ii for v in views) + frame_extra
     ufile, ofile = work / "u.hex", work / "out.txt"
     ufile.write_text(_u_words(cases))

@@ -16,6 +16,7 @@ import pytest
 
 from pendc import load_model
 from pendc.backend.emit import render_core, write_tree
+from pendc.backend.memory_files import put_memory_files
 from pendc.golden import GoldenModel
 from demo_data import HIDDEN_PARAMS
 from pendc.ir.nodes import Kind
@@ -97,6 +98,7 @@ def combined(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("combined")
     view, files = render_core(build.graph, "default + " + " + ".join(sorted(EFFECTS)))
     write_tree(tmp_path / "hdl", files)
+    put_memory_files(files, tmp_path)     # the simulation runs in tmp_path and reads the tables' words there
     golden = GoldenModel(build.graph, 1e-6)
     t, u = swing_up()      # inside what the short training covered, where cart and pendulum move
     ints = golden.quantize_input(per_step(u, t, 1e-6)[START:START + STEPS])

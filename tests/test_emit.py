@@ -50,6 +50,25 @@ def test_report_json_describes_the_build(files):
         assert f"signed [{port['width'] - 1}:0] {name}" in core
 
 
+def test_every_table_is_one_instance_of_one_rom_module_with_its_words_in_a_mem_file(files):
+    """One parameterised ROM module; per LUT node one instance naming its .mem file, whose
+    words (one a line, hexadecimal) fill exactly the instance's depth and data width."""
+    graph = compile_cached(load_model()).graph
+    luts = sorted(n.name for n in graph.nodes if n.kind is Kind.LUT)
+    assert luts and sorted(n for n in files if n.endswith(".mem")) == [f"pendulum_core_rom_{t}.mem" for t in luts]
+    assert re.findall(r"^module (\w+)", files["pendulum_core_rom.v"], re.M) == ["pendulum_core_rom"]
+    assert "$readmemh(INIT_FILE, mem)" in files["pendulum_core_rom.v"]
+    core = " ".join(files["pendulum_core.v"].split())
+    instances = re.findall(r"pendulum_core_rom #\(\.ADDR_WIDTH\((\d+)\), \.DATA_WIDTH\((\d+)\), \.DEPTH\((\d+)\), "
+                           r'\.INIT_FILE\("([\w.]+)"\)\) u_rom_(\w+) \(', core)
+    assert sorted(i[4] for i in instances) == luts
+    for addr_width, data_width, depth, mem, table in instances:
+        assert mem == f"pendulum_core_rom_{table}.mem"
+        words = [ln for ln in files[mem].splitlines() if not ln.startswith("//")]
+        assert len(words) == int(depth) <= 2 ** int(addr_width), mem
+        assert {len(w) for w in words} == {(int(data_width) + 3) // 4} and int("".join(words), 16) >= 0, mem
+
+
 def test_writing_replaces_the_folder_atomically(tmp_path, files):
     out = tmp_path / "hdl"
     write_hdl(out, {"stale.v": "x"})
@@ -106,7 +125,7 @@ def test_every_ir_node_has_exactly_one_comment(plant, files, request):
 def test_no_line_is_longer_than_the_limit(plant, files, request):
     built = files if plant == "sct" else request.getfixturevalue("furuta")[1]
     for name, text in built.items():
-        if name.endswith(".v"):
+        if name.endswith((".v", ".mem")):
             longest = max(text.splitlines(), key=len)
             assert len(longest) <= LINE_LIMIT, f"{name}: {longest}"
 
@@ -135,7 +154,7 @@ def test_the_second_plant_builds_its_own_core_wrappers_and_register_map(furuta, 
     report = json.loads(fur["report.json"])
     assert report["top"] == "furuta_core" and report["wrapper"] == "furuta_raptor"
     assert {"furuta_core.v", "furuta_regs.v", "furuta_qdec.v", "furuta_raptor.v"} <= set(fur)
-    assert all(name.startswith("furuta_") for name in fur if name.endswith(".v"))
+    assert all(name.startswith("furuta_") for name in fur if name.endswith((".v", ".mem")))
     sct = require_interface(compile_cached(load_model()).graph)
     fixed = {r["name"] for r in json.loads(files["report.json"])["registers"]}
     fixed -= {r for regs in sct.register_names().values() for r in regs}

@@ -79,9 +79,11 @@ def test_cpp_plant_answers_like_the_verilog_harness(rig, cpp):
 
 @needs_verilator
 def test_cpp_harness_rejects_a_bad_request(cpp):
-    r = subprocess.run([str(cpp.executable)], input="0 5 0\n", capture_output=True, text=True, timeout=30)
+    folder = cpp.executable.parent       # where the tables' .mem files are (as HarnessLink runs it)
+    r = subprocess.run([str(cpp.executable)], input="0 5 0\n", capture_output=True, text=True, timeout=30, cwd=folder)
     assert r.returncode != 0 and r.stdout.splitlines()[-1] == "ERROR bad request"
-    r = subprocess.run([str(cpp.executable)], input="0 5 3\n1 0 0\n", capture_output=True, text=True, timeout=30)
+    r = subprocess.run([str(cpp.executable)], input="0 5 3\n1 0 0\n", capture_output=True, text=True, timeout=30,
+                       cwd=folder)
     first, stepped, after_reset = r.stdout.splitlines()
     assert r.returncode == 0 and first == after_reset != stepped   # a reset answers the power-on state
 

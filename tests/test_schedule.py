@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from pendc.backend.emit import render_core
+from pendc.backend.memory_files import verilog_names
 from pendc.errors import PendcError
 from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
@@ -129,7 +130,7 @@ endmodule
 def run_icarus(graph, schedule, work):
     view, files = render_core(graph, schedule=schedule)
     work.mkdir()
-    for name, text in files.items():
+    for name, text in files.items():      # the tables' .mem files too: the simulation runs in work
         (work / name).write_text(text)
     rng = np.random.default_rng(3)
     u = graph["u"].qformat
@@ -138,7 +139,7 @@ def run_icarus(graph, schedule, work):
     w = {k: graph[k].qformat.width - 1 for k in ("x", "dx", "theta", "dtheta")}
     (work / "tb.v").write_text(TB.format(module=view.module, uw=u.width - 1, last=STEPS - 1, xw=w["x"], dxw=w["dx"], tw=w["theta"],
                                          dtw=w["dtheta"]))
-    subprocess.run(["iverilog", "-g2005", "-o", "sim", "tb.v", *sorted(files)], cwd=work, check=True)
+    subprocess.run(["iverilog", "-g2005", "-o", "sim", "tb.v", *verilog_names(files)], cwd=work, check=True)
     subprocess.run(["vvp", "-n", "sim"], cwd=work, check=True, capture_output=True)
     hw = np.loadtxt(work / "out.txt", dtype=np.int64)
     return view, ints, hw

@@ -14,6 +14,7 @@ import pytest
 
 from pendc import load_model
 from pendc.backend.emit import build_id, render_core
+from pendc.backend.memory_files import verilog_names
 from pendc.backend.hdl import port_formats
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
 from pendc.caching.build_cache import compile_cached
@@ -59,13 +60,15 @@ def rendered(build):
 
 
 def write(directory: Path, *file_dicts) -> list:
+    """Write every file into ``directory`` (the tables' .mem files too: the simulations run
+    there); the names of the Verilog files, sorted, for the tool's command line."""
     directory.mkdir(parents=True, exist_ok=True)
     names = []
     for files in file_dicts:
         for name, text in files.items():
             (directory / name).write_text(text, encoding="utf-8")
             names.append(name)
-    return sorted(set(names))
+    return verilog_names(dict.fromkeys(names))
 
 
 # ---------------------------------------------------------------- register map

@@ -24,7 +24,7 @@ class Block:
     ``items`` are ``(kind, name)`` in declaration order, kind one of ``"wire"`` (declared and
     assigned where it stands), ``"constant"`` (a localparam), ``"reg"`` (loaded by an always
     block further down), ``"net"`` (declared only: driven by an instance) and ``"instance"``
-    (``name`` is the instance's text). ``early``: the block's wires are read before it in the
+    (``name`` is the instance: module, parameters, name and ports, see :meth:`Netlist.instance`). ``early``: the block's wires are read before it in the
     text (a shared multiplier's operands and product), so they are declared ahead of every
     node and assigned in the block."""
 
@@ -124,9 +124,10 @@ class Netlist:
         self._place("reg", name)
         return name
 
-    def instance(self, text: str) -> None:
-        """A module instance printed in the current block (one line of Verilog)."""
-        self._place("instance", text)
+    def instance(self, module: str, parameters: str, name: str, ports: str) -> None:
+        """A module instance printed in the current block: ``module #(parameters) name (ports);``
+        (``parameters`` and ``ports`` the comma-separated connections; no ``#()`` if empty)."""
+        self._place("instance", (module, parameters, name, ports))
 
 
 def signed_width(lo: int, hi: int) -> int:

@@ -23,6 +23,7 @@ from ..errors import PendcError
 from ..ir.graph import Graph
 from . import verilog_text as vtext
 from .arith import Block
+from .tables_fsm import rom_module
 from .viewmodel import CoreView, build_view
 
 # the templates ship in the wheel as pendc/templates/ (pyproject package-data); in the source
@@ -72,7 +73,9 @@ def _blocks(view: CoreView) -> tuple[list, list]:
         lines = [ln for c in block.comments for ln in vtext.comment(c)]
         for kind, name in block.items:
             if kind == "instance":
-                lines += vtext.wrap("", name)
+                module, parameters, inst, ports = name
+                lines += vtext.wrap(f"{module} #(", parameters, ")") if parameters else [vtext.STEP + module]
+                lines += vtext.wrap(f"{inst} (", ports, ");", vtext.STEP * 2)
             elif kind == "reg":
                 lines += vtext.declaration("reg", name, *net.regs[name])
             elif kind == "net":
@@ -124,15 +127,19 @@ def core_context(view: CoreView, header: str, dt: float, debug_status: bool = Fa
     }
 
 
-def roms_context(view: CoreView, header: str) -> dict:
-    roms = []
+def rom_files(view: CoreView, header: str, env: jinja2.Environment) -> dict:
+    """The table ROM's files: its one parameterised module (none without tables) and each
+    table's memory-initialisation file, which the instance in the core names."""
+    if not view.roms:
+        return {}
+    name = rom_module(view.module)
+    files = {f"{name}.v": env.get_template("table_rom.v.j2").render(header=header, module=view.module, name=name)}
+    words = env.get_template("table_rom.mem.j2")
     for r in view.roms:
-        roms.append({
-            "name": r.name, "comment": f"{len(r.words)} words of {r.data_width} bits",
-            "addr_msb": r.addr_width - 1, "data_msb": r.data_width - 1, "last": len(r.words) - 1,
-            "words": [{"index": i, "data": f"{r.data_width}'h{w}"} for i, w in enumerate(r.words)],
-        })
-    return {"header": header, "module": view.module, "roms": roms}
+        about = (f"Table {r.table} of {view.module}, read by {name} {r.inst} ($readmemh): {len(r.words)} words "
+                 f"of {r.data_width} bits, {r.layout}; one word a line, hexadecimal.")
+        files[r.file] = words.render(header=header, comment=vtext.comment(about, indent=""), words=r.words)
+    return files
 
 
 def render_core(graph: Graph, source: str = "", module: str | None = None,
@@ -150,9 +157,7 @@ def render_core(graph: Graph, source: str = "", module: str | None = None,
     env = _env()
     context = core_context(view, header, dt, debug_status)
     files = {f"{module}.v": env.get_template("core.v.j2").render(**context)}
-    rom_template = env.get_template("table_rom.v.j2")
-    for rom in roms_context(view, header)["roms"]:   # one module per file, named like the module
-        files[f"{rom['name']}.v"] = rom_template.render(header=header, module=module, rom=rom)
+    files.update(rom_files(view, header, env))
     return view, files
 
 
@@ -165,7 +170,7 @@ def build_id(files: dict) -> int:
 
 
 # what a build folder holds: a folder with anything else in it is the user's, not ours to replace
-_BUILD_SUFFIXES = frozenset({".v", ".sv", ".vh", ".json"})
+_BUILD_SUFFIXES = frozenset({".v", ".sv", ".vh", ".json", ".mem"})
 
 
 def _refuse_foreign(out: Path, files: dict) -> None:

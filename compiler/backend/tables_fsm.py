@@ -20,6 +20,11 @@ def _sig(name: str) -> str:
     return f"n_{name}"
 
 
+def rom_module(module: str) -> str:
+    """The one parameterised ROM module that every table of core ``module`` instantiates."""
+    return f"{module}_rom"
+
+
 def emit_fsm(view, n) -> None:
     """The machine's state register and its Moore output word ``n_<name>``."""
     p = n.params
@@ -142,11 +147,15 @@ def emit_lut(view, n, inp: str, fin: QFormat, rom_class) -> None:
     # phase's values.
     read_cycle = view.dp.schedule.lut_addr[n.name]
     en, en_q = view.dp.cycle_gate(read_cycle), view.dp.cycle_gate(read_cycle + 1)
-    rom = rom_class(name=f"{view.module}_rom_{n.name}", inst=net.fresh(f"u_rom_{n.name}"), addr_width=p.addr_bits + (1 if interp else 0),
-                    data_width=word_w,
-                    words=_words(table, wo, dwid, interp), addr=addr, q=q, en=en)
+    rom = rom_class(table=n.name, file=f"{view.module}_rom_{n.name}.mem", inst=net.fresh(f"u_rom_{n.name}"),
+                    addr_width=p.addr_bits + (1 if interp else 0), data_width=word_w,
+                    words=_words(table, wo, dwid, interp), addr=addr, q=q, en=en,
+                    layout=f"entry [{word_w - 1}:{dwid}], slope to the next entry [{dwid - 1}:0]" if interp
+                    else f"entry [{wo - 1}:0]")
     view.roms.append(rom)
-    net.instance(f"{rom.name} {rom.inst} (.clk(clk), .en({en}), .addr({addr}), .q({q}));")
+    net.instance(rom_module(view.module), f".ADDR_WIDTH({rom.addr_width}), .DATA_WIDTH({word_w}), "
+                 f".DEPTH({len(rom.words)}), .INIT_FILE(\"{rom.file}\")",
+                 rom.inst, f".clk(clk), .en({en}), .addr({addr}), .q({q})")
     fr = net.reg(f"{name}_f_r", max(shift, 1), False)
     view.lut_regs.append((fr, max(shift, 1), frac, en))
     if outside != "1'b0":

@@ -34,13 +34,17 @@ TEMPLATE_NAMES = ("clk", "rst", "step", "ready", "overflow", "phase", "last", "o
 
 @dataclass
 class Rom:
-    """One table's synchronous ROM: its module, instance, words and the core's wires to it."""
+    """One table's synchronous ROM: its memory-initialisation file, instance, words and the
+    core's wires to it (every table is an instance of the core's one ROM module,
+    :func:`pendc.backend.tables_fsm.rom_module`)."""
 
-    name: str          # module name
+    table: str         # the LUT node
+    file: str          # its words, one a line in hexadecimal ($readmemh), beside the Verilog
     inst: str
     addr_width: int
     data_width: int
     words: list        # hex strings, index = address
+    layout: str        # what a word's bits hold, for a reader of the file
     addr: str          # address wire in the core
     q: str             # registered data wire in the core
     en: str            # read enable: the cycle the address is valid in (the word then holds until the next step)

@@ -4,7 +4,7 @@
 / ``synth_nexus`` / ``synth_xilinx``) on the core named in the build's ``report.json`` and,
 where an open place-and-route exists (ECP5, iCE40, Gowin, Nexus), nextpnr for the routed
 Fmax (ECP5 out of context, the others with the core in a small pin harness:
-``pendc.synth_targets``). It reports LUTs, flip-flops, carry cells, DSP multipliers and block
+``pendc.synth.targets``). It reports LUTs, flip-flops, carry cells, DSP multipliers and block
 RAMs from the mapped netlist, whether the part has enough of each (else the resource that
 runs out, and no place-and-route), the logic depth of the longest register-to-register path
 of that netlist (cells, carry cells included), the routed Fmax, the step time ``ii / Fmax``
@@ -28,6 +28,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ..atomic import write_atomic
+from ..backend.memory_files import read_design, verilog_names
 from ..codegen import cache_dir
 from ..errors import PendcError
 from .netlist import cell_counts, logic_depth
@@ -95,7 +96,7 @@ def tool_versions() -> dict:
 
 
 def design_files(build_dir: Path) -> tuple[dict, dict]:
-    """(report.json of the build, {file name: text} of its Verilog)."""
+    """(report.json of the build, {file name: text} of its Verilog and its tables' .mem files)."""
     build_dir = Path(build_dir)
     report_path = build_dir / "report.json"
     if not report_path.is_file():
@@ -105,7 +106,7 @@ def design_files(build_dir: Path) -> tuple[dict, dict]:
         top, ii = str(report["top"]), int(report["ii"])
     except (ValueError, KeyError, TypeError):
         raise PendcError(f"{report_path}: not a pendc build report (needs 'top' and 'ii')") from None
-    files = {p.name: p.read_text(encoding="utf-8") for p in sorted(build_dir.glob("*.v"))}
+    files = read_design(build_dir)
     if f"{top}.v" not in files:
         raise PendcError(f"{build_dir}: {top}.v is missing")
     return report, files
@@ -173,7 +174,7 @@ def synthesize(build_dir, target: str = "ecp5-85k", freq_mhz: float = 100.0, use
     segments, util = [], {}
     with tempfile.TemporaryDirectory(prefix="pendc-synth-") as tmp:
         work = Path(tmp)
-        for name, text in files.items():
+        for name, text in files.items():         # Yosys runs in work: $readmemh finds the .mem files there
             (work / name).write_text(text, encoding="utf-8")
         core, counts, netlist, synth_top = _yosys(work, tgt, top, files, seconds, log, build_dir)
         depth, path = logic_depth(netlist, synth_top, tgt.sequential)
@@ -219,7 +220,7 @@ def misfit_text(misfit: list) -> str:
 def _yosys(work: Path, tgt: Target, top: str, files: dict, seconds: dict, log, build_dir) -> tuple:
     """Yosys on the design: (the core's mapped cell counts, those of what is placed (the core in the
     target's pin harness, if it has one), the netlist placed, its top module)."""
-    names = " ".join(sorted(files))
+    names = " ".join(verilog_names(files))
     synth_top, core = top, None
     if tgt.harness:
         # the core alone, its ports left as ports (as nextpnr-ecp5 places it out of context): what it

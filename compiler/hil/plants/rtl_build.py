@@ -14,6 +14,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ...backend.memory_files import is_memory, is_verilog, put_memory_files, verilog_names
 from ...codegen import cache_dir
 from ...errors import PendcError
 from ...caching.objcache import objcache_env
@@ -36,10 +37,11 @@ def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, w
 
     The HDL ``files`` and the harness files ``extra`` ({name: text}, compiled first) are written
     to a fresh folder, ``commands_for(folder, sources) -> (commands, target)`` runs there, and the
-    folder is renamed into place; ``salt`` (simulator, build flags) is part of the hash."""
+    folder is renamed into place; ``salt`` (simulator, build flags) is part of the hash. The
+    tables' ``.mem`` files go beside the target, which runs in its own folder (HarnessLink)."""
     digest = hashlib.sha256()
     for name in sorted(files):
-        if name.endswith(".v"):
+        if is_verilog(name) or is_memory(name):     # the tables' words are part of the design
             digest.update(name.encode() + b"\0" + files[name].encode() + b"\0")
     for name in sorted(extra):
         digest.update(name.encode() + b"\0" + extra[name].encode() + b"\0")
@@ -54,10 +56,9 @@ def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, w
         for name, text in extra.items():
             (work / name).write_text(text)
             sources.append(work / name)
-        for name in sorted(files):
-            if name.endswith(".v"):
-                (work / name).write_text(files[name])
-                sources.append(work / name)
+        for name in verilog_names(files):
+            (work / name).write_text(files[name])
+            sources.append(work / name)
         commands, built = commands_for(work, sources)
         env = objcache_env()          # Verilator's runtime objects come from earlier builds
         for cmd in commands:
@@ -65,6 +66,7 @@ def build_cached(kind: str, files: dict, extra: dict, salt: str, commands_for, w
             if r.returncode != 0 or not built.exists() and cmd is commands[-1]:
                 raise PendcError(f"building the {what} failed: "
                                  f"{(r.stdout + r.stderr).strip().splitlines()[-1:] or ['no output']}")
+        put_memory_files(files, built.parent)
         for f in work.rglob("*.gch"):          # precompiled headers: large, only needed while compiling
             f.unlink()
         try:

@@ -191,7 +191,8 @@ class HarnessLink:
         self._pattern = re.compile(r"-?\d+( -?\d+){%d}" % (answer_width(ports) - 1))
         cmd = [str(self.executable)] if simulator == "verilator" else [find_tool("vvp"), "-n", str(self.executable)]
         self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                      text=True, bufsize=1, cwd=self.executable.parent)
+                                      text=True, bufsize=1,
+                                      cwd=self.executable.parent)   # the tables' .mem files are there (rtl_build)
 
     @property
     def alive(self) -> bool:
