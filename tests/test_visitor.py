@@ -80,9 +80,6 @@ PRINTERS = [   # (file, line after which the method goes, the method): one per I
     ("ir/float_source.py", '        return [f"v{i} = -{self._a(node)[0]}"]\n',
      '\n    def visit_abs(self, node, i):\n        return [f"v{i} = abs({self._a(node)[0]})"]\n'),
     ("ir/requant_source.py", "visit_mux = visit_cast = _own\n", "    visit_abs = _own\n"),
-    ("ir/shared_source.py", '        return self.rq(i, node, f"-{self.v(a)}", self.frac(a))\n',
-     '\n    def visit_abs(self, node, i):\n        a = node.inputs[0]\n'
-     '        return self.rq(i, node, f"abs({self.v(a)})", self.frac(a))\n'),
     ("ir/verify.py", '"the negation")      # -min_int needs one bit more\n', "\n    visit_abs = visit_neg\n"),
     ("passes/fold_constants.py", "    visit_cast = visit_compare = visit_lut = _evaluate_only\n",
      "    visit_abs = _evaluate_only\n"),
@@ -114,6 +111,10 @@ want = np.abs(u - 0.5)
 fixed = FixedInterpreter(g).run({"u": u}).outputs["y"]
 golden = CompiledGraph(g, "fixed").run({"u": u}).outputs["y"]
 assert list(fixed) == list(golden) == list(np.round(want * 256).astype(int)), (fixed, golden)
+# the shared kernels' general form prints _FixedGen's method with its numbers as data
+wider = g.map_nodes(lambda n: n.typed(q("FIX19_9")) if n.name == "y" else n)
+shared = CompiledGraph(g, "fixed", like=wider)
+assert "qp[" in shared.source and list(shared.run({"u": u}).outputs["y"]) == list(fixed)
 assert list(FloatInterpreter(g).run({"u": u}).outputs["y"]) == list(want)
 untyped = Graph.build("abs", [n.typed(None) for n in nodes[1:]] + [make("u", Kind.CONST, value=-2.0)], [("y", "y")])
 assert [n.kind for n in fold_constants(untyped).nodes] == [Kind.CONST]

@@ -81,8 +81,8 @@ class _Gen(NodeVisitor, abstract=True):
     # -- sources and state elements --------------------------------------------------------
     def visit_const(self, node, i):
         value = float(node.params.value)
-        self.head += [self.comment(node), f"v{i} = {_i(node.qformat.from_float(value)) if self.fixed else _f(value)}",
-                      f"buf[{i}] = v{i}"]
+        text = self.lit(node.qformat.from_float(value)) if self.fixed else _f(value)
+        self.head += [self.comment(node), f"v{i} = {text}", f"buf[{i}] = v{i}"]
         return []
 
     def visit_input(self, node, i):
@@ -121,6 +121,10 @@ class _Gen(NodeVisitor, abstract=True):
     # -- state -------------------------------------------------------------------------------
     def num(self, x) -> str:
         return _i(x) if self.fixed else _f(x)
+
+    def lit(self, x: int) -> str:
+        """A node's integer (a constant, a slice's shift and mask, a gain): an int64 literal here."""
+        return _i(x)
 
     def reset(self, node) -> str:
         if node.kind is Kind.FSM:
@@ -172,7 +176,12 @@ class _Gen(NodeVisitor, abstract=True):
 
 
 class _FixedGen(_Gen):
-    """Bit-accurate int64 kernel: ``requantize`` printed inline per node."""
+    """Bit-accurate int64 kernel: ``requantize`` printed inline per node.
+
+    A visit prints a node's numbers through :meth:`lit`, its operands through :meth:`aligned` and
+    its requantisation through :meth:`rq`: the shared kernels' general form
+    (:class:`pendc.ir.shared_source._DataGen`) overrides those three and prints these same visits
+    with every number read from its data argument."""
 
     fixed = True
 
@@ -203,7 +212,7 @@ class _FixedGen(_Gen):
         a = node.inputs[0]
         c = node.params.constant
         lo, hi = self.bounds(a)
-        return self.rq(i, node, f"v{self.idx[a]} * {_i(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
+        return self.rq(i, node, f"v{self.idx[a]} * {self.lit(c)}", (min(lo * c, hi * c), max(lo * c, hi * c)),
                             self.g[a].qformat.frac + node.params.cfmt.frac)
 
     def _pair(self, node) -> tuple:
@@ -261,7 +270,8 @@ class _FixedGen(_Gen):
         hi, lo = node.params.bits(self.g[node.inputs[0]].qformat.width)
         if hi - lo + 1 > 63 or lo < 0:
             raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
-        return [f"v{i} = (v{self.idx[node.inputs[0]]} >> {min(lo, 63)}) & {_i((1 << (hi - lo + 1)) - 1)}"]
+        a = f"v{self.idx[node.inputs[0]]}"
+        return [f"v{i} = ({a} >> {self.lit(min(lo, 63))}) & {self.lit((1 << (hi - lo + 1)) - 1)}"]
 
     def visit_lut(self, node, i):
         if i in self.lut_member:

@@ -30,26 +30,30 @@ from __future__ import annotations
 
 from . import fsm as fsm_sem
 from . import lut as lut_sem
-from .compiled_source import _FixedGen, _Gen
+from .compiled_source import _FixedGen
 from .kernel_module import assemble
 from .graph import Graph
 from .qformat import Overflow, Rounding
 from .requant_source import I64_MAX, I64_MIN
 
 
-class _DataGen(_Gen):
-    """Bit-accurate int64 printer of the general form: ``qp[k]`` where the baked one prints a number."""
+class _DataGen(_FixedGen):
+    """Bit-accurate int64 printer of the general form: ``qp[k]`` where the baked one prints a number.
 
-    fixed = True
+    The baked printer's visits serve as they are: its numbers, operand alignments and
+    requantisations go through :meth:`lit`, :meth:`aligned` and :meth:`rq`, overridden here. What
+    else is overridden prints text that must not depend on the numbers (it is shared by retypings
+    that differ in them), where the baked printer leaves out what its numbers make idle."""
 
     def __init__(self, graph: Graph):
-        super().__init__(graph, runtime_resets=True)
+        super().__init__(graph, runtime_resets=True, share_lut_index=False)
         self.params: list[int] = []
 
     def comment(self, node) -> str:
+        # no Q-format: the comment is part of the shared text, and the formats differ
         return " ".join(f"# {node.name} = {node.kind.value}({', '.join(node.inputs)})".split())
 
-    def p(self, value: int) -> str:
+    def lit(self, value: int) -> str:
         """A new kernel datum ``value``: the expression that reads it."""
         value = int(value)
         if not I64_MIN <= value <= I64_MAX:
@@ -59,17 +63,19 @@ class _DataGen(_Gen):
         return f"qp[{k}]"
 
     def threshold_test(self, v, op, x, fin) -> str:
-        return f"{v} {op.symbol} {self.p(fsm_sem.threshold_int(x, fin))}"
+        # every test printed: the baked one folds a test its input's format decides
+        return f"{v} {op.symbol} {self.lit(fsm_sem.threshold_int(x, fin))}"
 
-    def v(self, name: str) -> str:
-        return f"v{self.idx[name]}"
+    def aligned(self, name: str, frac: int) -> tuple:
+        # the shift printed even when it is 0 (the baked form then prints the bare value)
+        lo, hi = self.bounds(name)
+        n = frac - self.g[name].qformat.frac
+        return f"(v{self.idx[name]} << {self.lit(n)})", (lo << n, hi << n)
 
-    def frac(self, name: str) -> int:
-        return self.g[name].qformat.frac
-
-    def rq(self, i, node, expr, frac, tgt="", flag="") -> list:
+    def rq(self, i, node, expr, rng, frac, tgt="", flag="") -> list:
         """Lines assigning ``requantize(expr, frac, node's format, ...)`` to ``tgt`` (default
-        ``v<i>``) and its overflow to ``flag`` (default ``b<i>``, then noted as the node's check)."""
+        ``v<i>``) and its overflow to ``flag`` (default ``b<i>``, then noted as the node's check).
+        Every check is printed: ``rng``, the bounds that let the baked form leave one out, is unused."""
         fmt = node.qformat
         if not flag:
             self.flags.append(i)
@@ -80,89 +86,27 @@ class _DataGen(_Gen):
         lines = [f"{t} = {expr}"]
         if node.rounding is Rounding.NEAREST:
             rs, rs1, rb = (63, 63, 1) if shift >= 64 else (shift, shift - 1, 1) if shift > 0 else (0, 0, 0)
-            lines.append(f"{y} = ({t} >> {self.p(rs)}) + (({t} >> {self.p(rs1)}) & {self.p(rb)})")
+            lines.append(f"{y} = ({t} >> {self.lit(rs)}) + (({t} >> {self.lit(rs1)}) & {self.lit(rb)})")
         else:
-            lines.append(f"{y} = {t} >> {self.p(min(max(shift, 0), 63))}")
+            lines.append(f"{y} = {t} >> {self.lit(min(max(shift, 0), 63))}")
         up, down = fmt.max_int >> ls, -((-fmt.min_int) >> ls)
-        pu, pd = self.p(up), self.p(down)
+        pu, pd = self.lit(up), self.lit(down)
         lines.append(f"{flag} = ({y} > {pu}) | ({y} < {pd})")
         if node.overflow is Overflow.SATURATE:
-            lines.append(f"{tgt} = (min(max({y}, {pd}), {pu}) << {self.p(min(ls, 63))})"
-                         f" + {self.p(fmt.max_int - (up << ls))} * ({y} > {pu})"
-                         f" + {self.p(fmt.min_int - (down << ls))} * ({y} < {pd})")
+            lines.append(f"{tgt} = (min(max({y}, {pd}), {pu}) << {self.lit(min(ls, 63))})"
+                         f" + {self.lit(fmt.max_int - (up << ls))} * ({y} > {pu})"
+                         f" + {self.lit(fmt.min_int - (down << ls))} * ({y} < {pd})")
         else:
             sx = 64 - fmt.width if fmt.signed else 0
             mask = -1 if fmt.signed else (1 << fmt.width) - 1
             keep = -1 if ls + sx < 64 else 0
-            lines.append(f"{tgt} = ((({y} & {self.p(keep)}) << {self.p(min(ls + sx, 63))}) >> {self.p(sx)})"
-                         f" & {self.p(mask)}")
+            lines.append(f"{tgt} = ((({y} & {self.lit(keep)}) << {self.lit(min(ls + sx, 63))}) >> {self.lit(sx)})"
+                         f" & {self.lit(mask)}")
         return lines
 
-    # -- sources ------------------------------------------------------------------------------
-    def visit_const(self, node, i):
-        self.head.append(self.comment(node))
-        self.head += [f"v{i} = {self.p(node.qformat.from_float(float(node.params.value)))}", f"buf[{i}] = v{i}"]
-        return []
-
-    # -- arithmetic ---------------------------------------------------------------------------
-    def aligned(self, name: str, frac: int) -> str:
-        return f"({self.v(name)} << {self.p(frac - self.frac(name))})"
-
-    def _pair(self, node) -> tuple:
-        frac = max(self.frac(x) for x in node.inputs)
-        return self.aligned(node.inputs[0], frac), self.aligned(node.inputs[1], frac), frac
-
-    def visit_gain(self, node, i):
-        a = node.inputs[0]
-        return self.rq(i, node, f"{self.v(a)} * {self.p(node.params.constant)}",
-                       self.frac(a) + node.params.cfmt.frac)
-
-    def visit_add(self, node, i):
-        x, y, frac = self._pair(node)
-        return self.rq(i, node, f"{x} + {y}", frac)
-
-    def visit_sub(self, node, i):
-        x, y, frac = self._pair(node)
-        return self.rq(i, node, f"{x} - {y}", frac)
-
-    def visit_compare(self, node, i):
-        x, y, _ = self._pair(node)
-        return [f"v{i} = int({x} {node.params.op.symbol} {y})"]
-
-    def visit_neg(self, node, i):
-        a = node.inputs[0]
-        return self.rq(i, node, f"-{self.v(a)}", self.frac(a))
-
-    def visit_mul(self, node, i):
-        a, b = node.inputs
-        return self.rq(i, node, f"{self.v(a)} * {self.v(b)}", self.frac(a) + self.frac(b))
-
-    def visit_cast(self, node, i):
-        a = node.inputs[0]
-        return self.rq(i, node, self.v(a), self.frac(a))
-
-    def visit_mux(self, node, i):
-        # a select beyond the data inputs picks the last one (pendc.ir.nodes); every candidate is
-        # computed and one selected arithmetically, as in the baked kernel
-        ins, sel = node.inputs, self.v(node.inputs[0])
-        lines, terms, flags = [], [], []
-        for j in range(1, len(ins)):
-            guard = (f"({' & '.join(f'({sel} != {m})' for m in range(len(ins) - 2))})" if j == len(ins) - 1
-                     else f"({sel} == {j - 1})")
-            guard = "" if guard == "()" else guard
-            lines += self.rq(i, node, self.v(ins[j]), self.frac(ins[j]), tgt=f"v{i}_{j}", flag=f"b{i}_{j}")
-            flags.append(f"(b{i}_{j} & {guard})" if guard else f"b{i}_{j}")
-            terms.append(f"v{i}_{j} * {guard}" if guard else f"v{i}_{j}")
-        self.flags.append(i)
-        return lines + [f"b{i} = {' | '.join(flags)}", f"v{i} = {' + '.join(terms)}"]
-
-    def visit_slice(self, node, i):
-        hi, lo = node.params.bits(self.g[node.inputs[0]].qformat.width)
-        if hi - lo + 1 > 63 or lo < 0:
-            raise ValueError(f"SLICE '{node.name}': bits {hi}..{lo} do not fit the 64-bit golden model")
-        return [f"v{i} = ({self.v(node.inputs[0])} >> {self.p(min(lo, 63))}) & {self.p((1 << (hi - lo + 1)) - 1)}"]
-
     def visit_lut(self, node, i):
+        # every step printed, interpolation and range check alike: the baked one leaves out the
+        # interpolation of a zero shift and computes a group's address once
         p = node.params
         fin = self.g[node.inputs[0]].qformat
         table, shift, bits, interp = p.table, p.shift, p.addr_bits, bool(p.interpolate)
@@ -172,17 +116,17 @@ class _DataGen(_Gen):
         if len(table) != seg + interp:
             raise ValueError(f"LUT '{node.name}': table has {len(table)} entries, expected {seg + interp}")
         self.offsets[node.name] = self.tab_len
-        off = self.p(self.tab_len)
+        off = self.lit(self.tab_len)
         self.tab_len += len(table)
         d, j, f, jj, ff, y0 = (f"{x}{i}" for x in ("d", "j", "f", "jj", "ff", "y"))
-        sh = self.p(min(shift, 63))
-        lines = [f"{d} = {self.v(node.inputs[0])} - {self.p(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {sh}",
-                 f"{f} = {d} & {self.p((1 << shift) - 1)}"]
+        sh = self.lit(min(shift, 63))
+        lines = [f"{d} = v{self.idx[node.inputs[0]]} - {self.lit(lut_sem.lo_int(p.lo, fin))}", f"{j} = {d} >> {sh}",
+                 f"{f} = {d} & {self.lit((1 << shift) - 1)}"]
         if p.periodic:
-            lines += [f"{jj} = {j} & {self.p(seg - 1)}", f"{ff} = {f}"]
+            lines += [f"{jj} = {j} & {self.lit(seg - 1)}", f"{ff} = {f}"]
             nxt = f"{jj} + 1"
         else:   # beyond the domain: the end entry, no interpolation (flagged unless exactly the end)
-            last = self.p(seg if interp else seg - 1)
+            last = self.lit(seg if interp else seg - 1)
             out = (f"({j} < 0) | ({j} > {last}) | (({j} == {last}) & ({f} != 0))" if interp
                    else f"({j} < 0) | ({j} > {last})")
             lines += [f"b{i} = {out}", f"{jj} = min(max({j}, 0), {last})", f"{ff} = {f} * (1 - b{i})"]
@@ -193,7 +137,7 @@ class _DataGen(_Gen):
         # with shift 0, ff is 0 and so is the rounding half: the interpolation adds nothing
         step = f"(tab[{off} + {nxt}] - {y0}) * {ff}"
         if node.rounding is Rounding.NEAREST:
-            step = f"({step} + {self.p(1 << (shift - 1) if shift else 0)})"
+            step = f"({step} + {self.lit(1 << (shift - 1) if shift else 0)})"
         return lines + [f"{y0} = tab[{off} + {jj}]", f"v{i} = {y0} + ({step} >> {sh})"]
 
 
