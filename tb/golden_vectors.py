@@ -1,15 +1,16 @@
 """Golden expectations for the cocotb modules: stimuli, the x4 decoder, every-step windows
-from deposited states, long runs and the overflow scenario (computed once per run)."""
+from deposited states, long runs and the overflow scenario (computed once per run). How each
+golden engine resumes from a deposited state is :mod:`resumed_runs`."""
 
 from __future__ import annotations
 
-import os
-import re
 import time
 
 import numpy as np
 
 from pendc.backend.hdl import port_formats
+from resumed_runs import (CHECK_STEPS, compiled_window, interp_window, interp_windows, port_rows, ports_of,
+                          reset_integer, reset_word, rtl_state, state_nodes)
 from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, VERSION, WINDOW, WINDOW_POINTS,
                       WINDOW_STIMULI)
 
@@ -64,106 +65,6 @@ def decode_x4(a, b) -> tuple[np.ndarray, int]:
     return np.concatenate([[0], np.cumsum(d)]), int(INVALID[s[:-1], s[1:]].sum())
 
 
-# ---------------------------------------------------------------- the HDL
-
-
-def _state_nodes(graph) -> list:
-    from pendc.ir.nodes import Kind
-    return [n for n in graph.nodes if n.kind in (Kind.REGISTER, Kind.FSM)]
-
-
-def _rtl_state(graph, state: dict) -> dict:
-    """Golden state (node -> integer) as RTL register deposits: name -> (value, width), the
-    registers the HIL harnesses deposit into (:func:`pendc.hil.plants.rtl_plant.deposit_registers`)."""
-    from pendc.hil.plants.rtl_plant import deposit_registers
-    from pendc.ir.nodes import Kind
-    out = {}
-    for n, (reg, width) in zip(_state_nodes(graph), deposit_registers(graph)):
-        v = int(state[n.name])
-        out[reg] = (v if n.kind is Kind.REGISTER else list(n.param("outputs")).index(v), width)
-    return out
-
-
-def _ports(graph):
-    from pendc.hil.plants.core_ports import CorePorts
-    return CorePorts.of_graph(graph)
-
-
-def _interp_window(graph, state: dict | None, u: np.ndarray) -> tuple[np.ndarray, dict]:
-    """Rows 0..len(u) (outputs at the start of each step) from ``state`` with inputs ``u``."""
-    from pendc.ir.interpret import FixedInterpreter
-    from pendc.ir.nodes import Kind
-
-    class Resumed(FixedInterpreter):
-        """Starts from ``state``'s integers as they are (a real reset value would round a register
-        wider than a float's 53 bits)."""
-
-        def _reset_state(self):
-            st = super()._reset_state()
-            for name, v in (state or {}).items():
-                n = self.graph[name]
-                st[name] = int(v) if n.kind is Kind.REGISTER else list(n.params.outputs).index(int(v))
-            return st
-
-    ints = [int(v) for v in u] + [int(u[-1])]
-    ports = _ports(graph)
-    tr = Resumed(graph).run({ports.input: ints}, every=1)
-    return np.stack([np.asarray(tr.outputs[p], dtype=np.int64) for p in ports.outputs], axis=1), dict(tr.overflows)
-
-
-def _window_job(args):
-    graph, state, u = args
-    return _interp_window(graph, state, u)
-
-
-# Steps at the start of every deep window that the reference interpreter recomputes: the window
-# itself comes from the compiled kernel (resumed from the deposited state); the interpreter, an
-# independent engine but far slower (most of the vectors' time when it computed every window),
-# checks that start (registers and FSMs resumed, the first steps after), and the compiled run
-# from the stimulus' start checks the window's last row.
-CHECK_STEPS = 200
-
-
-def _compiled_window(stepper, state: dict, u: np.ndarray) -> tuple[np.ndarray, dict]:
-    """As :func:`_interp_window`, by the compiled kernel: ``stepper`` (a
-    :class:`pendc.golden.GoldenStepper` of the graph) resumed from ``state`` (node -> integer,
-    FSMs as their Moore output word), one kernel call per run of equal inputs."""
-    from pendc.ir.nodes import Kind
-    graph = stepper.graph
-    stepper.reset()
-    for p, i in enumerate(stepper.state_idx):
-        n = graph.nodes[i]
-        v = int(state[n.name])
-        stepper.state[p] = list(n.param("outputs")).index(v) if n.kind is Kind.FSM else v
-    cols = [stepper.ports.index(p) for p in _ports(graph).outputs]
-    u = np.asarray(u, np.int64)
-    edges = np.flatnonzero(np.diff(u)) + 1
-    parts = []
-    for a, b in zip(np.concatenate([[0], edges]), np.concatenate([edges, [len(u)]])):
-        out = stepper.advance(int(u[a]), int(b - a), every_step=True)
-        parts.append(out[:-1, cols])
-    parts.append(out[-1:, cols])
-    return np.concatenate(parts), dict(stepper.overflows)
-
-
-def _map(fn, items: list) -> list:
-    """``map`` over two worker processes (fork) when there is enough work, else in-process."""
-    if len(items) < 4 or (os.cpu_count() or 1) < 2:
-        return [fn(i) for i in items]
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-    try:
-        ctx = mp.get_context("fork")
-    except ValueError:
-        return [fn(i) for i in items]
-    with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as pool:
-        return list(pool.map(fn, items))
-
-
-def _rows(trace, ports) -> np.ndarray:
-    return np.stack([np.asarray(trace.outputs[p], dtype=np.int64) for p in ports.outputs], axis=1)
-
-
 def _decoded(rows: np.ndarray, ports) -> np.ndarray:
     """x4 counts of every encoder after every row (one column per encoder)."""
     first = len(ports.states)
@@ -190,15 +91,15 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     from pendc.model.interface import require_interface
 
     graph = build.graph
-    ports = _ports(graph)
+    ports = ports_of(graph)
     iface = require_interface(graph)
     long_chunks = dict(LONG_CHUNKS if long_chunks is None else long_chunks)
     dt = build.options.dt
     golden = GoldenModel(graph, dt)
     view = build_view(graph, schedule=schedule_of(graph, (report.get("schedule") or {}).get("request")))
-    state_names = [n.name for n in _state_nodes(graph)]
+    state_names = [n.name for n in state_nodes(graph)]
     regs_in_rtl = {name for name, *_ in view.registers} | {f["state"] for f in view.fsms}
-    missing = set(_rtl_state(graph, {n: _reset_word(graph, n) for n in state_names})) - regs_in_rtl
+    missing = set(rtl_state(graph, {n: reset_word(graph, n) for n in state_names})) - regs_in_rtl
     if missing:
         raise RuntimeError(f"state registers not found in the emitted core: {sorted(missing)}")
     vec = {
@@ -231,16 +132,16 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
                          np.array([tr.outputs[p][row + 1] for p in ports.outputs], dtype=np.int64),
                          any(s < k0 for s in tr.overflows.values())))
         if 0 in starts:   # from reset: the compiled kernel gives every row directly
-            first = _rows(golden.run_steps(np.append(ints[:window], ints[window - 1]), every=1), ports)
+            first = port_rows(golden.run_steps(np.append(ints[:window], ints[window - 1]), every=1), ports)
             done[(name, 0)] = (first, {})
     # windows from a state deep inside a stimulus: the compiled kernel resumed from the state, its
     # first CHECK_STEPS steps recomputed by the reference interpreter (two processes)
     from pendc.golden import GoldenStepper
     todo = [j for j in jobs if (j[0], j[2]) not in done]
     stepper = GoldenStepper(graph) if todo else None
-    checks = _map(_window_job, [(graph, j[3], j[4][:CHECK_STEPS]) for j in todo])
+    checks = interp_windows(graph, [(j[3], j[4][:CHECK_STEPS]) for j in todo])
     for j, (ref_rows, ref_ovf) in zip(todo, checks):
-        rows, ovf = _compiled_window(stepper, j[3], j[4])
+        rows, ovf = compiled_window(stepper, j[3], j[4])
         n = len(ref_rows) - 1
         early = ({k: s for k, s in ovf.items() if s < n}, {k: s for k, s in ref_ovf.items() if s < n})
         if not np.array_equal(rows[:n + 1], ref_rows) or early[0] != early[1]:
@@ -257,7 +158,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
                                f"{rows[-1].tolist()} vs from the start {compiled_end.tolist()}")
         vec["windows"].append({
             "stim": name, "trained": trained, "k0": k0, "input": u_win, "rows": rows,
-            "state": _rtl_state(graph, state), "ovf_before": ovf_before,
+            "state": rtl_state(graph, state), "ovf_before": ovf_before,
             "ovf_first": min(ovf_rel.values()) if ovf_rel else None,
         })
     log(f"pendtb: {len(vec['windows'])} every-step windows of {window} steps ({time.time() - t0:.1f} s)")
@@ -274,7 +175,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         if not np.all(per_chunk == per_chunk[:, :1]):
             raise RuntimeError(f"stimulus {name} does not hold the input for {CHUNK} steps")
         tr = golden.run_steps(np.append(ints, ints[-1]), every=1)
-        rows = _rows(tr, ports)
+        rows = port_rows(tr, ports)
         cnt = _decoded(rows, ports)
         mid = chunks // 2          # a state deep in the run, for simulators too slow to get there
         at_mid = golden.run_steps(ints[:mid * CHUNK + 1], every=mid * CHUNK, record=tuple(state_names))
@@ -282,7 +183,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
             "input": per_chunk[:, 0].copy(), "rows": rows[::CHUNK].copy(),
             "cnt": cnt[::CHUNK].copy(), "decode_errors": _decode_errors(rows, ports),
             "overflows": dict(tr.overflows), "mid": mid,
-            "mid_state": _rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
+            "mid_state": rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
         }
         del tr, rows
     log(f"pendtb: long runs {long_chunks} chunks ({time.time() - t0:.1f} s)")
@@ -304,7 +205,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         n_win = k_star - k0 + 500
         state = {n: int(tr.outputs[n][k0 // CHUNK]) for n in state_names}
         u_win = ints[k0:k0 + n_win]
-        rows, ovf_rel = _interp_window(graph, state, u_win)
+        rows, ovf_rel = interp_window(graph, state, u_win)
         first_rel = min(ovf_rel.values()) if ovf_rel else None
         rel_nodes = sorted(n for n, s in ovf_rel.items() if s == first_rel)
         if first_rel != k_star - k0 or rel_nodes != nodes:
@@ -312,9 +213,9 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
                                f"interpreter step {None if first_rel is None else k0 + first_rel} {rel_nodes}")
         vec["overflow"] = {
             "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
-            "coarse": _rows(tr, ports)[: k0 // CHUNK + 1].copy(),
+            "coarse": port_rows(tr, ports)[: k0 // CHUNK + 1].copy(),
             "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows), "from_reset": True,
-            "k0": k0, "state": _rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
+            "k0": k0, "state": rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
         }
     log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
 
@@ -322,7 +223,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     for name, level in BUS_LEVELS.items():
         q = int(golden.quantize_input([stimuli.on_input(level)])[0])
         tr = golden.run_steps(np.full(BUS_STEPS + 1, q, dtype=np.int64), every=1)
-        rows = _rows(tr, ports)
+        rows = port_rows(tr, ports)
         vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}
     return vec
 
@@ -345,10 +246,10 @@ def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float
     rate = rate_of[pos]
     v0 = 0.5 * graph[rate].qformat.max_value
     start_real = {pos: _edge_of(graph, pos) - v0 * EDGE_STEPS * dt, rate: v0}
-    start = {n: _reset_integer(graph, n) for n in state_names}
+    start = {n: reset_integer(graph, n) for n in state_names}
     start.update(register_integers(graph, start_real))
     u_win = np.full(EDGE_STEPS + 1000, q_full, dtype=np.int64)
-    rows, ovf = _interp_window(graph, start, u_win)
+    rows, ovf = interp_window(graph, start, u_win)
     if not ovf:
         return {"error": f"{pos} started at the top of its format does not overflow in {len(u_win)} steps"}
     k_star = min(ovf.values())
@@ -362,7 +263,7 @@ def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float
         raise RuntimeError(f"golden engines disagree on the first overflow from the edge of {pos}: interpreter "
                            f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
     return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
-            "state": _rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
+            "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
 
 
 def _edge_of(graph, pos: str) -> float:
@@ -381,21 +282,3 @@ def _edge_of(graph, pos: str) -> float:
             edge = min(edge, float(n.params.hi))
     return edge
 
-
-def _reset_integer(graph, name) -> int:
-    """A state node's value after reset as its integer (FSMs: their Moore output word)."""
-    from pendc.ir.nodes import Kind
-    n = graph[name]
-    if n.kind is Kind.REGISTER:
-        return n.qformat.from_float(float(n.param("reset") or 0.0))
-    return _reset_word(graph, name)
-
-
-def _reset_word(graph, name):
-    n = graph[name]
-    if n.param("states") is not None:
-        return n.param("outputs")[list(n.param("states")).index(n.param("reset"))]
-    return 0
-
-
-# ---------------------------------------------------------------- preparation
