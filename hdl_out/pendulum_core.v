@@ -159,6 +159,10 @@ module pendulum_core (
     // F_fric_else_else_sgn_F_in_gain_neg = const(-105.43836522125318) : FIX32_24
     localparam signed [31:0] n_F_fric_else_else_sgn_F_in_gain_neg = -32'sd1768962228;
 
+    // u_m18_res = reg(u_m18_res_next) reset 0.0 : FIX16_26 -- rounding residue of u_m18, carried to the next
+    //     step
+    reg  signed [15:0] n_u_m18_res;
+
     // moving = cmp(dx, c_0p0) op ne : UFIX1_0
     wire signed [56:0] n_moving_a = {{1{n_dx[55]}}, n_dx};
     wire signed [56:0] n_moving_b = {{{2{n_c_0p0[31]}}, n_c_0p0}, 23'd0};
@@ -302,11 +306,18 @@ module pendulum_core (
     // enc_theta_b_level = slice(enc_theta_b_fsm) bits [0:0] : UFIX1_0 -- pendulum encoder channel B
     wire n_enc_theta_b_level = n_enc_theta_b_fsm[0];
 
-    // u_m18 = cast(u) : FIX18_12 -- u narrowed to 18 bits for a multiplier
-    wire signed [32:0] n_u_m18_r = {{1{n_u[31]}}, n_u} + 33'd8192;
+    // u_m18_fed = add(u, u_m18_res) : FIX33_26 -- u plus the last step's rounding residue of u_m18
+    wire signed [32:0] n_u_m18_fed_a = {{1{n_u[31]}}, n_u};
+    wire signed [32:0] n_u_m18_fed_b = {{17{n_u_m18_res[15]}}, n_u_m18_res};
+    wire signed [32:0] n_u_m18_fed_x = n_u_m18_fed_a + n_u_m18_fed_b;
+    wire signed [32:0] n_u_m18_fed = n_u_m18_fed_x;
+
+    // u_m18 = cast(u_m18_fed) : FIX18_12 -- u narrowed to 18 bits for a multiplier (its rounding residue fed
+    //     back)
+    wire signed [33:0] n_u_m18_r = {{1{n_u_m18_fed[32]}}, n_u_m18_fed} + 34'd8192;
     wire [13:0] n_u_m18_unused = n_u_m18_r[13:0];
-    wire signed [18:0] n_u_m18_s = n_u_m18_r[32:14];
-    wire n_u_m18_ovf = ~((&n_u_m18_s[18:17]) | ~(|n_u_m18_s[18:17]));
+    wire signed [19:0] n_u_m18_s = n_u_m18_r[33:14];
+    wire n_u_m18_ovf = ~((&n_u_m18_s[19:17]) | ~(|n_u_m18_s[19:17]));
     wire signed [17:0] n_u_m18 = n_u_m18_s[17:0];
     // n_u_m18_ovf held for the later cycles (loaded at the end of cycle 0)
     reg  n_u_m18_ovf_p;
@@ -373,11 +384,9 @@ module pendulum_core (
     reg  n_F_in_ovf_p;
 
     // F_in_is_zero = cmp(F_in, c_0p0) op eq : UFIX1_0
-    wire signed [44:0] n_F_in_is_zero_a = {{{1{n_F_in[31]}}, n_F_in}, 12'd0};
+    wire signed [44:0] n_F_in_is_zero_a = {{{1{n_F_in_p[31]}}, n_F_in_p}, 12'd0};
     wire signed [44:0] n_F_in_is_zero_b = {{13{n_c_0p0[31]}}, n_c_0p0};
     wire n_F_in_is_zero = $signed(n_F_in_is_zero_a) == $signed(n_F_in_is_zero_b);
-    // n_F_in_is_zero held for the later cycles (loaded at the end of cycle 0)
-    reg  n_F_in_is_zero_p;
 
     // F_in_sign = slice(F_in) sign bit : UFIX1_0
     wire n_F_in_sign = n_F_in[31];
@@ -411,7 +420,7 @@ module pendulum_core (
     wire signed [24:0] n_F_fric_else_else_sgn_F_in_sgn_in1_s = n_F_fric_else_else_sgn_F_in_sgn_in1_r[32:8];
     wire signed [31:0] n_F_fric_else_else_sgn_F_in_sgn_in1 =
         {{7{n_F_fric_else_else_sgn_F_in_sgn_in1_s[24]}}, n_F_fric_else_else_sgn_F_in_sgn_in1_s};
-    wire signed [31:0] n_F_fric_else_else_sgn_F_in_sgn = (n_F_in_is_zero_p == 1'd0)
+    wire signed [31:0] n_F_fric_else_else_sgn_F_in_sgn = (n_F_in_is_zero == 1'd0)
         ? n_F_fric_else_else_sgn_F_in_sgn_in0 : n_F_fric_else_else_sgn_F_in_sgn_in1;
 
     // F_fric_else_else = neg(F_fric_else_else_sgn_F_in_sgn) : FIX32_23
@@ -423,17 +432,15 @@ module pendulum_core (
     reg  n_F_fric_else_else_ovf_p;
 
     // F_in_neg = neg(F_in) : FIX32_19
-    wire signed [32:0] n_F_in_neg_x = 33'd0 - {{1{n_F_in[31]}}, n_F_in};
+    wire signed [32:0] n_F_in_neg_x = 33'd0 - {{1{n_F_in_p[31]}}, n_F_in_p};
     wire n_F_in_neg_ovf = ~((&n_F_in_neg_x[32:31]) | ~(|n_F_in_neg_x[32:31]));
     wire signed [31:0] n_F_in_neg = n_F_in_neg_x[31:0];
-    // n_F_in_neg held for the later cycles (loaded at the end of cycle 0)
-    reg  signed [31:0] n_F_in_neg_p;
-    // n_F_in_neg_ovf held for the later cycles (loaded at the end of cycle 0)
+    // n_F_in_neg_ovf held for the later cycles (loaded at the end of cycle 1)
     reg  n_F_in_neg_ovf_p;
 
     // abs_F_in = mux(F_in_sign, F_in, F_in_neg) : FIX32_19 -- |F_in|
     wire signed [31:0] n_abs_F_in_in0 = n_F_in_p;
-    wire signed [31:0] n_abs_F_in_in1 = n_F_in_neg_p;
+    wire signed [31:0] n_abs_F_in_in1 = n_F_in_neg;
     wire signed [31:0] n_abs_F_in = (n_F_in_sign_p == 1'd0) ? n_abs_F_in_in0 : n_abs_F_in_in1;
 
     // cond = cmp(abs_F_in, c_105p43836522125318) op lt : UFIX1_0
@@ -443,7 +450,7 @@ module pendulum_core (
 
     // F_fric_else = mux(cond, F_fric_else_else, F_in_neg) : FIX32_23
     wire signed [31:0] n_F_fric_else_in0 = n_F_fric_else_else;
-    wire signed [35:0] n_F_fric_else_in1_s = {n_F_in_neg_p, 4'd0};
+    wire signed [35:0] n_F_fric_else_in1_s = {n_F_in_neg, 4'd0};
     wire n_F_fric_else_in1_ovf = ~((&n_F_fric_else_in1_s[35:31]) | ~(|n_F_fric_else_in1_s[35:31]));
     wire signed [31:0] n_F_fric_else_in1 = n_F_fric_else_in1_s[31:0];
     wire n_F_fric_else_in1_ovf_sel = n_F_fric_else_in1_ovf & (n_cond == 1'd1);
@@ -721,6 +728,17 @@ module pendulum_core (
     reg  signed [55:0] n_theta_sum_p;
     // n_theta_sum_ovf held for the later cycles (loaded at the end of cycle 0)
     reg  n_theta_sum_ovf_p;
+
+    // u_m18_res_next = sub(u_m18_fed, u_m18) : FIX16_26
+    wire signed [33:0] n_u_m18_res_next_a = {{1{n_u_m18_fed[32]}}, n_u_m18_fed};
+    wire signed [33:0] n_u_m18_res_next_b = {{{2{n_u_m18[17]}}, n_u_m18}, 14'd0};
+    wire signed [33:0] n_u_m18_res_next_x = n_u_m18_res_next_a - n_u_m18_res_next_b;
+    wire n_u_m18_res_next_ovf = ~((&n_u_m18_res_next_x[33:15]) | ~(|n_u_m18_res_next_x[33:15]));
+    wire signed [15:0] n_u_m18_res_next = n_u_m18_res_next_x[15:0];
+    // n_u_m18_res_next held for the later cycles (loaded at the end of cycle 0)
+    reg  signed [15:0] n_u_m18_res_next_p;
+    // n_u_m18_res_next_ovf held for the later cycles (loaded at the end of cycle 0)
+    reg  n_u_m18_res_next_ovf_p;
 
     // theta_phase_m18 = cast(theta_phase) : FIX18_14 -- theta_phase narrowed to 18 bits for a multiplier
     wire signed [32:0] n_theta_phase_m18_r = {{1{n_theta_phase_p[31]}}, n_theta_phase_p} + 33'd8192;
@@ -1491,10 +1509,9 @@ module pendulum_core (
         if (phase == 3'd0) begin
             n_x_sum_p <= n_x_sum;
             n_theta_sum_p <= n_theta_sum;
-            n_F_in_sign_p <= n_F_in_sign;
-            n_F_in_is_zero_p <= n_F_in_is_zero;
+            n_u_m18_res_next_p <= n_u_m18_res_next;
             n_F_in_p <= n_F_in;
-            n_F_in_neg_p <= n_F_in_neg;
+            n_F_in_sign_p <= n_F_in_sign;
             n_dx_sign_p <= n_dx_sign;
             n_dx_is_zero_p <= n_dx_is_zero;
             n_moving_p <= n_moving;
@@ -1518,7 +1535,6 @@ module pendulum_core (
             n_theta_turn_m18_ovf_p <= n_theta_turn_m18_ovf;
             n_F_in_u_gain_ovf_p <= n_F_in_u_gain_ovf;
             n_F_in_ovf_p <= n_F_in_ovf;
-            n_F_in_neg_ovf_p <= n_F_in_neg_ovf;
             n_F_cart_dx_gain_ovf_p <= n_F_cart_dx_gain_ovf;
             n_tau_pend_dtheta_gain_ovf_p <= n_tau_pend_dtheta_gain_ovf;
             n_tau_pend_ovf_p <= n_tau_pend_ovf;
@@ -1529,6 +1545,7 @@ module pendulum_core (
             n_x_sum_ovf_p <= n_x_sum_ovf;
             n_theta_inc_ovf_p <= n_theta_inc_ovf;
             n_theta_sum_ovf_p <= n_theta_sum_ovf;
+            n_u_m18_res_next_ovf_p <= n_u_m18_res_next_ovf;
             n_ddx_dtheta_prod_m18_ovf_p <= n_ddx_dtheta_prod_m18_ovf;
             n_tau_pend_m18_ovf_p <= n_tau_pend_m18_ovf;
             n_x_inc_m18_ovf_p <= n_x_inc_m18_ovf;
@@ -1544,6 +1561,7 @@ module pendulum_core (
             n_F_fric_then_sgn_dx_lut_neg_p <= n_F_fric_then_sgn_dx_lut_neg;
             n_F_fric_else_p <= n_F_fric_else;
             n_F_fric_else_else_ovf_p <= n_F_fric_else_else_ovf;
+            n_F_in_neg_ovf_p <= n_F_in_neg_ovf;
             n_F_fric_else_in1_ovf_sel_p <= n_F_fric_else_in1_ovf_sel;
             n_F_fric_then_sgn_dx_lut_neg_ovf_p <= n_F_fric_then_sgn_dx_lut_neg_ovf;
             n_theta_turn_down_in1_ovf_sel_p <= n_theta_turn_down_in1_ovf_sel;
@@ -1618,6 +1636,7 @@ module pendulum_core (
             n_enc_x_b_phase <= 32'sd0;
             n_enc_theta_a_phase <= 32'sd0;
             n_enc_theta_b_phase <= 32'sd0;
+            n_u_m18_res <= 16'sd0;
         end else if (last) begin
             n_x <= n_x_sum_p;
             n_dx <= n_dx_next;
@@ -1628,6 +1647,7 @@ module pendulum_core (
             n_enc_x_b_phase <= n_enc_x_b_sum_p;
             n_enc_theta_a_phase <= n_enc_theta_a_sum_p;
             n_enc_theta_b_phase <= n_enc_theta_b_sum_p;
+            n_u_m18_res <= n_u_m18_res_next_p;
         end
     end
 
@@ -1701,17 +1721,17 @@ module pendulum_core (
         ((phase == 3'd1)
          & (n_dx_neg_ovf_p | n_abs_dx_in0_ovf_sel_p | n_u_m18_ovf_p | n_abs_dx_m29_ovf_p | n_dx_m18_ovf_p
           | n_dtheta_m18_ovf_p | n_theta_turn_m18_ovf_p | n_F_in_u_gain_ovf_p | n_F_in_ovf_p
-          | n_F_in_neg_ovf_p | n_F_fric_then_sgn_dx_lut_outside_r | n_F_cart_dx_gain_ovf_p
-          | n_tau_pend_dtheta_gain_ovf_p | n_tau_pend_ovf_p | n_theta_whole_turns_ovf_p | n_theta_phase_ovf_p
-          | n_ddx_dtheta_prod_ovf_p | n_x_inc_ovf_p | n_x_sum_ovf_p | n_theta_inc_ovf_p | n_theta_sum_ovf_p
+          | n_F_fric_then_sgn_dx_lut_outside_r | n_F_cart_dx_gain_ovf_p | n_tau_pend_dtheta_gain_ovf_p
+          | n_tau_pend_ovf_p | n_theta_whole_turns_ovf_p | n_theta_phase_ovf_p | n_ddx_dtheta_prod_ovf_p
+          | n_x_inc_ovf_p | n_x_sum_ovf_p | n_theta_inc_ovf_p | n_theta_sum_ovf_p | n_u_m18_res_next_ovf_p
           | n_ddx_dtheta_prod_m18_ovf_p | n_tau_pend_m18_ovf_p | n_x_inc_m18_ovf_p | n_theta_inc_m18_ovf_p))
         | ((phase == 3'd2)
-         & (n_F_fric_else_else_ovf_p | n_F_fric_else_in1_ovf_sel_p | n_F_fric_then_sgn_dx_lut_neg_ovf_p
-          | n_theta_turn_down_in1_ovf_sel_p | n_theta_turn_next_ovf_p | n_theta_phase_m18_ovf_p
-          | n_theta_turns_ovf_p | n_enc_x_dphi_ovf_p | n_enc_x_a_moved_ovf_p | n_enc_x_a_sum_ovf_p
-          | n_enc_x_b_moved_ovf_p | n_enc_x_b_sum_ovf_p | n_enc_theta_dphi_ovf_p | n_enc_theta_a_moved_ovf_p
-          | n_enc_theta_a_sum_ovf_p | n_enc_theta_b_moved_ovf_p | n_enc_theta_b_sum_ovf_p
-          | n_theta_turns_m29_ovf_p))
+         & (n_F_fric_else_else_ovf_p | n_F_in_neg_ovf_p | n_F_fric_else_in1_ovf_sel_p
+          | n_F_fric_then_sgn_dx_lut_neg_ovf_p | n_theta_turn_down_in1_ovf_sel_p | n_theta_turn_next_ovf_p
+          | n_theta_phase_m18_ovf_p | n_theta_turns_ovf_p | n_enc_x_dphi_ovf_p | n_enc_x_a_moved_ovf_p
+          | n_enc_x_a_sum_ovf_p | n_enc_x_b_moved_ovf_p | n_enc_x_b_sum_ovf_p | n_enc_theta_dphi_ovf_p
+          | n_enc_theta_a_moved_ovf_p | n_enc_theta_a_sum_ovf_p | n_enc_theta_b_moved_ovf_p
+          | n_enc_theta_b_sum_ovf_p | n_theta_turns_m29_ovf_p))
         | ((phase == 3'd3)
          & (n_F_cart_acc_ovf_p | n_F_cart_ovf_p | n_ddx_F_cart_lut_m18_ovf_p | n_ddx_tau_pend_lut_m18_ovf_p
           | n_ddx_dtheta_lut_m18_ovf_p | n_ddtheta_tau_pend_lut_m18_ovf_p | n_ddtheta_dtheta_lut_m18_ovf_p))

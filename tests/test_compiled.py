@@ -329,3 +329,33 @@ def test_cache_dir_from_environment(tmp_path, monkeypatch):
     np.testing.assert_array_equal(trace.outputs["b"], [8, -8, 64, -64])
     assert trace.overflows == FixedInterpreter(g).run(inputs).overflows == {}
     assert list(tmp_path.glob("kernels/pendc_ir_*.py"))
+
+
+def test_float_kernel_resumes_where_it_stopped(hand):
+    """The float kernel is resumable like the fixed one (pendc.ir.resumable): a run in two calls,
+    the second from the state the first left (registers and FSM states in float64), records every
+    node exactly as one call does; and a state edited in between is where the second call starts."""
+    from pendc.ir.resumable import reset_state, state_indices
+    g, _ = hand
+    flt = CompiledGraph(g, "float")
+    inputs = random_inputs(600, seed=3)
+    whole = flt.run(inputs)
+    ins = np.ascontiguousarray(np.stack([np.asarray(inputs[n.params.port], float)
+                                         for n in g.nodes if n.kind is Kind.INPUT]))
+    sel = np.array([flt.index[node] for _, node in g.outputs], np.int64)
+    st = reset_state(g, "float")
+    assert st.dtype == np.float64 and np.array_equal(st, flt.start)
+    parts = []
+    for k, n in ((0, 250), (250, 350)):
+        out = np.empty((len(sel), n), np.float64)
+        flt.call(np.ascontiguousarray(ins[:, k:k + n]), n, 1, sel, out, np.full(len(g.nodes), -1, np.int64), st, k)
+        parts.append(out)
+    joined = np.concatenate(parts, axis=1)
+    for j, (port, _) in enumerate(g.outputs):
+        np.testing.assert_array_equal(joined[j], whole.outputs[port], err_msg=port)
+    reg = next(p for p, i in enumerate(state_indices(g)) if g.nodes[i].kind is Kind.REGISTER)
+    st[reg] = 1.5
+    out = np.empty((len(sel), 1), np.float64)
+    flt.call(np.ascontiguousarray(ins[:, :1]), 1, 1, sel, out, np.full(len(g.nodes), -1, np.int64), st, 600)
+    name = g.nodes[state_indices(g)[reg]].name            # the hand graph outputs every node
+    assert out[[node for _, node in g.outputs].index(name), 0] == 1.5

@@ -14,6 +14,9 @@ from pendc.ir.verify import verify
 from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float, float_twin,
                                        interpolation_error, meet_error_budget)
 from pendc.passes.pipeline import BuildOptions, compile_model
+from pendc.cli.heldout import CLASSES, format_budget, held_out_check, held_out_stimuli
+from pendc.passes.segmented_error import Decisions, compare_segmented
+from pendc.sim.stimuli import Stimuli
 from pendc.passes.qformats import assign_qformats
 from pendc.passes.ranges import analyze_ranges
 from pendc.passes.tabulate import fill_lut_tables, tabulate_luts
@@ -44,7 +47,7 @@ def test_report_is_within_budget_when_met(build):
     assert rep is not None and rep.met
     assert rep.budgets == pendc.load_model().interface.budgets() == {"x": 2.5e-6 / 2, "theta": 3.14e-4 / 2}
     assert rep.seconds == pytest.approx(min(OPTIONS.check_seconds, 5.0 * OPTIONS.training_scale))
-    assert set(rep.errors) == {"chirp", "swing_up"}
+    assert set(rep.errors) == set(rep.plain) == set(rep.restarts) == {"chirp", "swing_up", "steps"}
     for stim, errs in rep.errors.items():
         assert set(errs) == set(STATES)
         for s, budget in rep.budgets.items():
@@ -57,9 +60,14 @@ def test_report_is_within_budget_when_met(build):
 
 def test_report_errors_are_reproducible(build):
     rep = build.error
-    errors, node_errors = compare_fixed_float(build.graph, check_stimuli(DEFAULT.interface.input, rep.seconds), DT)
-    assert errors == rep.errors
+    stimuli = check_stimuli(DEFAULT.interface.input, rep.seconds)
+    errors, node_errors = compare_fixed_float(build.graph, stimuli, DT)
+    assert errors == rep.plain
     assert node_errors == rep.node_errors
+    runs = compare_segmented(build.graph, stimuli, DT)
+    assert {k: r.segmented for k, r in runs.items()} == rep.errors
+    assert {k: r.restarts for k, r in runs.items()} == rep.restarts
+    assert {k: r.plain for k, r in runs.items()} == errors      # its plain run is the plain comparison
     for s in STATES:                   # the sampled node errors include the states
         assert node_errors[s] <= max(e[s] for e in errors.values()) + 1e-300
     assert not [n for n in node_errors if build.graph[n].kind is Kind.CONST]
@@ -206,8 +214,10 @@ def test_budget_loop_widens_products_after_accumulators():
 
 
 def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
-    """The float twin of rounds that differ in their operand CASTs is one kernel source, and it
-    computes every node's value exactly as the graph with its CASTs does."""
+    """The float twin of rounds that differ in their operand CASTs is one kernel source while the
+    same inputs are narrowed (a narrowed input brings its error feedback: a level that stops
+    narrowing it drops exactly those nodes), and it computes every node's value exactly as the
+    graph with its CASTs does (the fed-back residue is zero in real numbers)."""
     from pendc.ir.compiled import CompiledGraph
     from pendc.ir.kernel_module import kernel_source
     from pendc.passes.ranges import per_step
@@ -218,11 +228,15 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
     products = ("dx_inc", "x_inc", "dtheta_inc", "theta_inc", "y")
     graphs = [fill_lut_tables(assign_qformats(tab, ranges, widen=widen, shape=(18, 18),
                                               levels={p: level for p in products}))
-              for widen, level in (({}, 0), ({s: MAX_WIDEN for s in STATES}, 0), ({s: MAX_WIDEN for s in STATES}, 2))]
+              for widen, level in (({}, 0), ({s: MAX_WIDEN for s in STATES}, 0), ({s: MAX_WIDEN for s in STATES}, 1),
+                                   ({s: MAX_WIDEN for s in STATES}, 2))]
     casts = [{n.name for n in x.of_kind(Kind.CAST)} for x in graphs]
     assert casts[0] != casts[1] or casts[1] != casts[2]          # the rounds really differ in their CASTs
     twins = [float_twin(x) for x in graphs]
-    assert len({kernel_source(t, "float")[0] for t, _ in twins}) == 1
+    assert len({kernel_source(t, "float")[0] for t, _ in twins[:3]}) == 1
+    feedback = {n.name for n in twins[2][0].nodes} - {n.name for n in twins[3][0].nodes}
+    assert {n.name for n in twins[3][0].nodes} < {n.name for n in twins[2][0].nodes}
+    assert len(feedback) == 3 and all(f.startswith("u_m") for f in feedback)      # fed, res, res_next
     t, u = check_stimuli(DEFAULT.interface.input, seconds)["swing_up"]
     steps = {"u": per_step(np.asarray(u, float), np.asarray(t, float), DT)}
     for graph, (twin, alias) in zip(graphs, twins):
@@ -233,3 +247,68 @@ def test_float_twin_is_the_graph_without_casts_whatever_the_levels():
         short = CompiledGraph(twin, "float").run(steps, every=7, record=kept)
         for n in names:
             np.testing.assert_array_equal(short.outputs[alias.get(n, n)], full.outputs[n], err_msg=n)
+
+
+# -- the segmented form and the held-out check (issue 23 item 3) ----------------------------------
+
+def test_decisions_are_the_discontinuities_the_states_read(build):
+    """The friction's branches are decisions; an absolute value, the velocity clamp and the turn
+    counter's wrap are not (continuous, or bookkeeping that no state reads)."""
+    d = Decisions(build.graph)
+    assert "F_fric" in d.decisions and "F_fric_then_sgn_dx_sgn_signed" in d.decisions
+    for continuous in ("abs_dx", "abs_F_in", "dx_upper", "dx_next", "theta_turn_step"):
+        assert build.graph[continuous].kind is Kind.MUX and continuous not in d.decisions, continuous
+    assert sorted(d.registers) == sorted(STATES + ("u_m18_res",))      # a restart loads the states and the residue
+    assert d.guards["F_fric"] == frozenset({()})           # read by the states whatever is selected
+
+
+def test_segmented_run_is_the_plain_one_until_a_decision_differs(build):
+    """Held levels that reverse the cart: the fixed run restarts where a friction decision first
+    differs, and up to that step the segmented error is the plain one."""
+    on = Stimuli(DEFAULT.interface.input)
+    t, u = on.steps(duration=0.1, levels=(1.2, -1.2, 0.9, -0.9))
+    run = compare_segmented(build.graph, {"s": (t, u)}, DT)["s"]
+    assert run.restarts >= 1 and run.restart_steps[0] > 0
+    cut = run.restart_steps[0] // 1000                          # whole input samples (1 ms) before it
+    early = compare_segmented(build.graph, {"s": (t[:cut + 1], u[:cut + 1])}, DT)["s"]
+    assert early.restarts == 0 and early.segmented == early.plain
+
+
+def test_a_held_input_feeds_its_rounding_back(build):
+    """The 18-bit input operand of the drive force rounds a held input differently step by step,
+    so that its values average to the input (a single rounding is off by up to 2**-13 V)."""
+    from pendc.ir.compiled import CompiledGraph, quantize
+    g = build.graph
+    cast = next(n for n in g.of_kind(Kind.CAST) if g[n.inputs[0]].kind is Kind.ADD
+                and g[g[n.inputs[0]].inputs[0]].kind is Kind.INPUT)
+    assert g[f"{cast.name}_res"].kind is Kind.REGISTER
+    volts = 6.0646
+    ins = quantize(np.full(4096, volts), g["u"].qformat)
+    seen = CompiledGraph(g).run({"u": ins}, record=(cast.name,)).outputs[cast.name] * cast.qformat.lsb
+    assert abs(np.round(volts / cast.qformat.lsb) * cast.qformat.lsb - volts) > cast.qformat.lsb / 4
+    assert abs(seen.mean() - volts) < cast.qformat.lsb / 1000
+
+
+def test_held_out_check_runs_one_input_per_class(build):
+    rep = held_out_check(build)
+    assert rep["seconds"] == build.error.seconds and rep["form"] == build.error.form
+    assert tuple(rep["stimuli"]) == CLASSES and not rep["skipped"] and rep["overflow"] is None
+    stimuli, _ = held_out_stimuli(build, rep["seconds"])
+    checks = check_stimuli(DEFAULT.interface.input, rep["seconds"])
+    for name, (t, u) in stimuli.items():                # none of them is a check stimulus
+        assert not any(len(u) == len(c) and np.allclose(u, c) for _, c in checks.values()), name
+    runs = compare_segmented(build.graph, stimuli, DT)
+    for name, r in rep["stimuli"].items():               # the report's numbers are the comparison's
+        assert r["errors"] == runs[name].segmented and r["plain"] == runs[name].plain
+        assert r["met"] == all(r["errors"][s] <= b for s, b in rep["budgets"].items()), name
+        assert r["errors"]["x"] > 0 and r["errors"]["theta"] > 0
+    assert rep["met"]
+    text = "\n".join(format_budget(build.error.to_json(), rep))
+    assert "held out" in text and all(name in text for name in CLASSES) and "OVER" not in text
+
+
+def test_held_out_check_fails_on_a_shrunk_budget(build):
+    small = {s: b / 1000 for s, b in build.error.budgets.items()}
+    rep = held_out_check(build, budgets=small)
+    assert not rep["met"] and all("x" in r["over"] and not r["met"] for r in rep["stimuli"].values())
+    assert "NOT met" in "\n".join(format_budget(build.error.to_json(), rep))

@@ -14,38 +14,40 @@ typed graph over check stimuli and, while a state's error exceeds its budget,
    quarters that error).
 
 The float twin is the same graph in real arithmetic with exact table functions, so the
-measured error is the fixed-point implementation's alone.
+measured error is the fixed-point implementation's alone. It is measured in the segmented form
+(:mod:`.segmented_error`: restarted where a discontinuity's decision differs), and the check
+stimuli include held input levels: a held input's rounding is an offset that integrates into a
+drift, which a sweeping input averages away (issue 23: 24 um on held steps with the 18-bit input
+operand that the chirp and swing-up passed).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..ir import lut as lut_sem
-from ..ir.compiled import run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.shared_source import same_structure
-from ..model.interface import graph_interface, require_interface
+from ..model.interface import require_interface
 from ..sim.stimuli import Stimuli
-from .ranges import input_port, per_step
+from .segmented_error import FORM, compare_segmented
+from .twin import BudgetError, budget_states, compare_fixed_float, float_twin  # noqa: F401  (their old home)
 
 WIDEN_STEP = 8               # fraction bits added to the state accumulators per round
 MAX_WIDEN = 24               # at most this many in all
 MAX_GROWN_ADDR_BITS = 13     # the budget grows a table up to 2**13 segments (the IR allows more: limits.py)
 
 
-class BudgetError(ValueError):
-    """The check run overflowed: a range problem that more fraction bits cannot fix."""
-
-
 @dataclass(frozen=True)
 class ErrorReport:
-    """``errors[stimulus][state]`` = max |fixed - float| over the check horizon (final graph);
-    ``node_errors[node]`` = max |fixed - float| of every node (sampled); ``actions`` lists
-    what each round changed; ``met`` tells whether every budget holds."""
+    """``errors[stimulus][state]`` = max |fixed - float| over the check horizon in the segmented
+    form (final graph; ``form`` says what that is), ``plain`` the same without restarts and
+    ``restarts[stimulus]`` how often the segmented run restarted; ``node_errors[node]`` = max
+    |fixed - float| of every node (sampled); ``actions`` lists what each round changed; ``met``
+    tells whether every budget holds."""
 
     budgets: dict
     errors: dict
@@ -56,99 +58,26 @@ class ErrorReport:
     met: bool
     seconds: float
     levels: dict = None               # product -> operand level (0: one DSP block); None: not fitted
+    plain: dict = None
+    restarts: dict = None
+    form: str = FORM
 
     def to_json(self) -> dict:
         return dict(self.__dict__, actions=list(self.actions))
 
 
 def check_stimuli(inp, seconds: float) -> dict:
-    """The first ``seconds`` of the standard 20 s chirp and 5 s swing-up-like input on the input
-    ``inp`` (an InputSpec; the signals the ranges were trained on, so a short check never
-    leaves the trained range)."""
+    """The first ``seconds`` of the standard 20 s chirp and 5 s swing-up-like input, and the
+    standard steps' five held levels in ``seconds``, on the input ``inp`` (an InputSpec; the
+    signals and levels the ranges were trained on, so a short check never leaves the trained
+    range). The steps hold the input: a sweep averages an input's rounding, a held level does not."""
     out = {}
     on = Stimuli(inp)
-    for name, (t, u) in {"chirp": on.chirp(), "swing_up": on.swing_up()}.items():
+    for name, (t, u) in {"chirp": on.chirp(), "swing_up": on.swing_up(),
+                         "steps": on.steps(duration=max(seconds, 0.01))}.items():
         n = int(np.searchsorted(t, max(seconds, 0.01) + 1e-9))
         out[name] = (t[:n], u[:n])
     return out
-
-
-def budget_states(graph: Graph) -> tuple:
-    """The states whose error is measured and whose accumulators the budget widens: the states
-    the plant interface reports (for a graph built by hand, its outputs that are registers)."""
-    iface = graph_interface(graph)
-    if iface is not None:
-        return iface.outputs
-    return tuple(port for port, node in graph.outputs if graph[node].kind is Kind.REGISTER)
-
-
-def float_twin(graph: Graph) -> tuple[Graph, dict]:
-    """The graph without its CASTs, in an order independent of where they stood, and {CAST: the
-    node whose value it has}. A CAST is the identity in real arithmetic, and the budget's rounds
-    differ mostly in the operand CASTs in front of products: their float twins then print the
-    same kernel source, so one compile serves every round (numbers are bit-identical: every
-    evaluation order of the same nodes computes the same values)."""
-    alias = {}
-    for n in graph.nodes:        # evaluation order: a chain of CASTs resolves to its first input
-        if n.kind is Kind.CAST:
-            alias[n.name] = alias.get(n.inputs[0], n.inputs[0])
-    nodes = [replace(n, inputs=tuple(alias.get(i, i) for i in n.inputs))
-             for n in sorted(graph.nodes, key=lambda n: n.name) if n.kind is not Kind.CAST]
-    outputs = tuple((port, alias.get(node, node)) for port, node in graph.outputs)
-    return Graph.build(graph.name, nodes, outputs, graph.info), alias
-
-
-def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "compiled",
-                        every: int = 1000, like: Graph | None = None,
-                        float_runs: dict | None = None, states: bool = True, nodes: bool = True) -> tuple:
-    """Per stimulus and state the max |fixed - float|, and per node the sampled max |fixed - float|
-    (``like``: an earlier typing whose kernel this one may share, see CompiledGraph); ``states``
-    or ``nodes`` False leaves that half out (None in its place: each is a run of every stimulus).
-
-    ``float_runs``: a dict kept across calls on the same ``stimuli`` (the budget's rounds). The
-    rounds' float twins mostly print the same kernel with the same data, so they compute the
-    same numbers: a run is looked up by everything it reads instead of run again."""
-    from ..ir.compiled import CompiledGraph, quantize
-    names = tuple(n.name for n in graph.nodes if n.kind not in (Kind.CONST,))
-    twin, alias = float_twin(graph)
-    fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
-    errors, node_errors = ({} if states else None), ({n: 0.0 for n in names} if nodes else None)
-    compared, port = budget_states(graph), input_port(graph)
-    in_fmt = next(n.qformat for n in graph.of_kind(Kind.INPUT))
-    recorded = tuple(sorted({alias.get(n, n) for n in names}))     # in no round's order: rounds share the run
-    for name, (t, u) in stimuli.items():
-        steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
-        ints = {port: quantize(steps[port], in_fmt)}      # what each fixed run would quantise anew
-        if states:
-            a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
-            if a.overflows:
-                node, step = min(a.overflows.items(), key=lambda kv: (kv[1], kv[0]))
-                raise BudgetError(f"node '{node}' left its range at step {step} of check stimulus '{name}': the "
-                                  f"training ranges do not cover it (raise margin_bits or override its range)")
-            errors[name] = {s: float(np.max(np.abs(a.outputs[s] * graph.output(s).qformat.lsb - b.outputs[s])))
-                            for s in compared}
-        if nodes:
-            sa, sb = run_side_by_side([lambda: fixed.run(ints, every=every, record=names),
-                                       lambda: _float_run(flt, steps, name, float_runs, every=every,
-                                                          record=recorded)])
-            for n in names:
-                lsb = graph[n].qformat.lsb
-                diff = np.abs(np.asarray(sa.outputs[n], np.float64) * lsb
-                              - np.asarray(sb.outputs[alias.get(n, n)], np.float64))
-                node_errors[n] = max(node_errors[n], float(np.max(diff)) if diff.size else 0.0)
-    return errors, node_errors
-
-
-def _float_run(flt, steps: dict, stimulus: str, memo: dict | None, every: int = 1, record: tuple = ()):
-    """``flt.run(steps, every=, record=)``, or the same run's Trace from ``memo``: the key holds the
-    kernel source, its tables and resets, the stimulus and what is recorded (the inputs of one
-    stimulus name are the same within one budget)."""
-    if memo is None:
-        return flt.run(steps, every=every, record=record)
-    key = (flt.source, flt.tables.tobytes(), flt.resets.tobytes(), stimulus, every, record)
-    if key not in memo:
-        memo[key] = flt.run(steps, every=every, record=record)
-    return memo[key]
 
 
 def interpolation_error(node, fin) -> float:
@@ -188,7 +117,8 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         def node_errors_now():      # a second run of every stimulus: only when a decision or the report reads it
             return compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, states=False)[1]
 
-        errors, _ = compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, nodes=False)
+        runs = compare_segmented(graph, stimuli, dt, like=like, plain=False)
+        errors = {k: r.segmented for k, r in runs.items()}
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
@@ -221,10 +151,12 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     if node_errors is None:
         node_errors = node_errors_now()
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
+    plain = compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, nodes=False)[0]
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
                          addr_bits={n.name: n.params.addr_bits for n in graph.of_kind(Kind.LUT)},
                          actions=tuple(actions), met=met, seconds=seconds,
-                         levels=dict(sorted(used.items())) if products else None)
+                         levels=dict(sorted(used.items())) if products else None, plain=plain,
+                         restarts={k: r.restarts for k, r in runs.items()})
     return graph, report
 
 
@@ -246,7 +178,8 @@ def _products_to_widen(graph: Graph, node_errors: dict, levels: dict, max_level:
 def injected_error(graph: Graph, node) -> float:
     """Relative error a product's narrow formats add by themselves: a coefficient's (or a
     table's) rounding is systematic and counts fully; rounding a narrowed operand is noise
-    that integrators average, so it counts half."""
+    that integrators average, so it counts half (a held input's too: its narrowing feeds its
+    residue back, :func:`pendc.passes.qformats.assign_qformats`)."""
     total = 0.0
     if node.kind is Kind.GAIN:
         c, cf = node.params.value, node.params.cfmt

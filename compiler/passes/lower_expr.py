@@ -25,6 +25,12 @@ def turn_counter(state: str) -> str:
     return f"{state}_turn"
 
 
+def turn_registers(state: str) -> tuple:
+    """The registers that count a periodic state's whole turns (the counter and, with
+    ``turns_phase``, period x turns): bookkeeping for periodic tables, not the plant's state."""
+    return turn_counter(state), f"{state}_whole_turns"
+
+
 class ExpressionLowerer:
     """Turns sympy expressions into nodes, sharing structurally equal subexpressions."""
 
@@ -196,7 +202,7 @@ class ExpressionLowerer:
         """``period x turns`` held in a register loaded with ``period x turns_next``: the
         product runs at the end of the previous step, off the path from the state register to
         the tables (``turns_phase``; in real numbers the same value as the default's product)."""
-        name, counter = f"{spec.name}_whole_turns", turn_counter(spec.name)
+        counter, name = turn_registers(spec.name)
         bound = spec.period * (spec.turns + 1)
         self.nodes.append(make(f"{name}_next", Kind.GAIN, [f"{counter}_next"], value=spec.period, max_abs=bound,
                                meaning=f"{spec.quantity} of the whole turns of the next step ({spec.unit})"))

@@ -168,7 +168,14 @@ def accumulator_chain(graph: Graph, register: str) -> list:
 
 def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
     """Insert a CAST in front of every multiplier operand wider than its limit (dropping
-    fraction bits), and in front of a table input whose interpolation fraction would be."""
+    fraction bits), and in front of a table input whose interpolation fraction would be.
+
+    The plant's input is held for a control period, so rounding it once is an offset over the
+    hold that the integrators turn into a drift (issue 23: a held step parted x from its float
+    twin by 24 um in 2 s through the 18-bit input operand of the drive force). A narrowed signed
+    input therefore carries its rounding residue into the next step's narrowing (error
+    feedback): the narrowed values average to the exact input, for a register and two adders
+    instead of a wider product. In real arithmetic the residue is zero."""
     from ..ir import lut as lut_sem
     casts, nodes = {}, []
 
@@ -179,9 +186,15 @@ def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
         key = (i, bits)
         if key not in casts:
             narrow = QFormat(fmt.signed, bits, fmt.frac - (fmt.width - bits))
-            casts[key] = make(f"{i}_m" if bits == MULT_OPERAND_BITS else f"{i}_m{bits}", Kind.CAST, [i],
-                              qformat=narrow, meaning=f"{i} narrowed to {bits} bits for a multiplier")
+            name = f"{i}_m" if bits == MULT_OPERAND_BITS else f"{i}_m{bits}"
+            held = graph[i].kind is Kind.INPUT and fmt.signed
+            source = _error_feedback(i, name, fmt, narrow, feedback) if held else i
+            casts[key] = make(name, Kind.CAST, [source], qformat=narrow,
+                              meaning=f"{i} narrowed to {bits} bits for a multiplier"
+                              + (" (its rounding residue fed back)" if held else ""))
         return casts[key].name
+
+    feedback = []
 
     for node in graph.nodes:
         if node.kind in (Kind.GAIN, Kind.MUL):
@@ -198,4 +211,19 @@ def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
         nodes.append(node)
     if not casts:
         return graph
-    return graph.with_nodes(nodes + list(casts.values()))
+    return graph.with_nodes(nodes + feedback + list(casts.values()))
+
+
+def _error_feedback(source: str, cast: str, fmt: QFormat, narrow: QFormat, out: list) -> str:
+    """Nodes (appended to ``out``) that add the last step's rounding residue of ``cast`` (the
+    narrowing of ``source``, format ``fmt``, to ``narrow``) to ``source``; returns the sum's
+    name, what ``cast`` narrows. The residue is within half an LSB of ``narrow``; its format
+    holds twice that."""
+    residue = QFormat(True, fmt.frac - narrow.frac + 2, fmt.frac)
+    fed, res = f"{cast}_fed", f"{cast}_res"
+    out += [make(fed, Kind.ADD, [source, res], qformat=QFormat(True, fmt.width + 1, fmt.frac),
+                 meaning=f"{source} plus the last step's rounding residue of {cast}"),
+            make(f"{res}_next", Kind.SUB, [fed, cast], qformat=residue),
+            make(res, Kind.REGISTER, [f"{res}_next"], qformat=residue, reset=0.0,
+                 meaning=f"rounding residue of {cast}, carried to the next step")]
+    return fed

@@ -61,6 +61,16 @@ def random_levels(duration=5.0, hold=0.05, amplitude=4.5, fs=1000.0, seed=2):
     return t, levels[(t / hold).astype(int)]
 
 
+def switching(duration=5.0, hold=(0.01, 0.1), seed=3, fs=1000.0):
+    """The input's two ends in turn (levels of a whole span either way, clipped to the range on an
+    input): a bang-bang drive, switching after random holds drawn uniformly from ``hold`` s."""
+    rng = np.random.default_rng(seed)
+    t = _time(duration, fs)
+    edges = np.cumsum(rng.uniform(*hold, size=int(np.ceil(duration / hold[0])) + 1))
+    first = rng.integers(0, 2)
+    return t, np.where((first + np.searchsorted(edges, t, side="right")) % 2, REFERENCE_SPAN, -REFERENCE_SPAN)
+
+
 @dataclass(frozen=True)
 class Stimuli:
     """The standard signals on one input (an :class:`~pendc.model.interface.InputSpec`):
@@ -97,6 +107,10 @@ class Stimuli:
     def random_levels(self, **kw):
         """:func:`random_levels` on this input."""
         return self._put(random_levels(**kw))
+
+    def switching(self, **kw):
+        """:func:`switching` on this input."""
+        return self._put(switching(**kw))
 
     def named(self) -> dict:
         """The standard set used to train ranges and to test: name -> (t, u)."""
