@@ -38,7 +38,7 @@ from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.resumable import state_indices
 from ..model.interface import graph_interface
-from .lower_expr import turn_registers
+from .lower_turns import turn_registers
 from .ranges import per_step
 from .twin import BudgetError, budget_states, float_twin
 
