@@ -95,8 +95,9 @@ class Decisions:
         self.decisions = tuple(m for m in muxes if not _continuous(graph, graph[m]))
         memo: dict = {}
         self.guards = {m: self._guards(m, consumers, memo) for m in self.decisions}
-        used = {m for m in self.decisions} | {c for terms in self.guards.values() for t in terms for c, _ in t}
-        self.selects = tuple(sorted({graph[m].inputs[0] for m in used}))
+        self.muxes = tuple(sorted(set(self.decisions) | {c for terms in self.guards.values() for t in terms
+                                                          for c, _ in t}))      # the MUXes a verdict reads
+        self.selects = tuple(sorted({graph[m].inputs[0] for m in self.muxes}))
 
     def _guards(self, name: str, consumers: dict, memo: dict) -> frozenset:
         """When ``name``'s value reaches a register: a set of terms, each a tuple of (MUX, data
@@ -123,16 +124,17 @@ class Decisions:
         memo[name] = frozenset(terms)
         return memo[name]
 
-    def _choice(self, sel: dict, mux: str) -> np.ndarray:
-        node = self.graph[mux]
-        return np.minimum(sel[node.inputs[0]].astype(np.int64), len(node.inputs) - 2)
+    def _choices(self, sel: dict) -> dict:
+        """MUX -> the data input it selects per step (a select beyond them picks the last)."""
+        return {m: np.minimum(sel[self.graph[m].inputs[0]].astype(np.int64), len(self.graph[m].inputs) - 2)
+                for m in self.muxes}
 
-    def _live(self, sel: dict, mux: str, n: int) -> np.ndarray:
+    def _live(self, choice: dict, mux: str, n: int) -> np.ndarray:
         out = np.zeros(n, bool)
         for term in self.guards[mux]:
             ok = np.ones(n, bool)
-            for c, picks in term:
-                ok &= np.isin(self._choice(sel, c), list(picks))
+            for c, picks in term:            # a MUX's data input is mostly one of its inputs: compare
+                ok &= (choice[c] == next(iter(picks))) if len(picks) == 1 else np.isin(choice[c], list(picks))
             out |= ok
         return out
 
@@ -140,10 +142,11 @@ class Decisions:
         """Per step: some decision differs between the runs where its MUX is live in either
         (``*_sel``: select node -> its values over the ``n`` steps)."""
         out = np.zeros(n, bool)
+        a, b = self._choices(fixed_sel), self._choices(float_sel)
         for m in self.decisions:
-            split = self._choice(fixed_sel, m) != self._choice(float_sel, m)
+            split = a[m] != b[m]
             if split.any():
-                out |= split & (self._live(fixed_sel, m, n) | self._live(float_sel, m, n))
+                out |= split & (self._live(a, m, n) | self._live(b, m, n))
         return out
 
 
