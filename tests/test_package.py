@@ -54,6 +54,8 @@ def test_every_module_the_compile_imports_changes_the_cache_key(tmp_path, monkey
 
 
 def run(cmd, **kw):
+    # a PYTHONPATH naming a source checkout shows pip its pendc.egg-info: "already satisfied", nothing installed
+    kw.setdefault("env", {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")})
     out = subprocess.run(cmd, capture_output=True, text=True, **kw)
     assert out.returncode == 0, f"{' '.join(map(str, cmd))} failed:\n{out.stdout[-2000:]}\n{out.stderr[-2000:]}"
     return out
