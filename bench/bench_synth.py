@@ -1,6 +1,6 @@
 """Benchmark: synthesis of the default model's core per schedule preset and FPGA target, against the thesis.
 
-For each preset (``fast``, ``default`` and ``small``; ``comb`` and ``fmax`` on request) the default
+For each preset (``thesis``, ``fast``, ``default`` and ``small``; ``comb`` and ``fmax`` on request) the default
 model's HDL is emitted into a temporary folder (what ``pendc build --preset P`` writes: the same
 Verilog for every target) and ``pendc report synth`` runs on it for each target (``--targets``;
 default ``ecp5-85k``: Yosys ``synth_ecp5`` + nextpnr-ecp5, LFE5U-85F speed 6, out of context;
@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     from pendc.synth.flow import TARGETS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="bench/out/synth.json")
-    ap.add_argument("--presets", default="fast,default,small", help="comma-separated (comb and fmax too)")
+    ap.add_argument("--presets", default="thesis,fast,default,small", help="comma-separated (comb and fmax too)")
     ap.add_argument("--target", help="one target (the same as --targets NAME)")
     ap.add_argument("--targets", default="ecp5-85k", help="comma-separated targets (TARGET:P1+P2 runs only those "
                     "presets on it), or 'all': every target with an open place-and-route "
