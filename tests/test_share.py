@@ -88,7 +88,8 @@ def test_narrowing_finds_the_products_the_budget_needs(plant, monkeypatch):
     raised = sorted(p for p in products_of(wide) if dsp_for(*product_widths(wide, wide[p]), SHAPE) > 1)
     assert len(raised) >= 4
     needed = {raised[1]}
-    checks, asked = [], []
+    validated = {raised[-1]}        # held on the check stimuli, misses on the validation inputs
+    checks, asked, valid_checks = [], [], []
 
     def typed(widen, addr, levels):
         assert widen == {"x": 8}
@@ -101,13 +102,22 @@ def test_narrowing_finds_the_products_the_budget_needs(plant, monkeypatch):
         checks.append(lowered)
         return g, _report(not (lowered & needed))
 
+    def fake_validation(graph, budgets, dt, seconds):
+        lowered = {p for p, lv in asked[-1].items() if lv == 0}
+        valid_checks.append(lowered)
+        return {"x": 2.0 if lowered & validated else 0.5}
+
     monkeypatch.setattr(narrow_mod, "meet_error_budget", fake_budget)
+    monkeypatch.setattr(narrow_mod, "validation_errors", fake_validation)
     report = _report(True, {p: 1 for p in raised})
     graph, out = narrow_mod.narrow_products(typed, wide, report, {"x": 1.0}, 1e-6, 0.1, SHAPE)
-    assert out.levels == {p: (1 if p in needed else 0) for p in raised}
+    assert out.levels == {p: (1 if p in needed | validated else 0) for p in raised}
     assert out.actions[0] == "budget" and "one DSP block" in out.actions[-1] and out.widened == {"x": 8}
+    assert "validation inputs (worst x 0.5)" in out.actions[-1]
     assert _blocks(graph) < _blocks(wide)
     assert len(checks) < 2 * len(raised)
+    # the validation inputs run only where the check stimuli held
+    assert valid_checks and all(not (c & needed) for c in valid_checks)
     # a budget that needs every wide product: nothing changes
     needed = set(raised)
     same, kept = narrow_mod.narrow_products(typed, wide, report, {"x": 1.0}, 1e-6, 0.1, SHAPE)
