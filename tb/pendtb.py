@@ -95,7 +95,9 @@ def repo_hdl_current(model=None, build=None) -> bool:
         return False
     if model is None or build is None:
         model, build = model_and_build()
-    files = build_hdl(build.graph, build.resources.to_json(), source=source_name(model), bus="raptor")
+    # the request `pendc build` records in report.json when given no schedule option
+    files = build_hdl(build.graph, build.resources.to_json(), source=source_name(model), bus="raptor",
+                      request={"target": build.options.target})
     return not differences(out, files)
 
 

@@ -72,6 +72,8 @@ def test_cocotb_regression(sim, request, tmp_path):
         pytest.skip(why)
     prepared = request.getfixturevalue("fast_prepared" if SCHEDULES[sim] else "prepared")
     assert prepared.report["raptor"]["ii"] > 2
+    # the default build regressed is the committed hdl_out/ itself (test_emit.py proves it current)
+    assert prepared.repo_hdl == (SCHEDULES[sim] is None), "hdl_out/ was not recognised as current"
     assert prepared.report["raptor"]["schedule"].get("preset") == (SCHEDULES[sim] or {}).get("preset", "default")
     # the fast preset's own arithmetic reaches the RTL (no acceleration node: dt folded into the tables)
     assert ("ddx" in prepared.report["raptor"]["qformats"]) == (SCHEDULES[sim] is None)
