@@ -22,8 +22,18 @@ module pendulum_core_rom #(
     // folder (run them where the .mem files are, or copy the files there). No file by default,
     // because Yosys also elaborates the module once with its default parameters.
     initial
-        if (INIT_FILE != "")
+        if (INIT_FILE != "") begin
             $readmemh(INIT_FILE, mem);
+`ifndef SYNTHESIS
+            // a missing or short file leaves words unknown, and a simulation reading them would
+            // go on with unknown values everywhere: stop naming the file (Yosys defines SYNTHESIS)
+            if (^mem[DEPTH-1] === 1'bx) begin
+                $display("ERROR: %m: %0s is missing or has fewer than %0d words (run where the .mem files are)",
+                         INIT_FILE, DEPTH);
+                $finish;
+            end
+`endif
+        end
 
     // the core never addresses past the last entry (it clamps the index); the word is read
     // in the cycle the address is valid and held until the next step's read

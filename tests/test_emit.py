@@ -3,6 +3,8 @@
 import json
 import random
 import re
+import shutil
+import subprocess
 from collections import Counter
 from pathlib import Path
 
@@ -67,6 +69,36 @@ def test_every_table_is_one_instance_of_one_rom_module_with_its_words_in_a_mem_f
         words = [ln for ln in files[mem].splitlines() if not ln.startswith("//")]
         assert len(words) == int(depth) <= 2 ** int(addr_width), mem
         assert {len(w) for w in words} == {(int(data_width) + 3) // 4} and int("".join(words), 16) >= 0, mem
+
+
+@pytest.mark.skipif(shutil.which("iverilog") is None, reason="Icarus Verilog not installed")
+def test_a_simulation_without_its_mem_file_stops_naming_it(tmp_path, files):
+    """Run where a table's .mem file is missing or short, the ROM stops the simulation with one
+    line naming the file, instead of going on with unknown words; with the file, it reads them."""
+    core = " ".join(files["pendulum_core.v"].split())
+    addr, data, depth, mem, _ = re.search(r"pendulum_core_rom #\(\.ADDR_WIDTH\((\d+)\), \.DATA_WIDTH\((\d+)\), "
+                                          r'\.DEPTH\((\d+)\), \.INIT_FILE\("([\w.]+)"\)\) u_rom_(\w+) \(', core).groups()
+    (tmp_path / "pendulum_core_rom.v").write_text(files["pendulum_core_rom.v"])
+    (tmp_path / "tb.v").write_text(
+        f"module tb; reg clk = 0; wire [{int(data) - 1}:0] q;\n"
+        f"pendulum_core_rom #(.ADDR_WIDTH({addr}), .DATA_WIDTH({data}), .DEPTH({depth}), .INIT_FILE(\"{mem}\")) "
+        f"u (.clk(clk), .en(1'b1), .addr({addr}'d0), .q(q));\n"
+        "initial begin #1 clk = 1; #1 $display(\"word %h\", q); $finish; end endmodule\n")
+    subprocess.run(["iverilog", "-g2005", "-o", "t.vvp", "tb.v", "pendulum_core_rom.v"], cwd=tmp_path, check=True)
+
+    def run(folder):
+        folder.mkdir(exist_ok=True)
+        return subprocess.run(["vvp", "-n", str(tmp_path / "t.vvp")], cwd=folder, capture_output=True,
+                              text=True).stdout
+    missing = run(tmp_path / "missing")
+    assert f"{mem} is missing or has fewer than {depth} words" in missing and "\nword " not in "\n" + missing
+    words = [ln for ln in files[mem].splitlines() if not ln.startswith("//")]
+    (tmp_path / "short").mkdir()
+    (tmp_path / "short" / mem).write_text("\n".join(words[:-1]) + "\n")
+    assert "is missing or has fewer than" in run(tmp_path / "short")
+    (tmp_path / "whole").mkdir()
+    (tmp_path / "whole" / mem).write_text(files[mem])
+    assert f"word {words[0].lower()}" in run(tmp_path / "whole")
 
 
 def test_writing_replaces_the_folder_atomically(tmp_path, files):
