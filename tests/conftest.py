@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections import Counter
 
 SLOWEST_FIRST = (
-    "test_sim.py",                  # 518 s at 457a1a7: Icarus on the default build, Verilator on the fast one (its compile)
+    "test_sim.py",                  # 455 CPU s at c257d7e; since then Verilator on the thesis preset (its cold compile, ~200 s)
     "test_rtl_full_scale.py",       # 151 s: the rig model: golden minute and spin, Verilator and Icarus windows
     "test_hidden_new_plants.py",    # ~120 s (estimated from a loaded run): the new plants' hidden effects
     "test_diagnose_cases.py",       # 103 s: hidden-effect cases, first half
@@ -43,6 +43,7 @@ SLOWEST_FIRST = (
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
     "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
+    "test_narrow_products.py",      # the thesis build's held-out check; its compile is test_sim's, cached by then
     "test_cli_ident.py",            # 100 s at 4368da0 (cold cache, 2 workers; so are the new entries below)
     "test_kernel_parts.py",         # 99 s: split and whole kernels of the every-kind graph compiled side by side
     "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus

@@ -23,10 +23,12 @@ import pendtb  # noqa: E402
 
 
 # Which build each simulator regresses: Icarus the default build (hdl_out/: ii > 2; the small
-# preset's shared multipliers are tests/test_sim_shared_multipliers.py), Verilator, whose full
-# profile runs seconds of model time, the fast preset (the short-chain arithmetic the step-time
-# presets build: another graph, another golden model, ii 9).
-SCHEDULES = {"icarus": None, "verilator": {"preset": "fast"}}
+# preset's shared multipliers are tests/test_sim_shared_multipliers.py), Verilator the thesis
+# preset (the short-chain arithmetic with narrowed products and three shared multipliers, ii 3:
+# another graph, another golden model; its cold compile is shared with test_narrow_products.py).
+# The fast preset's build goes through Verilator in test_chirp_accuracy_verilator_binary below.
+SCHEDULES = {"icarus": None, "verilator": {"preset": "thesis"}}
+FAST = {"preset": "fast"}
 
 # Which suites each simulator runs here. The bus wrappers do not depend on the schedule beyond
 # ``ready``, and each Verilator suite is a build of the whole core: Verilator reads the RAPTOR
@@ -51,8 +53,13 @@ def hdl(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def preset_hdl(tmp_path_factory):
+    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_preset"), request=SCHEDULES["verilator"])
+
+
+@pytest.fixture(scope="module")
 def fast_hdl(tmp_path_factory):
-    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_fast"), request=SCHEDULES["verilator"])
+    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_fast"), request=FAST)
 
 
 @pytest.fixture(scope="module")
@@ -61,8 +68,8 @@ def prepared(hdl):
 
 
 @pytest.fixture(scope="module")
-def fast_prepared(fast_hdl):
-    return pendtb.add_vectors(fast_hdl)
+def preset_prepared(preset_hdl):
+    return pendtb.add_vectors(preset_hdl)
 
 
 @pytest.mark.parametrize("sim", pendtb.SIMS)
@@ -70,12 +77,12 @@ def test_cocotb_regression(sim, request, tmp_path):
     why = pendtb.simulator_missing(sim)
     if why:
         pytest.skip(why)
-    prepared = request.getfixturevalue("fast_prepared" if SCHEDULES[sim] else "prepared")
+    prepared = request.getfixturevalue("preset_prepared" if SCHEDULES[sim] else "prepared")
     assert prepared.report["raptor"]["ii"] > 2
     # the default build regressed is the committed hdl_out/ itself (test_emit.py proves it current)
     assert prepared.repo_hdl == (SCHEDULES[sim] is None), "hdl_out/ was not recognised as current"
     assert prepared.report["raptor"]["schedule"].get("preset") == (SCHEDULES[sim] or {}).get("preset", "default")
-    # the fast preset's own arithmetic reaches the RTL (no acceleration node: dt folded into the tables)
+    # the preset's own arithmetic reaches the RTL (the short chain: no acceleration node, dt folded into the tables)
     assert ("ddx" in prepared.report["raptor"]["qformats"]) == (SCHEDULES[sim] is None)
     lines = []
     results = pendtb.run_suites(prepared, [sim], list(SUITES[sim]), tmp_path, profile=CI_PROFILE, log=lines.append)
@@ -90,9 +97,9 @@ def test_cocotb_regression(sim, request, tmp_path):
 
 
 def test_chirp_accuracy_verilator_binary(fast_hdl, tmp_path):
-    """The issue's chirp, 2 s, through `verilator --binary` (the fast preset's build, as Verilator's
-    cocotb regression): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with the
-    golden model of that build at every 1000th step."""
+    """The issue's chirp, 2 s, through `verilator --binary` (the fast preset's build, whose RTL no
+    cocotb suite here runs): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with
+    the golden model of that build at every 1000th step."""
     why = pendtb.simulator_missing("verilator")
     if why:
         pytest.skip(why)
