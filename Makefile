@@ -70,6 +70,12 @@ bench: setup
 full-scale: setup
 	$(PY) bench/bench_rtl_cpp.py --full-scale -o bench/out/rtl_cpp.json
 
+# Every shipped plant (and the example of docs/plant_files.md) compiled cold, each in a fresh process
+# with an empty cache: `pendc plant check` then `pendc build`, the wall time of each (issue 21: < 3 min).
+.PHONY: cold-compile
+cold-compile: setup
+	$(PY) bench/bench_cold_compile.py -o bench/out/cold_compile.json
+
 # Long differential fuzzing run of the backend (tests/graphgen.py); count, seed, mismatches to bench/out/.
 # Its batches run on Dask: a LocalCluster here, or FUZZ_SCHEDULER=tcp://HOST:PORT (docs/robustness.md).
 .PHONY: fuzz
