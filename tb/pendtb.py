@@ -49,6 +49,12 @@ def source_name(model) -> str:
 
 
 
+def recorded_request(build, request: dict | None = None) -> dict:
+    """The request ``pendc build`` with ``request``'s options records for ``build``."""
+    from pendc.backend.hdl import build_request
+    return build_request(**{"target": build.options.target, **(request or {})})
+
+
 def emit_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | None = None) -> dict:
     """Write what ``pendc build --bus BUS -o OUT_DIR`` writes; returns report.json.
 
@@ -61,7 +67,8 @@ def emit_hdl(model, build, out_dir: Path, bus: str = "raptor", request: dict | N
     except ImportError:
         build_hdl = None
     if build_hdl is not None:
-        files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=bus, request=request)
+        files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=bus,
+                          request=recorded_request(build, request))
     else:
         view, files = render_core(build.graph, source)
         files["report.json"] = dumps_json({"top": view.module, "wrapper": None, "bus": None, "ii": view.ii,
@@ -78,7 +85,7 @@ def emit_debug_hdl(model, build, out_dir: Path, bus: str = "raptor", request: di
     from pendc.backend.emit import write_tree
     from pendc.backend.hdl import build_hdl
     files = build_hdl(build.graph, build.resources.to_json(), source=source_name(model), bus=bus,
-                      request=request, debug_status=True)
+                      request=recorded_request(build, request), debug_status=True)
     write_tree(out_dir, files)
     return json.loads(files["report.json"])
 
@@ -95,9 +102,8 @@ def repo_hdl_current(model=None, build=None) -> bool:
         return False
     if model is None or build is None:
         model, build = model_and_build()
-    # the request `pendc build` records in report.json when given no schedule option
     files = build_hdl(build.graph, build.resources.to_json(), source=source_name(model), bus="raptor",
-                      request={"target": build.options.target})
+                      request=recorded_request(build))
     return not differences(out, files)
 
 

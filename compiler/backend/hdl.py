@@ -22,6 +22,14 @@ def port_formats(graph: Graph) -> dict:
     return {p: {"signed": f.signed, "width": f.width, "frac": f.frac} for p, f in ports.items()}
 
 
+def build_request(target: str, preset: str | None = None, ii: int | None = None, dsp: int | None = None) -> dict:
+    """The request ``pendc build`` records in report.json: the target, and the schedule options
+    that were given. Whatever emits a build's files passes this, so its report.json is the one
+    ``pendc build --check`` compares."""
+    request = {"target": target, "preset": preset, "ii": ii, "dsp": dsp}
+    return {k: v for k, v in request.items() if v is not None}
+
+
 def schedule_of(graph: Graph, request: dict | None = None):
     """The schedule a build request asks for: ``{"target", "preset", "ii", "dsp"}`` (all optional;
     none: the default preset). Deterministic, so a report.json's request rebuilds the same core."""

@@ -11,7 +11,7 @@ from .options import MODEL_HELP, build_model
 
 
 def cmd_build(args) -> int:
-    from ..backend.hdl import build_hdl, differences, write_hdl
+    from ..backend.hdl import build_hdl, build_request, differences, write_hdl
     from ..model.modelfile import build_source, load_model, model_fingerprint
 
     if args.preset is not None and args.ii is not None:
@@ -25,9 +25,8 @@ def cmd_build(args) -> int:
     build = build_model(model, args)
     # named by content and compiler version, never by path: the same model builds the same files anywhere
     source = build_source(model)
-    request = {"target": build.options.target, "preset": args.preset, "ii": args.ii, "dsp": args.dsp}
-    files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus,
-                      request={k: v for k, v in request.items() if v is not None},
+    request = build_request(build.options.target, preset=args.preset, ii=args.ii, dsp=args.dsp)
+    files = build_hdl(build.graph, build.resources.to_json(), source=source, bus=args.bus, request=request,
                       debug_status=args.debug_status)
     if args.check:
         diff = differences(args.output, files)
