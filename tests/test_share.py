@@ -13,6 +13,7 @@ from pendc.passes.error_budget import ErrorReport
 from pendc.passes.resources import dsp_for, product_widths
 from pendc.passes.schedule import PRESETS, schedule_for, schedule_graph
 from pendc.passes.share import products_of, scheduled_blocks, share_to_budget
+from quick_training import quick_copy
 from test_schedule import SHAPE, STEPS, run_icarus, toy_plant
 
 
@@ -124,7 +125,6 @@ def test_narrowing_finds_the_products_the_budget_needs(plant, monkeypatch):
     assert same is wide and kept is report
 
 
-QUICK = "\n[hardware]\ntraining_scale = 0.02\ncheck_seconds = 0.05\n"
 
 
 def test_thesis_build_meets_its_dsp_budget(tmp_path):
@@ -136,7 +136,7 @@ def test_thesis_build_meets_its_dsp_budget(tmp_path):
     from pendc.cli import main
     from pendc.model.modelfile import default_model_path
     model = tmp_path / "quick.toml"
-    model.write_text(default_model_path().read_text() + QUICK)
+    quick_copy(default_model_path(), model)
     assert main(["build", "--model", str(model), "-o", str(tmp_path / "t"), "--preset", "thesis"]) == 0
     report = json.loads((tmp_path / "t" / "report.json").read_text())
     s = report["schedule"]
