@@ -91,11 +91,17 @@ def interpolation_error(node, fin) -> float:
 
 
 def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: str = "compiled",
-                      max_rounds: int = 16, products: tuple = (), max_level: int = 2, inp=None):
+                      max_rounds: int = 16, products: tuple = (), max_level: int = 2, inp=None,
+                      full_report: bool = True):
     """Call ``typed(widen, addr_bits, levels)`` -> typed graph until every state in ``budgets`` is
     within its budget on the check stimuli; ``products`` are the nodes whose operand level may
     rise (up to ``max_level``); the check stimuli drive the input ``inp`` (an InputSpec; default:
-    the input of the plant the graphs were lowered from). Returns (graph, ErrorReport)."""
+    the input of the plant the graphs were lowered from). Returns (graph, ErrorReport).
+
+    ``full_report`` False answers only whether the budget holds: the report's node errors and
+    plain errors (two more runs of every check stimulus) are None, and the last round computes no
+    remedy it would not try (what deciding on many candidate typings needs,
+    :func:`pendc.passes.narrow_products.narrow_products`)."""
     stimuli = None if inp is None else check_stimuli(inp, seconds)
     widen: dict = {}
     addr: dict = {}
@@ -103,7 +109,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     actions = []
     anchor, since = None, 0          # the first round of the current structure, rounds since
     float_runs: dict = {}
-    for _ in range(max_rounds):
+    for round_ in range(max_rounds):
         used = dict(levels)
         graph = typed(dict(widen), dict(addr), dict(levels)) if products else typed(dict(widen), dict(addr))
         if stimuli is None:           # on the input of the plant the graphs come from
@@ -122,7 +128,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
-        if not over:
+        if not over or (not full_report and round_ == max_rounds - 1):
             break
         current = max(widen.values(), default=0)       # every state accumulator is widened alike
         if current < MAX_WIDEN:
@@ -148,10 +154,11 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         for n in grown:
             addr[n] = graph[n].params.addr_bits + 1
         actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
-    if node_errors is None:
+    if node_errors is None and full_report:
         node_errors = node_errors_now()
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
-    plain = compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, nodes=False)[0]
+    plain = compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, nodes=False)[0] \
+        if full_report else None
     report = ErrorReport(budgets=dict(budgets), errors=errors, node_errors=node_errors, widened=dict(widen),
                          addr_bits={n.name: n.params.addr_bits for n in graph.of_kind(Kind.LUT)},
                          actions=tuple(actions), met=met, seconds=seconds,

@@ -77,24 +77,28 @@ def narrow_products(typed, graph, report, budgets: dict, dt: float, seconds: flo
     grown = dict(grown or {})
     checks: dict = {}
 
+    def at_level_0(lowered: frozenset):
+        fixed = {p: (0 if p in lowered else lv) for p, lv in levels.items()}
+
+        def at(widen, addr, _levels=None):
+            return typed({**report.widened, **widen}, {**grown, **addr}, fixed)
+        return at
+
     def check(lowered: frozenset):
-        """(graph, report, validation errors or None, holds) of ``lowered`` at level 0."""
+        """(graph, validation errors or None, holds) of ``lowered`` at level 0."""
         if lowered not in checks:
-            fixed = {p: (0 if p in lowered else lv) for p, lv in levels.items()}
-
-            def at(widen, addr, _levels=None):
-                return typed({**report.widened, **widen}, {**grown, **addr}, fixed)
-
-            g, r = meet_error_budget(at, budgets, dt, seconds, engine=engine, max_rounds=1, inp=None)
+            # whether it holds is all a candidate set needs: the report's extra runs only for the one kept
+            g, r = meet_error_budget(at_level_0(lowered), budgets, dt, seconds, engine=engine, max_rounds=1,
+                                     inp=None, full_report=False)
             valid = validation_errors(g, budgets, dt, seconds) if r.met else None
-            checks[lowered] = (g, r, valid, valid is not None and all(valid[s] <= b for s, b in budgets.items()))
+            checks[lowered] = (g, valid, valid is not None and all(valid[s] <= b for s, b in budgets.items()))
         return checks[lowered]
 
     def prune(candidates: list, low: frozenset) -> frozenset:
         """The candidates that can go to level 0 with ``low`` already there."""
         if not candidates:
             return frozenset()
-        if check(low | frozenset(candidates))[3]:
+        if check(low | frozenset(candidates))[2]:
             return frozenset(candidates)
         if len(candidates) == 1:
             return frozenset()
@@ -105,9 +109,11 @@ def narrow_products(typed, graph, report, budgets: dict, dt: float, seconds: flo
     lowered = prune(wide, frozenset())
     if not lowered:
         return graph, report
-    narrowed, checked, valid, holds = check(lowered)
+    narrowed, valid, holds = check(lowered)
     if not holds:
         return graph, report
+    narrowed, checked = meet_error_budget(at_level_0(lowered), budgets, dt, seconds, engine=engine, max_rounds=1,
+                                          inp=None)
     action = ("products back to one DSP block, the budget holding on the check stimuli and the validation "
               "inputs (worst " + ", ".join(f"{s} {v:.3g}" for s, v in valid.items()) + f"): {', '.join(sorted(lowered))}")
     return narrowed, replace(checked, actions=report.actions + (action,), widened=dict(report.widened),
