@@ -25,10 +25,11 @@ import pendtb  # noqa: E402
 # Which build each simulator regresses: Icarus the default build (hdl_out/: ii > 2; the small
 # preset's shared multipliers are tests/test_sim_shared_multipliers.py), Verilator the thesis
 # preset (the short-chain arithmetic with narrowed products and three shared multipliers, ii 3:
-# another graph, another golden model; its cold compile is shared with test_narrow_products.py).
-# The fast preset's build goes through Verilator in test_chirp_accuracy_verilator_binary below.
+# another graph, another golden model; its cold compile is shared with test_narrow_products.py and
+# test_read_ahead_start.py), also through `verilator --binary` in test_chirp_accuracy_verilator_binary.
+# The fast preset (the same short chain, its products unshared and two blocks wide) runs outside CI:
+# `make sim TB_ARGS="--preset fast"` (every suite on both simulators) and make bench's synthesis.
 SCHEDULES = {"icarus": None, "verilator": {"preset": "thesis"}}
-FAST = {"preset": "fast"}
 
 # Which suites each simulator runs here. The bus wrappers do not depend on the schedule beyond
 # ``ready``, and each Verilator suite is a build of the whole core: Verilator reads the RAPTOR
@@ -41,7 +42,7 @@ SUITES = {"icarus": ("core", "raptor", "axil"), "verilator": ("core", "axil")}
 # tests, the overflow scenario and 10 ms long runs (the chirp's from its golden state half-way).
 # The full profile's seconds from reset (2 s of the chirp, 1 s of full-scale random levels for
 # the encoders) run the same RTL on more of the same kind of input: the 2 s chirp from reset is
-# test_chirp_accuracy_verilator_binary below (the same fast build, bit-exact at every 1000th
+# test_chirp_accuracy_verilator_binary below (the thesis preset's build, bit-exact at every 1000th
 # step), and long runs at full scale with the encoder counts compared after every ms are
 # tests/test_rtl_full_scale.py (the minute and the spin). `make sim` runs the full profile.
 CI_PROFILE = "quick"
@@ -55,11 +56,6 @@ def hdl(tmp_path_factory):
 @pytest.fixture(scope="module")
 def preset_hdl(tmp_path_factory):
     return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_preset"), request=SCHEDULES["verilator"])
-
-
-@pytest.fixture(scope="module")
-def fast_hdl(tmp_path_factory):
-    return pendtb.prepare_hdl(tmp_path_factory.mktemp("sim_hdl_fast"), request=FAST)
 
 
 @pytest.fixture(scope="module")
@@ -96,16 +92,16 @@ def test_cocotb_regression(sim, request, tmp_path):
     assert not problems, "cocotb failures:\n" + "\n".join(problems)
 
 
-def test_chirp_accuracy_verilator_binary(fast_hdl, tmp_path):
-    """The issue's chirp, 2 s, through `verilator --binary` (the fast preset's build, whose RTL no
-    cocotb suite here runs): within 0.5 mm and 5 mrad of the float simulator, and bit-exact with
-    the golden model of that build at every 1000th step."""
+def test_chirp_accuracy_verilator_binary(preset_hdl, tmp_path):
+    """The issue's chirp, 2 s from reset, through `verilator --binary` (the thesis preset's build,
+    whose cocotb suites run windows of it): within 0.5 mm and 5 mrad of the float simulator, and
+    bit-exact with the golden model of that build at every 1000th step."""
     why = pendtb.simulator_missing("verilator")
     if why:
         pytest.skip(why)
     import vbinary
-    r = vbinary.chirp_run(fast_hdl.hdl["raptor"], fast_hdl.report["raptor"], tmp_path, seconds=2.0,
-                          build_=fast_hdl.build)
+    r = vbinary.chirp_run(preset_hdl.hdl["raptor"], preset_hdl.report["raptor"], tmp_path, seconds=2.0,
+                          build_=preset_hdl.build)
     print(f"chirp 2 s: max |x - float| {r['max_abs_x_error_m']:.3g} m, max |theta - float| "
           f"{r['max_abs_theta_error_rad']:.3g} rad, {r['steps_per_s']:.3g} steps/s")
     assert r["bit_exact_vs_golden_every_1000"], f"harness differs from the golden model: {r['first_golden_difference']}"
