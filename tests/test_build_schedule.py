@@ -10,7 +10,6 @@ from pendc.model.modelfile import default_model_path
 from quick_training import quick_copy
 
 
-
 @pytest.fixture(scope="module")
 def model_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("model") / "quick.toml"

@@ -1,8 +1,8 @@
-"""A run of a short-chain build (the thesis preset's, which test_sim regresses) started away from reset: the angle's tables are registers
-read a step ahead (``lower_model(lookahead=True)``), which reset to the table at phase 0, so a
-start at another angle must fill them (``pendc.golden.register_integers``) or the first step
-pushes with the wrong forces. The golden model and the RTL plants start through that one
-function, so both get it."""
+"""A run of a short-chain build (the thesis preset's, which test_sim regresses) started away
+from reset: the angle's tables are registers read a step ahead (``lower_model(lookahead=True)``),
+which reset to the table at phase 0, so a start at another angle must fill them
+(``pendc.golden.register_integers``) or the first steps push with the wrong forces. The golden
+model and the RTL plants start through that one function, so both get it."""
 
 import numpy as np
 import pytest
@@ -59,7 +59,8 @@ def test_a_run_started_at_an_angle_follows_the_default_arithmetic(short_chain):
     assert np.ptp(runs[1].states[angle.name]) > 0.1, "the pendulum did not swing: not a useful start"
     for state, budget in build.options.budgets_for(model.interface).items():
         err = float(np.max(np.abs(runs[0].states[state] - runs[1].states[state])))
-        assert err <= budget, f"{state}: the short-chain build is {err:.3g} from the default build (budget {budget:.3g})"
+        assert err <= budget, f"{state}: the short-chain build is {err:.3g} from the default build " \
+                              f"(budget {budget:.3g})"
     # over the first 10 ms, before the narrowed products' rounding adds up: measured 1.4e-8 rad
     # apart; with the tables left at phase 0, 4.0e-7 (over the 2 s both are about 7e-5)
     early = int(round(0.010 / (t[1] - t[0]))) + 1

@@ -125,8 +125,6 @@ def test_narrowing_finds_the_products_the_budget_needs(plant, monkeypatch):
     assert same is wide and kept is report
 
 
-
-
 def test_thesis_build_meets_its_dsp_budget(tmp_path):
     """``pendc build --preset thesis`` on the default model (shortened training): the short chain,
     the error budget met, its DSP blocks within the thesis' 24, counted with the products that
