@@ -17,6 +17,25 @@ import sympy as sp
 from ...model.plant import PlantModel
 
 
+# The math printer's names bound to NumPy's functions. The swing-up evaluates ``derivatives``
+# twice every control period; NumPy's printer writes a Piecewise (a friction law, end stops) as
+# ``numpy.select`` over broadcast arrays, about 150 us a call on the rig model and most of a
+# run's time. The math printer writes it as a conditional expression (17 us). The functions stay
+# NumPy's and the arguments NumPy scalars (a division by zero gives inf, not an exception), so
+# every value is the one NumPy's printer gives (tests/test_hil_numeric_model.py).
+NUMPY_FUNCTIONS = {name: getattr(np, numpy_name) for name, numpy_name in (
+    ("sin", "sin"), ("cos", "cos"), ("tan", "tan"), ("asin", "arcsin"), ("acos", "arccos"), ("atan", "arctan"),
+    ("atan2", "arctan2"), ("sinh", "sinh"), ("cosh", "cosh"), ("tanh", "tanh"), ("exp", "exp"), ("expm1", "expm1"),
+    ("log", "log"), ("log1p", "log1p"), ("sqrt", "sqrt"), ("hypot", "hypot"), ("copysign", "copysign"),
+    ("fabs", "fabs"), ("floor", "floor"), ("ceil", "ceil"))}
+
+
+def scalar_function(args, exprs):
+    """``exprs`` of the symbols ``args`` as a Python function for scalar arguments: the math
+    printer's conditional expressions, NumPy's functions (see ``NUMPY_FUNCTIONS``)."""
+    return sp.lambdify(args, exprs, modules=[NUMPY_FUNCTIONS, "math"])
+
+
 def _no_delta(expr: sp.Expr) -> sp.Expr:
     # d sign(v)/dv is a DiracDelta, zero away from v = 0 where a Jacobian is evaluated
     return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
@@ -41,8 +60,7 @@ class NumericModel:
         variables = list(eq.states) + [eq.input]
         jac = [[_no_delta(sp.diff(f, v)) for v in variables] for f in rhs]
         return cls(names=tuple(s.name for s in eq.states), plant=model.interface.name,
-                   _f=sp.lambdify(variables, rhs, modules=["numpy"]),
-                   _jac=sp.lambdify(variables, jac, modules=["numpy"]))
+                   _f=scalar_function(variables, rhs), _jac=scalar_function(variables, jac))
 
     def index(self, state: str) -> int:
         """Position of ``state`` in the state vector."""
@@ -50,8 +68,8 @@ class NumericModel:
 
     def derivatives(self, state, u: float) -> np.ndarray:
         """d(state)/dt at ``state`` (a sequence in ``names`` order) and input ``u``."""
-        return np.array(self._f(*state, u), dtype=float)
+        return np.array(self._f(*np.asarray(state, dtype=float), np.float64(u)), dtype=float)
 
     def jacobian(self, state, u: float) -> np.ndarray:
         """d(derivatives)/d(state, u): one row per state, one column per state and the input last."""
-        return np.array(self._jac(*state, u), dtype=float)
+        return np.array(self._jac(*np.asarray(state, dtype=float), np.float64(u)), dtype=float)
