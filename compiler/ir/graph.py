@@ -72,6 +72,12 @@ class Graph:
         return name in self.by_name
 
     @cached_property
+    def memo(self) -> dict:
+        """Facts a pass derives from this graph, by the pass's own key: the graph is immutable, so
+        they never go stale (a schedule search asks every product's widths once per clock goal)."""
+        return {}
+
+    @cached_property
     def consumers(self) -> dict:
         """Node name -> names of the nodes that read it."""
         out = {n.name: [] for n in self.nodes}

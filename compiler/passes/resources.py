@@ -66,7 +66,17 @@ def dsp_for(wa: int, wb: int, shape: tuple) -> int:
 
 def product_widths(graph: Graph, n) -> tuple | None:
     """Signed operand widths (wider first) of the multiplier a node needs, or None.
-    A LUT's is its interpolation: slope (entry difference) x fraction (plus a zero sign bit)."""
+    A LUT's is its interpolation: slope (entry difference) x fraction (plus a zero sign bit).
+    Worked out once per graph (``graph.memo``) for the graph's own nodes."""
+    if graph.by_name.get(n.name) is not n:
+        return _product_widths(graph, n)
+    widths = graph.memo.setdefault("product_widths", {})
+    if n.name not in widths:
+        widths[n.name] = _product_widths(graph, n)
+    return widths[n.name]
+
+
+def _product_widths(graph: Graph, n) -> tuple | None:
     def signed_width(name):   # an unsigned operand enters a signed multiplier with a zero sign bit
         f = graph[name].qformat
         return f.width + (0 if f.signed else 1)
