@@ -274,6 +274,23 @@ def test_segmented_run_is_the_plain_one_until_a_decision_differs(build):
     assert early.restarts == 0 and early.segmented == early.plain
 
 
+def test_a_run_stops_once_a_state_is_over_the_limit_it_is_given(build):
+    """``stop_above``: a limit no run reaches changes nothing; one a run passes ends the runs
+    there, the worst error over the limit and none larger than the whole run's."""
+    stimuli = check_stimuli(DEFAULT.interface.input, build.error.seconds)
+    whole = compare_segmented(build.graph, stimuli, DT, plain=False)
+    assert compare_segmented(build.graph, stimuli, DT, plain=False, stop_above={"x": 1.0, "theta": 1.0}) == whole
+    limit = {"theta": whole["swing_up"].segmented["theta"] / 4}
+    stopped = compare_segmented(build.graph, stimuli, DT, plain=False, stop_above=limit)
+    assert all(r.stopped_at is None for r in whole.values())
+    # the others stop with the first, unless they ended before it passed (the runs are threads)
+    assert any(r.stopped_at for r in stopped.values())
+    assert all(r.stopped_at is None or 0 < r.stopped_at < r.steps for r in stopped.values())
+    assert limit["theta"] < max(r.segmented["theta"] for r in stopped.values()) <= whole["swing_up"].segmented["theta"]
+    for name, r in stopped.items():
+        assert all(r.segmented[s] <= whole[name].segmented[s] for s in STATES), name
+
+
 def test_a_held_input_feeds_its_rounding_back(build):
     """The 18-bit input operand of the drive force rounds a held input differently step by step,
     so that its values average to the input (a single rounding is off by up to 2**-13 V)."""

@@ -99,8 +99,9 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     the input of the plant the graphs were lowered from). Returns (graph, ErrorReport).
 
     ``full_report`` False answers only whether the budget holds: the report's node errors and
-    plain errors (two more runs of every check stimulus) are None, and the last round computes no
-    remedy it would not try (what deciding on many candidate typings needs,
+    plain errors (two more runs of every check stimulus) are None, the last round computes no
+    remedy it would not try and stops a stimulus once a state is over its budget (its errors are
+    then lower bounds: what deciding on many candidate typings needs,
     :func:`pendc.passes.narrow_products.narrow_products`)."""
     stimuli = None if inp is None else check_stimuli(inp, seconds)
     widen: dict = {}
@@ -123,7 +124,10 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         def node_errors_now():      # a second run of every stimulus: only when a decision or the report reads it
             return compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, states=False)[1]
 
-        runs = compare_segmented(graph, stimuli, dt, like=like, plain=False)
+        # a last round that only answers whether the budget holds stops a stimulus once it does not
+        last_answer = not full_report and round_ == max_rounds - 1
+        runs = compare_segmented(graph, stimuli, dt, like=like, plain=False,
+                                 stop_above=budgets if last_answer else None)
         errors = {k: r.segmented for k, r in runs.items()}
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}

@@ -61,6 +61,7 @@ class SegmentedRun:
     restarts: int
     restart_steps: tuple
     steps: int
+    stopped_at: int | None = None   # the step a ``stop_above`` ended the run at (its errors: lower bounds)
 
 
 class Decisions:
@@ -197,21 +198,26 @@ class _Lane:
 
 
 def compare_segmented(graph: Graph, stimuli: dict, dt: float, like: Graph | None = None,
-                      chunk: int = CHUNK, plain: bool = True) -> dict:
+                      chunk: int = CHUNK, plain: bool = True, stop_above: dict | None = None) -> dict:
     """Stimulus name -> :class:`SegmentedRun` of ``graph`` against its float twin on ``stimuli``
     (name -> (t, u) on the graph's one input), side by side on the machine's cores; ``plain``
     False leaves the plain error out (None: a run less). An overflow of the fixed run is a
-    BudgetError."""
+    BudgetError. ``stop_above`` (state -> error) ends every stimulus' run once a state's segmented
+    error exceeds it in one of them (``SegmentedRun.stopped_at``; the errors are then lower
+    bounds): enough for whoever asks only whether a budget holds."""
     d = Decisions(graph)
     twin, alias = float_twin(graph)
     fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
     fixed_pos = {graph.nodes[i].name: p for p, i in enumerate(state_indices(graph))}
-    calls = [lambda t=t, u=u, name=name: _compare_one(d, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, plain)
+    halt = []           # set by the first run over ``stop_above``: the others stop at their next piece
+    calls = [lambda t=t, u=u, name=name: _compare_one(d, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, plain,
+                                                      stop_above or {}, halt)
              for name, (t, u) in stimuli.items()]
     return dict(zip(stimuli, run_side_by_side(calls)))
 
 
-def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, with_plain) -> SegmentedRun:
+def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, with_plain,
+                 stop_above: dict, halt: list) -> SegmentedRun:
     graph = fixed.graph
     u_steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
     n_steps = len(u_steps)
@@ -226,7 +232,10 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
         tuple(alias.get(c, c) for c in cols) + d.selects + tuple(alias.get(r, r) for r in d.registers))))
     worst_plain, worst_seg = dict.fromkeys(d.states, 0.0), dict.fromkeys(d.states, 0.0)
     restarts, was_differing, piece = [], False, chunk
+    stopped = None
     for k in range(0, n_steps, chunk):
+        if stopped is not None:
+            break
         n = min(chunk, n_steps - k)
         b = ref.run(k, n)
         truth = {s: b[alias.get(outs[s], outs[s])] for s in d.states}
@@ -248,6 +257,10 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
             for s in d.states:
                 err = np.abs(a[outs[s]][:rows] * lsb[s] - truth[s][at:at + rows])
                 worst_seg[s] = max(worst_seg[s], float(np.max(err)))
+            if halt or any(worst_seg[s] > limit for s, limit in stop_above.items() if s in worst_seg):
+                stopped = k + at + rows
+                halt.append(name)
+                break
             if not hits.size:
                 at, was_differing, piece = at + m, bool(differ[-1]), min(2 * piece, chunk)
                 continue
@@ -265,7 +278,7 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
             at, was_differing, piece = at + end, True, FIRST_PIECE
         _check_overflow(graph, name, *(lane for lane in (plain, seg) if lane is not None))
     return SegmentedRun(plain=worst_plain if with_plain else None, segmented=worst_seg, restarts=len(restarts),
-                        restart_steps=tuple(restarts[:5]), steps=n_steps)
+                        restart_steps=tuple(restarts[:5]), steps=n_steps, stopped_at=stopped)
 
 
 def _check_overflow(graph: Graph, stimulus: str, *lanes) -> None:
