@@ -276,7 +276,8 @@ def test_segmented_run_is_the_plain_one_until_a_decision_differs(build):
 
 def test_a_run_stops_once_a_state_is_over_the_limit_it_is_given(build):
     """``stop_above``: a limit no run reaches changes nothing; one a run passes ends the runs
-    there, the worst error over the limit and none larger than the whole run's."""
+    there, the worst error over the limit and none larger than the whole run's; with
+    ``stop_when_all``, only once every state has passed its limit."""
     stimuli = check_stimuli(DEFAULT.interface.input, build.error.seconds)
     whole = compare_segmented(build.graph, stimuli, DT, plain=False)
     assert compare_segmented(build.graph, stimuli, DT, plain=False, stop_above={"x": 1.0, "theta": 1.0}) == whole
@@ -289,6 +290,13 @@ def test_a_run_stops_once_a_state_is_over_the_limit_it_is_given(build):
     assert limit["theta"] < max(r.segmented["theta"] for r in stopped.values()) <= whole["swing_up"].segmented["theta"]
     for name, r in stopped.items():
         assert all(r.segmented[s] <= whole[name].segmented[s] for s in STATES), name
+    # stop_when_all: not while one state stays within its limit, and once every one is over
+    one_within = {"theta": limit["theta"], "x": 1.0}
+    assert compare_segmented(build.graph, stimuli, DT, plain=False, stop_above=one_within, stop_when_all=True) == whole
+    both = {"theta": limit["theta"], "x": whole["swing_up"].segmented["x"] / 4}
+    runs = compare_segmented(build.graph, stimuli, DT, plain=False, stop_above=both, stop_when_all=True)
+    assert any(r.stopped_at for r in runs.values())
+    assert all(max(r.segmented[s] for r in runs.values()) > both[s] for s in both)
 
 
 def test_a_held_input_feeds_its_rounding_back(build):

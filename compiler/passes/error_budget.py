@@ -124,10 +124,12 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         def node_errors_now():      # a second run of every stimulus: only when a decision or the report reads it
             return compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, states=False)[1]
 
-        # a last round that only answers whether the budget holds stops a stimulus once it does not
+        # a last round that only answers whether the budget holds stops once it does not; a round
+        # that a remedy will follow stops once every state is over (its errors then only name them)
         last_answer = not full_report and round_ == max_rounds - 1
+        followed = round_ < max_rounds - 1 and _remedy_left(graph, widen, levels, max_level)
         runs = compare_segmented(graph, stimuli, dt, like=like, plain=False,
-                                 stop_above=budgets if last_answer else None)
+                                 stop_above=budgets if last_answer or followed else None, stop_when_all=followed)
         errors = {k: r.segmented for k, r in runs.items()}
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
@@ -169,6 +171,15 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
                          levels=dict(sorted(used.items())) if products else None, plain=plain,
                          restarts={k: r.restarts for k, r in runs.items()})
     return graph, report
+
+
+def _remedy_left(graph: Graph, widen: dict, levels: dict, max_level: int) -> bool:
+    """Whether a round of ``graph`` that misses the budget is followed by another: a widening, a
+    product below ``max_level``, or a table below the largest the budget grows (the order the
+    remedies are tried in)."""
+    return (max(widen.values(), default=0) < MAX_WIDEN
+            or any(lv < max_level and name in graph for name, lv in levels.items())
+            or any(n.params.addr_bits < MAX_GROWN_ADDR_BITS for n in graph.of_kind(Kind.LUT)))
 
 
 def _products_to_widen(graph: Graph, node_errors: dict, levels: dict, max_level: int) -> list:

@@ -198,26 +198,41 @@ class _Lane:
 
 
 def compare_segmented(graph: Graph, stimuli: dict, dt: float, like: Graph | None = None,
-                      chunk: int = CHUNK, plain: bool = True, stop_above: dict | None = None) -> dict:
+                      chunk: int = CHUNK, plain: bool = True, stop_above: dict | None = None,
+                      stop_when_all: bool = False) -> dict:
     """Stimulus name -> :class:`SegmentedRun` of ``graph`` against its float twin on ``stimuli``
     (name -> (t, u) on the graph's one input), side by side on the machine's cores; ``plain``
     False leaves the plain error out (None: a run less). An overflow of the fixed run is a
     BudgetError. ``stop_above`` (state -> error) ends every stimulus' run once a state's segmented
     error exceeds it in one of them (``SegmentedRun.stopped_at``; the errors are then lower
-    bounds): enough for whoever asks only whether a budget holds."""
+    bounds): enough for whoever asks only whether a budget holds; with ``stop_when_all`` once every
+    state of ``stop_above`` has exceeded it (in one run or another): enough to know which are over."""
     d = Decisions(graph)
     twin, alias = float_twin(graph)
     fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
     fixed_pos = {graph.nodes[i].name: p for p, i in enumerate(state_indices(graph))}
-    halt = []           # set by the first run over ``stop_above``: the others stop at their next piece
+    # the states seen over ``stop_above`` by any run; once enough, every run stops at its next piece
+    halt = _Halt(dict(stop_above or {}), stop_when_all)
     calls = [lambda t=t, u=u, name=name: _compare_one(d, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, plain,
-                                                      stop_above or {}, halt)
+                                                      halt)
              for name, (t, u) in stimuli.items()]
     return dict(zip(stimuli, run_side_by_side(calls)))
 
 
+class _Halt:
+    """What the runs of one comparison share: the states any of them found over ``limits``."""
+
+    def __init__(self, limits: dict, when_all: bool):
+        self.limits, self.when_all, self.over = limits, when_all, set()
+
+    def update(self, worst: dict) -> bool:
+        """Note the states of ``worst`` (a run's errors so far) over their limits; whether to stop."""
+        self.over |= {s for s, limit in self.limits.items() if worst.get(s, 0.0) > limit}
+        return bool(self.over) and (not self.when_all or self.over >= set(self.limits))
+
+
 def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, with_plain,
-                 stop_above: dict, halt: list) -> SegmentedRun:
+                 halt: _Halt) -> SegmentedRun:
     graph = fixed.graph
     u_steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
     n_steps = len(u_steps)
@@ -257,9 +272,8 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
             for s in d.states:
                 err = np.abs(a[outs[s]][:rows] * lsb[s] - truth[s][at:at + rows])
                 worst_seg[s] = max(worst_seg[s], float(np.max(err)))
-            if halt or any(worst_seg[s] > limit for s, limit in stop_above.items() if s in worst_seg):
+            if halt.limits and halt.update(worst_seg):
                 stopped = k + at + rows
-                halt.append(name)
                 break
             if not hits.size:
                 at, was_differing, piece = at + m, bool(differ[-1]), min(2 * piece, chunk)
