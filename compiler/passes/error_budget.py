@@ -100,7 +100,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
 
     ``full_report`` False answers only whether the budget holds: the report's node errors and
     plain errors (two more runs of every check stimulus) are None, the last round computes no
-    remedy it would not try and stops a stimulus once a state is over its budget (its errors are
+    remedy it would not try and stops its runs once a state is over its budget (its errors are
     then lower bounds: what deciding on many candidate typings needs,
     :func:`pendc.passes.narrow_products.narrow_products`)."""
     stimuli = None if inp is None else check_stimuli(inp, seconds)
