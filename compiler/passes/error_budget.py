@@ -134,7 +134,7 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}
         over = [s for s in budgets if worst[s] > budgets[s]]
-        if not over or (not full_report and round_ == max_rounds - 1):
+        if not over or last_answer:
             break
         current = max(widen.values(), default=0)       # every state accumulator is widened alike
         if current < MAX_WIDEN:
