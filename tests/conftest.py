@@ -45,7 +45,7 @@ SLOWEST_FIRST = (
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
     "test_narrow_products.py",      # the thesis build's held-out check; its compile is test_sim's, cached by then
     "test_cli_ident.py",            # 100 s at 4368da0 (cold cache, 2 workers; so are the new entries below)
-    "test_kernel_parts.py",         # 99 s: split and whole kernels of the every-kind graph compiled side by side
+    "test_kernel_parts.py",         # ~50 s: split kernels of the every-kind graph (the whole ones are test_compiled's)
     "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus
     "test_error_budget.py",         # 45 s
     "test_ident_shipped.py",        # 41 s
@@ -60,7 +60,7 @@ SLOWEST_FIRST = (
     "test_fit.py",                  # 24 s
     "test_sim_debug_status.py",     # 24 s
     "test_fuzz_backend.py",         # 20 s
-    "test_furuta_build.py",         # 18 s
+    "test_furuta_build.py",         # a few s: the Furuta build test_emit.py compiled (the build cache)
     "test_interpret.py",            # 16 s
     "test_api.py",                  # 14 s
     "test_full_scale.py",           # 14 s
