@@ -127,7 +127,8 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         # a last round that only answers whether the budget holds stops once it does not; a round
         # that a remedy will follow stops once every state is over (its errors then only name them)
         last_answer = not full_report and round_ == max_rounds - 1
-        followed = round_ < max_rounds - 1 and _remedy_left(graph, widen, levels, max_level)
+        remedy = _next_remedy(graph, widen, levels, max_level)
+        followed = round_ < max_rounds - 1 and remedy is not None
         runs = compare_segmented(graph, stimuli, dt, like=like, plain=False,
                                  stop_above=budgets if last_answer or followed else None, stop_when_all=followed)
         errors = {k: r.segmented for k, r in runs.items()}
@@ -136,30 +137,29 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         over = [s for s in budgets if worst[s] > budgets[s]]
         if not over or last_answer:
             break
-        current = max(widen.values(), default=0)       # every state accumulator is widened alike
-        if current < MAX_WIDEN:
+        if remedy is None:
+            actions.append(f"{', '.join(over)} over budget and no remedy left")
+            break
+        if remedy == "widen":
+            current = max(widen.values(), default=0)       # every state accumulator is widened alike
             for s in budget_states(graph):
                 widen[s] = current + WIDEN_STEP
             actions.append(f"{', '.join(over)} over budget: state accumulators +{WIDEN_STEP} fraction bits")
-            continue
-        node_errors = node_errors_now()
-        raise_ = _products_to_widen(graph, node_errors, levels, max_level)
-        if raise_:
+        elif remedy == "products":
+            node_errors = node_errors_now()
+            raise_ = _products_to_widen(graph, node_errors, levels, max_level)
             for n in raise_:
                 levels[n] += 1
             actions.append(f"{', '.join(over)} over budget: wider multiplier operands for "
                            + ", ".join(f"{n} (level {levels[n]})" for n in raise_))
-            continue
-        luts = [n for n in graph.of_kind(Kind.LUT) if n.params.addr_bits < MAX_GROWN_ADDR_BITS]
-        if not luts:
-            actions.append(f"{', '.join(over)} over budget and no remedy left")
-            break
-        errs = {n.name: _relative_interp_error(graph, n) for n in luts}
-        worst_lut = max(errs.values())
-        grown = sorted(n for n, e in errs.items() if e >= worst_lut / 4)
-        for n in grown:
-            addr[n] = graph[n].params.addr_bits + 1
-        actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
+        else:
+            luts = [n for n in graph.of_kind(Kind.LUT) if n.params.addr_bits < MAX_GROWN_ADDR_BITS]
+            errs = {n.name: _relative_interp_error(graph, n) for n in luts}
+            worst_lut = max(errs.values())
+            grown = sorted(n for n, e in errs.items() if e >= worst_lut / 4)
+            for n in grown:
+                addr[n] = graph[n].params.addr_bits + 1
+            actions.append(f"{', '.join(over)} over budget: +1 address bit for {', '.join(grown)}")
     if node_errors is None and full_report:
         node_errors = node_errors_now()
     met = all(max(errors[k][s] for k in errors) <= budgets[s] for s in budgets)
@@ -173,13 +173,18 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
     return graph, report
 
 
-def _remedy_left(graph: Graph, widen: dict, levels: dict, max_level: int) -> bool:
-    """Whether a round of ``graph`` that misses the budget is followed by another: a widening, a
-    product below ``max_level``, or a table below the largest the budget grows (the order the
-    remedies are tried in)."""
-    return (max(widen.values(), default=0) < MAX_WIDEN
-            or any(lv < max_level and name in graph for name, lv in levels.items())
-            or any(n.params.addr_bits < MAX_GROWN_ADDR_BITS for n in graph.of_kind(Kind.LUT)))
+def _next_remedy(graph: Graph, widen: dict, levels: dict, max_level: int) -> str | None:
+    """The remedy a round of ``graph`` that misses the budget applies, the first that is left in
+    the order they are tried: "widen" (the state accumulators, up to MAX_WIDEN), "products" (a
+    product below ``max_level``), "tables" (a table below the largest the budget grows); None
+    when none is left. Known before the round runs, so the round knows whether one follows it."""
+    if max(widen.values(), default=0) < MAX_WIDEN:
+        return "widen"
+    if any(lv < max_level and name in graph for name, lv in levels.items()):
+        return "products"
+    if any(n.params.addr_bits < MAX_GROWN_ADDR_BITS for n in graph.of_kind(Kind.LUT)):
+        return "tables"
+    return None
 
 
 def _products_to_widen(graph: Graph, node_errors: dict, levels: dict, max_level: int) -> list:
