@@ -262,6 +262,36 @@ def test_decisions_are_the_discontinuities_the_states_read(build):
     assert d.guards["F_fric"] == frozenset({()})           # read by the states whatever is selected
 
 
+def test_decisions_differ_where_every_choice_read_in_full_says(build):
+    """The comparison reads only the decisions whose selects differ, and only the MUXes their
+    verdicts read: the same steps as every choice of every MUX worked out (selects of both runs'
+    types, beyond their inputs too)."""
+    d = Decisions(build.graph)
+    rng = np.random.default_rng(4)
+    n = 400
+
+    def in_full(fixed, flt):
+        def choices(sel):
+            return {m: np.minimum(sel[build.graph[m].inputs[0]].astype(np.int64), len(build.graph[m].inputs) - 2)
+                    for m in d.muxes}
+        a, b, out = choices(fixed), choices(flt), np.zeros(n, bool)
+        for m in d.decisions:
+            out |= (a[m] != b[m]) & (d._live(a, m, n) | d._live(b, m, n))
+        return out
+
+    found = 0
+    for trial in range(40):
+        fixed = {s: rng.integers(0, 4, n) for s in d.selects}
+        flt = {s: v.astype(float) for s, v in fixed.items()}
+        for s in rng.choice(d.selects, size=trial % 4, replace=False):   # a few selects part, at a few steps
+            steps = rng.integers(0, n, 3)
+            flt[s][steps] = rng.integers(0, 4, 3)
+        got = d.differ(fixed, flt, n)
+        assert np.array_equal(got, in_full(fixed, flt)), trial
+        found += int(got.any())
+    assert found >= 10
+
+
 def test_segmented_run_is_the_plain_one_until_a_decision_differs(build):
     """Held levels that reverse the cart: the fixed run restarts where a friction decision first
     differs, and up to that step the segmented error is the plain one."""

@@ -99,6 +99,10 @@ class Decisions:
         self.muxes = tuple(sorted(set(self.decisions) | {c for terms in self.guards.values() for t in terms
                                                           for c, _ in t}))      # the MUXes a verdict reads
         self.selects = tuple(sorted({graph[m].inputs[0] for m in self.muxes}))
+        # per MUX a verdict reads: its select and the last data input a select beyond them picks
+        self._select = {m: (graph[m].inputs[0], len(graph[m].inputs) - 2) for m in self.muxes}
+        # per decision: the MUXes its verdict reads (itself and those of its guards)
+        self._reads = {m: {m} | {c for t in self.guards[m] for c, _ in t} for m in self.decisions}
 
     def _guards(self, name: str, consumers: dict, memo: dict) -> frozenset:
         """When ``name``'s value reaches a register: a set of terms, each a tuple of (MUX, data
@@ -125,10 +129,13 @@ class Decisions:
         memo[name] = frozenset(terms)
         return memo[name]
 
-    def _choices(self, sel: dict) -> dict:
-        """MUX -> the data input it selects per step (a select beyond them picks the last)."""
-        return {m: np.minimum(sel[self.graph[m].inputs[0]].astype(np.int64), len(self.graph[m].inputs) - 2)
-                for m in self.muxes}
+    def _choices(self, sel: dict, muxes) -> dict:
+        """MUX -> the data input it selects per step (a select beyond them picks the last), for ``muxes``."""
+        out = {}
+        for m in muxes:
+            name, last = self._select[m]
+            out[m] = np.minimum(sel[name].astype(np.int64), last)
+        return out
 
     def _live(self, choice: dict, mux: str, n: int) -> np.ndarray:
         out = np.zeros(n, bool)
@@ -143,11 +150,17 @@ class Decisions:
         """Per step: some decision differs between the runs where its MUX is live in either
         (``*_sel``: select node -> its values over the ``n`` steps)."""
         out = np.zeros(n, bool)
-        a, b = self._choices(fixed_sel), self._choices(float_sel)
-        for m in self.decisions:
-            split = a[m] != b[m]
-            if split.any():
-                out |= split & (self._live(a, m, n) | self._live(b, m, n))
+        # equal select values are equal choices: only a decision whose select values differ
+        # somewhere needs the choices, and only of the MUXes its verdict reads
+        split = [m for m in self.decisions if (fixed_sel[self._select[m][0]] != float_sel[self._select[m][0]]).any()]
+        if not split:
+            return out
+        reads = set().union(*(self._reads[m] for m in split))
+        a, b = self._choices(fixed_sel, reads), self._choices(float_sel, reads)
+        for m in split:
+            differs = a[m] != b[m]
+            if differs.any():
+                out |= differs & (self._live(a, m, n) | self._live(b, m, n))
         return out
 
 
@@ -246,6 +259,7 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
     ref = _Lane(flt, u_steps[None, :], tuple(dict.fromkeys(
         tuple(alias.get(c, c) for c in cols) + d.selects + tuple(alias.get(r, r) for r in d.registers))))
     worst_plain, worst_seg = dict.fromkeys(d.states, 0.0), dict.fromkeys(d.states, 0.0)
+    registers = [(fixed_pos[r], alias.get(r, r), graph[r].qformat) for r in d.registers]   # what a restart loads
     restarts, was_differing, piece = [], False, chunk
     stopped = None
     for k in range(0, n_steps, chunk):
@@ -283,9 +297,8 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
             seg.st[:], seg.ov[:] = saved, saved_ov
             if end:
                 seg.run(k + at, end, record=False)
-            for r in d.registers:
-                value = float(b[alias.get(r, r)][at + end])
-                seg.st[fixed_pos[r]] = graph[r].qformat.from_float(value)
+            for pos, twin_name, fmt in registers:
+                seg.st[pos] = fmt.from_float(float(b[twin_name][at + end]))
             restarts.append(k + at + end)
             # decisions that differed once tend to again soon (a cart chattering about zero
             # velocity): the next pieces are short, so a restart re-runs little
