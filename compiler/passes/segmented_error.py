@@ -247,12 +247,14 @@ class _Halt:
 def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, with_plain,
                  halt: _Halt) -> SegmentedRun:
     graph = fixed.graph
-    u_steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
+    u, t = np.asarray(u, float), np.asarray(t, float)
+    u_steps = per_step(u, t, dt)
     n_steps = len(u_steps)
     outs = {s: graph.output(s).name for s in d.states}
     lsb = {s: graph[outs[s]].qformat.lsb for s in d.states}
     cols = tuple(outs.values())
-    fixed_ins = quantize(u_steps, next(n.qformat for n in graph.of_kind(Kind.INPUT)))[None, :]
+    # each sample quantised once, then held: the same integers as quantising every step
+    fixed_ins = per_step(quantize(u, next(n.qformat for n in graph.of_kind(Kind.INPUT))), t, dt)[None, :]
     plain = _Lane(fixed, fixed_ins, cols) if with_plain else None
     seg = _Lane(fixed, fixed_ins, cols + d.selects)
     # the float twin is never restarted: one run, recording what a restart loads too

@@ -66,8 +66,10 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
     in_fmt = next(n.qformat for n in graph.of_kind(Kind.INPUT))
     recorded = tuple(sorted({alias.get(n, n) for n in names}))     # in no round's order: rounds share the run
     for name, (t, u) in stimuli.items():
-        steps = {port: per_step(np.asarray(u, float), np.asarray(t, float), dt)}
-        ints = {port: quantize(steps[port], in_fmt)}      # what each fixed run would quantise anew
+        u, t = np.asarray(u, float), np.asarray(t, float)
+        steps = {port: per_step(u, t, dt)}
+        # what each fixed run would quantise anew, a sample at a time (the same integers, held)
+        ints = {port: per_step(quantize(u, in_fmt), t, dt)}
         if states:
             a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
             if a.overflows:
