@@ -13,6 +13,7 @@ from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
 from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float, float_twin,
                                        interpolation_error, meet_error_budget)
+from pendc.caching.build_cache import compile_cached
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.cli.heldout import CLASSES, format_budget, held_out_check, held_out_stimuli
 from pendc.passes.segmented_error import Decisions, compare_segmented
@@ -29,7 +30,7 @@ STATES = ("x", "dx", "theta", "dtheta")
 
 @pytest.fixture(scope="module")
 def build():
-    return compile_model(pendc.load_model(), OPTIONS)
+    return compile_cached(pendc.load_model(), OPTIONS)     # one short build for the pass tests (the build cache)
 
 
 def typed_default(build, widen):

@@ -12,7 +12,8 @@ from pendc.ir.compiled import CompiledGraph
 from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
 from pendc.ir.nodes import Kind
-from pendc.passes.pipeline import BuildOptions, compile_model
+from pendc.caching.build_cache import compile_cached
+from pendc.passes.pipeline import BuildOptions
 from pendc.passes.ranges import per_step
 from plants import chirp, swing_up
 
@@ -24,7 +25,7 @@ STIMULI = {"chirp": chirp(), "swing_up": swing_up()}
 
 @pytest.fixture(scope="module")
 def build():
-    return compile_model(pendc.load_model(), OPTIONS)
+    return compile_cached(pendc.load_model(), OPTIONS)     # one short build for the pass tests (the build cache)
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,8 @@ from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
-from pendc.passes.pipeline import BuildOptions, compile_model
+from pendc.caching.build_cache import compile_cached
+from pendc.passes.pipeline import BuildOptions
 from pendc.passes.qformats import CONST_BITS, MAX_WIDTH, MULT_OPERAND_BITS, assign_qformats, thesis_format
 from pendc.passes.ranges import Ranges
 from pendc.passes.tabulate import fill_lut_tables, tabulate_luts
@@ -20,7 +21,7 @@ STATES = ("x", "dx", "theta", "dtheta")
 
 @pytest.fixture(scope="module")
 def build():
-    return compile_model(pendc.load_model(), OPTIONS)
+    return compile_cached(pendc.load_model(), OPTIONS)     # one short build for the pass tests (the build cache)
 
 
 @pytest.fixture(scope="module")

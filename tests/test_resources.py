@@ -9,7 +9,8 @@ from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
-from pendc.passes.pipeline import BuildOptions, compile_model
+from pendc.caching.build_cache import compile_cached
+from pendc.passes.pipeline import BuildOptions
 from pendc.passes.resources import BRAM_BITS, dsp18_for, dsp_for, estimate_resources, longest_path
 from pendc.passes.tabulate import fill_lut_tables
 
@@ -145,7 +146,7 @@ def test_to_json_is_serialisable(res):
 
 
 def test_default_build_estimate():
-    build = compile_model(pendc.load_model(), BuildOptions(training_scale=0.02))
+    build = compile_cached(pendc.load_model(), BuildOptions(training_scale=0.02))   # the pass tests' short build
     r = build.resources
     g = build.graph
     n_mult = len(g.of_kind(Kind.MUL, Kind.GAIN)) + sum(1 for n in g.of_kind(Kind.LUT) if n.param("interpolate"))

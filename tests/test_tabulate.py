@@ -13,7 +13,8 @@ from pendc.ir.interpret import FixedInterpreter, FloatInterpreter
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat, Rounding
 from pendc.ir.verify import verify
-from pendc.passes.pipeline import BuildOptions, compile_model
+from pendc.caching.build_cache import compile_cached
+from pendc.passes.pipeline import BuildOptions
 from pendc.passes.ranges import Ranges
 from pendc.passes.tabulate import fill_lut_tables, tabulate_luts
 
@@ -179,7 +180,7 @@ def test_fixed_and_float_agree_on_out_of_domain_inputs():
 
 @pytest.fixture(scope="module")
 def build():
-    return compile_model(pendc.load_model(), OPTIONS)
+    return compile_cached(pendc.load_model(), OPTIONS)     # one short build for the pass tests (the build cache)
 
 
 def test_model_domains_come_from_ranges(build):
