@@ -49,7 +49,7 @@ SLOWEST_FIRST = (
     "test_backend_models.py",       # 47 s: six effects in one model, built and simulated on Icarus
     "test_error_budget.py",         # 45 s
     "test_ident_shipped.py",        # 41 s
-    "test_compiled.py",             # 39 s
+    "test_compiled.py",             # 23 s (its hand-graph kernels often compiled by test_kernel_parts first)
     "test_hil_animate.py",          # 37 s: headless Chromium
     "test_hil_scenarios.py",        # 35 s
     "test_hil_rtl_cpp.py",          # 32 s
