@@ -9,7 +9,9 @@ from pendc.ir.nodes import Kind, make
 from pendc.passes.eliminate_common import eliminate_common_subexpressions
 from pendc.passes.fold_constants import fold_constants
 from pendc.passes.lower import lower_model
-from pendc.passes.ranges import envelope_runs, full_scale_switching, Ranges, analyze_ranges, per_step
+from pendc.ir.compiled import quantize
+from pendc.ir.qformat import QFormat
+from pendc.passes.ranges import envelope_runs, full_scale_switching, Ranges, analyze_ranges, per_step, per_step_integers
 from plants import steps as step_stimulus
 from plants import swing_up
 
@@ -30,6 +32,19 @@ def test_per_step_at_the_stimulus_rate():
     assert len(held) == 10_000
     np.testing.assert_array_equal(held[::1000], u[:-1])
     assert np.all(held[:1000] == u[0]) and np.all(held[1000:2000] == u[1])
+
+
+def test_per_step_integers_are_every_held_step_quantised():
+    """Each sample quantised once and held: the integers of quantising every step, including
+    rounding ties and saturation; the last sample (no interval) is never quantised."""
+    t, u = swing_up(duration=0.01)
+    u = (u - u.mean()) * 400.0             # beyond the format both ways: both saturations
+    u[3] = 2.5 * 2.0 ** -8                   # a tie at the format's LSB
+    u[-1] = np.nan                           # held for no step
+    fmt = QFormat.parse("FIX16_8")
+    ints = per_step_integers(u, t, DT, fmt)
+    np.testing.assert_array_equal(ints, quantize(per_step(u, t, DT), fmt))
+    assert ints.dtype == np.int64 and ints.max() == fmt.max_int and ints.min() == fmt.min_int
 
 
 def test_per_step_rounds_interval_lengths_and_never_drops_a_sample():

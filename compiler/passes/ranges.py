@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ir.compiled import run_side_by_side
+from ..ir.compiled import quantize, run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..model.interface import graph_interface
@@ -47,8 +47,17 @@ def input_port(graph: Graph) -> str:
 
 def per_step(u: np.ndarray, t: np.ndarray, dt: float) -> np.ndarray:
     """Hold each sample of ``u`` for its interval: one value per step of ``dt``."""
-    steps = np.maximum(1, np.round(np.diff(t) / dt).astype(np.int64))
-    return np.repeat(u[:-1], steps)
+    return np.repeat(u[:-1], _hold_steps(t, dt))
+
+
+def per_step_integers(u: np.ndarray, t: np.ndarray, dt: float, fmt) -> np.ndarray:
+    """``quantize(per_step(u, t, dt), fmt)``: each held sample quantised once, not at every step
+    (the same integers; a stimulus holds a sample for a thousand steps)."""
+    return np.repeat(quantize(u[:-1], fmt), _hold_steps(t, dt))
+
+
+def _hold_steps(t: np.ndarray, dt: float) -> np.ndarray:
+    return np.maximum(1, np.round(np.diff(t) / dt).astype(np.int64))
 
 
 def full_scale_switching(duration: float = 5.0, seed: int = 9, fs: float = 1000.0) -> tuple:

@@ -33,13 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ir.compiled import CompiledGraph, quantize, run_side_by_side
+from ..ir.compiled import CompiledGraph, run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.resumable import state_indices
 from ..model.interface import graph_interface
 from .lower_turns import turn_registers
-from .ranges import per_step
+from .ranges import per_step, per_step_integers
 from .twin import BudgetError, budget_states, float_twin
 
 CHUNK = 1 << 14      # steps per kernel call: a restart re-runs at most this many
@@ -253,8 +253,7 @@ def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chu
     outs = {s: graph.output(s).name for s in d.states}
     lsb = {s: graph[outs[s]].qformat.lsb for s in d.states}
     cols = tuple(outs.values())
-    # each sample quantised once, then held: the same integers as quantising every step
-    fixed_ins = per_step(quantize(u, next(n.qformat for n in graph.of_kind(Kind.INPUT))), t, dt)[None, :]
+    fixed_ins = per_step_integers(u, t, dt, next(n.qformat for n in graph.of_kind(Kind.INPUT)))[None, :]
     plain = _Lane(fixed, fixed_ins, cols) if with_plain else None
     seg = _Lane(fixed, fixed_ins, cols + d.selects)
     # the float twin is never restarted: one run, recording what a restart loads too

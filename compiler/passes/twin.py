@@ -12,11 +12,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..ir.compiled import CompiledGraph, quantize, run_side_by_side
+from ..ir.compiled import CompiledGraph, run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..model.interface import graph_interface
-from .ranges import input_port, per_step
+from .ranges import input_port, per_step, per_step_integers
 
 
 class BudgetError(ValueError):
@@ -68,8 +68,7 @@ def compare_fixed_float(graph: Graph, stimuli: dict, dt: float, engine: str = "c
     for name, (t, u) in stimuli.items():
         u, t = np.asarray(u, float), np.asarray(t, float)
         steps = {port: per_step(u, t, dt)}
-        # what each fixed run would quantise anew, a sample at a time (the same integers, held)
-        ints = {port: per_step(quantize(u, in_fmt), t, dt)}
+        ints = {port: per_step_integers(u, t, dt, in_fmt)}      # what each fixed run would quantise anew
         if states:
             a, b = run_side_by_side([lambda: fixed.run(ints), lambda: _float_run(flt, steps, name, float_runs)])
             if a.overflows:
