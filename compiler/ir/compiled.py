@@ -24,7 +24,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..codegen import cache_dir, load_source  # noqa: F401  (cache_dir re-exported for callers)
+from ..codegen import cache_dir  # noqa: F401  (re-exported for callers)
+from ..native import kernel_function
 
 from .kernel_module import kernel_source
 from .graph import Graph
@@ -93,7 +94,7 @@ class CompiledGraph:
                 value = float(n.params.reset)
                 self.resets[i] = n.qformat.from_float(value) if mode == "fixed" else value
         self.resets.setflags(write=False)
-        self._kernel = load_source(self.source, "pendc_ir").kernel
+        self._kernel = kernel_function(self.source, "pendc_ir")
 
     def _input_matrix(self, inputs: dict, steps: int | None) -> tuple[np.ndarray, int]:
         nodes = [n for n in self.graph.nodes if n.kind is Kind.INPUT]

@@ -1,0 +1,255 @@
+"""C text of one typed function (:class:`pendc.native.translate.Function`).
+
+Every Python name ``x`` prints as ``py_x`` (no clash with C keywords or libm); an array ``a``
+travels as ``py_a`` with its extents ``py_a_n0``, ``py_a_n1``... (C-contiguous, so no strides).
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+
+from .translate import (BOOL, C_TYPE, FLOAT, INT, _BINARY, _COMPARE, _MATH, _MATH_CONST, ArrayType,
+                        Untranslatable, _call_name, _is_shape, _name)
+
+
+def c_params(name: str, t) -> list:
+    """The C parameters one Python parameter of type ``t`` becomes."""
+    if isinstance(t, ArrayType):
+        return [f"{C_TYPE[t.elem]}* {_name(name)}"] + [f"int64_t {_name(name)}_n{d}" for d in range(t.ndim)]
+    return [f"{C_TYPE[t]} {_name(name)}"]
+
+
+def c_args(name: str, t) -> list:
+    """The C arguments that pass the Python name ``name`` of type ``t`` on to a callee."""
+    if isinstance(t, ArrayType):
+        return [_name(name)] + [f"{_name(name)}_n{d}" for d in range(t.ndim)]
+    return [_name(name)]
+
+
+class FunctionPrinter:
+    def __init__(self, fn):
+        self.fn = fn
+        self.lines: list = []
+        self.loops = 0
+
+    def text(self) -> str:
+        fn = self.fn
+        params = [p for name, t in fn.params.items() for p in c_params(name, t)]
+        ret = C_TYPE[fn.returns] if fn.returns else "void"
+        head = [f"static {ret} {fn.cname}({', '.join(params) or 'void'}) {{"]
+        for name, t in sorted(fn.types.items()):
+            if name not in fn.params and not isinstance(t, ArrayType):
+                head.append(f"    {C_TYPE[t]} {_name(name)} = 0;")
+        self.block(fn.fdef.body, 1)
+        return "\n".join(head + self.lines + ["}"])
+
+    def block(self, body, depth):
+        for s in body:
+            self.stmt(s, depth)
+
+    def stmt(self, s, depth):
+        pad = "    " * depth
+        out = self.lines.append
+        if isinstance(s, ast.Assign):
+            target = s.targets[0]
+            t = self.fn.type_of(s.value)
+            if isinstance(t, ArrayType):
+                if not (isinstance(target, ast.Name) and isinstance(s.value, ast.Call)):
+                    raise Untranslatable("array assigned other than from np.zeros")
+                n, var = self.expr(s.value.args[0]), _name(target.id)
+                out(f"{pad}{C_TYPE[t.elem]} {var}[{n}]; int64_t {var}_n0 = {n};")
+                out(f"{pad}memset({var}, 0, sizeof({var}));")
+                return
+            out(f"{pad}{self.expr(target)} = {self.expr(s.value)};")
+        elif isinstance(s, ast.AugAssign):
+            value = ast.BinOp(left=s.target, op=s.op, right=s.value)
+            out(f"{pad}{self.expr(s.target)} = {self.expr(value)};")
+        elif isinstance(s, ast.For):
+            self.loop(s, pad, depth)
+        elif isinstance(s, ast.While):
+            out(f"{pad}while ({self.expr(s.test)}) {{")
+            self.block(s.body, depth + 1)
+            out(f"{pad}}}")
+        elif isinstance(s, ast.If):
+            out(f"{pad}if ({self.expr(s.test)}) {{")
+            self.block(s.body, depth + 1)
+            if s.orelse:
+                out(f"{pad}}} else {{")
+                self.block(s.orelse, depth + 1)
+            out(f"{pad}}}")
+        elif isinstance(s, ast.Return):
+            out(f"{pad}return;" if s.value is None else f"{pad}return {self.expr(s.value)};")
+        elif isinstance(s, ast.Expr):
+            if not isinstance(s.value, ast.Constant):
+                out(f"{pad}{self.expr(s.value)};")
+        elif isinstance(s, ast.Break):
+            out(f"{pad}break;")
+        elif isinstance(s, ast.Continue):
+            out(f"{pad}continue;")
+        elif not isinstance(s, ast.Pass):
+            raise Untranslatable(f"statement {type(s).__name__}")
+
+    def loop(self, s, pad, depth):
+        # Python evaluates the range once and the body cannot change the count: a hidden counter
+        args = [self.expr(a) for a in s.iter.args]
+        lo, hi, step = ("0", args[0], "1") if len(args) == 1 else (args[0], args[1], "1") if len(args) == 2 else args
+        if len(args) == 3:
+            node = s.iter.args[2]
+            literal = node.value if isinstance(node, ast.Constant) else (
+                -node.operand.value if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub)
+                and isinstance(node.operand, ast.Constant) else None)
+            if not isinstance(literal, int) or literal == 0:
+                raise Untranslatable("range with a step that is not a non-zero literal")
+            cmp = "<" if literal > 0 else ">"
+        else:
+            cmp = "<"
+        i = self.loops
+        self.loops += 1
+        self.lines.append(f"{pad}{{ const int64_t hi{i} = {hi};")
+        self.lines.append(f"{pad}for (int64_t i{i} = {lo}; i{i} {cmp} hi{i}; i{i} += {step}) {{")
+        self.lines.append(f"{pad}    {_name(s.target.id)} = i{i};")
+        self.block(s.body, depth + 1)
+        self.lines.append(f"{pad}}} }}")
+
+    # ---------------------------------------------------------------- expressions
+    def expr(self, e) -> str:
+        fn = self.fn
+        if isinstance(e, ast.Constant):
+            v = e.value
+            if isinstance(v, bool):
+                return "1" if v else "0"
+            if isinstance(v, int):
+                return "INT64_MIN" if v == -(1 << 63) else f"INT64_C({v})"
+            if v != v:
+                return _MATH_CONST["nan"]
+            if v in (float("inf"), float("-inf")):
+                return _MATH_CONST["inf"] if v > 0 else f"(-{_MATH_CONST['inf']})"
+            return repr(float(v))
+        if isinstance(e, ast.Name):
+            return _name(e.id)
+        if isinstance(e, ast.Subscript):
+            if _is_shape(e):
+                return f"{_name(e.value.value.id)}_n{e.slice.value}"
+            return self.subscript(e)
+        if isinstance(e, ast.Attribute):
+            return _MATH_CONST[e.attr]
+        if isinstance(e, ast.UnaryOp):
+            x = self.expr(e.operand)
+            if isinstance(e.op, ast.USub):
+                return f"(-{x})" if fn.type_of(e.operand) == FLOAT else f"((int64_t)(0 - (uint64_t)({x})))"
+            if isinstance(e.op, ast.Not):
+                return f"(!({x}))"
+            if isinstance(e.op, ast.Invert):
+                return f"(~({x}))"
+            return f"(+{x})"
+        if isinstance(e, ast.BinOp):
+            return self.binop(e)
+        if isinstance(e, ast.BoolOp):
+            joiner = " && " if isinstance(e.op, ast.And) else " || "
+            return "(" + joiner.join(f"({self.expr(v)})" for v in e.values) + ")"
+        if isinstance(e, ast.Compare):
+            terms, left = [], e.left
+            for op, right in zip(e.ops, e.comparators):
+                terms.append(f"(({self.expr(left)}) {_COMPARE[type(op)]} ({self.expr(right)}))")
+                left = right
+            return terms[0] if len(terms) == 1 else "(" + " && ".join(terms) + ")"
+        if isinstance(e, ast.IfExp):
+            t = C_TYPE[fn.type_of(e)]
+            return f"(({self.expr(e.test)}) ? ({t})({self.expr(e.body)}) : ({t})({self.expr(e.orelse)}))"
+        if isinstance(e, ast.Call):
+            return self.call(e)
+        raise Untranslatable(f"expression {type(e).__name__}")
+
+    def subscript(self, e) -> str:
+        arr = _name(e.value.id)
+        idx = e.slice.elts if isinstance(e.slice, ast.Tuple) else [e.slice]
+        parts = [self.index(x, f"{arr}_n{d}") for d, x in enumerate(idx)]
+        flat = parts[0]
+        for d, p in enumerate(parts[1:], start=1):
+            flat = f"({flat}) * {arr}_n{d} + {p}"
+        return f"{arr}[{flat}]"
+
+    def index(self, x, extent: str) -> str:
+        # numba wraps a negative index around, as Python does
+        if isinstance(x, ast.Constant) and isinstance(x.value, int) and x.value >= 0:
+            return str(x.value)
+        return f"wrap_i({self.expr(x)}, {extent})"
+
+    def binop(self, e) -> str:
+        fn = self.fn
+        a, b = self.expr(e.left), self.expr(e.right)
+        ta, tb, t = fn.type_of(e.left), fn.type_of(e.right), fn.type_of(e)
+        op = type(e.op)
+        if op is ast.LShift:
+            return f"shl_i({a}, {b})"
+        if op is ast.RShift:
+            return f"((int64_t)({a}) >> ({b}))"
+        if op is ast.Div:
+            return f"((double)({a}) / (double)({b}))"
+        if op is ast.FloorDiv:
+            return f"floordiv_{t}({a}, {b})"
+        if op is ast.Mod:
+            return f"mod_{t}({a}, {b})"
+        if op is ast.Pow:
+            if t == INT:
+                return f"ipow_i({a}, {b})"
+            if tb in (INT, BOOL):
+                return f"ipow_f((double)({a}), {b})"
+            return f"pow((double)({a}), (double)({b}))"
+        if op is ast.Mult and BOOL in (ta, tb) and ta != tb:
+            # x * (a comparison): a select, as LLVM makes of numba's multiply by a zero-extended
+            # bool (gcc keeps the multiply); exact for int64, and for a float literal whose
+            # product with 0 is known (+0.0 or -0.0)
+            (flag, other), t_other = ((a, e.right), tb) if ta == BOOL else ((b, e.left), ta)
+            value = b if ta == BOOL else a
+            if t_other == INT:
+                return f"(({flag}) ? ({value}) : INT64_C(0))"
+            literal = _float_literal(other)
+            if literal is not None and literal == literal and abs(literal) != float("inf"):
+                zero = "0.0" if math.copysign(1.0, literal) > 0 else "(-0.0)"
+                return f"(({flag}) ? ({value}) : {zero})"
+        if t == INT and BOOL in (ta, tb) and op in (ast.Add, ast.Sub, ast.Mult):
+            a, b = f"(int64_t)({a})", f"(int64_t)({b})"
+        return f"(({a}) {_BINARY[op]} ({b}))"
+
+    def call(self, e) -> str:
+        fn = self.fn
+        name = _call_name(e)
+        args = [self.expr(a) for a in e.args]
+        t = fn.type_of(e)
+        if name == "int":
+            return f"((int64_t)({args[0]}))"
+        if name == "float":
+            return f"((double)({args[0]}))"
+        if name == "abs":
+            return f"fabs({args[0]})" if t == FLOAT else f"abs_i({args[0]})"
+        if name in ("max", "min"):
+            return f"{name}_{t}(({C_TYPE[t]})({args[0]}), ({C_TYPE[t]})({args[1]}))"
+        if name.startswith("math."):
+            cname, rt = _MATH[name[5:]]
+            inner = f"{cname}({', '.join(f'(double)({a})' for a in args)})"
+            return f"((int64_t){inner})" if rt == INT else f"((_Bool){inner})" if rt == BOOL else inner
+        if name in fn.module.funcs:
+            types = tuple(fn.type_of(a) for a in e.args)
+            callee = fn.module.function(name, types)
+            flat = []
+            for a, ty in zip(e.args, types):
+                if isinstance(ty, ArrayType):
+                    if not isinstance(a, ast.Name):
+                        raise Untranslatable("an array argument that is not a name")
+                    flat += c_args(a.id, ty)
+                else:
+                    flat.append(self.expr(a))
+            return f"{callee.cname}({', '.join(flat)})"
+        raise Untranslatable(f"call of {name}")
+
+
+def _float_literal(e):
+    """The value of a float literal (or its negation), else None."""
+    if isinstance(e, ast.Constant) and isinstance(e.value, float):
+        return e.value
+    if isinstance(e, ast.UnaryOp) and isinstance(e.op, ast.USub):
+        inner = _float_literal(e.operand)
+        return None if inner is None else -inner
+    return None
