@@ -7,6 +7,7 @@ compiles it, caches the shared object and calls it as a Python extension functio
 """
 
 from .build import NativeFunction, backend, kernel_function
-from .translate import Untranslatable, translate
+from .emit import translate
+from .translate import Untranslatable
 
 __all__ = ["NativeFunction", "Untranslatable", "backend", "kernel_function", "translate"]

@@ -30,11 +30,12 @@ from pathlib import Path
 import numpy as np
 
 from ..codegen import cache_dir, load_source
-from .emit import c_args, c_params
-from .translate import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable, translate
+from .emit import c_args, c_params, translate
+from .translate import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable, arity, defaults
 
-# no contraction into fused multiply-adds and wrapping int64: numba's bits; errno never read
-FLAGS = ("-O2", "-march=native", "-fwrapv", "-fno-strict-aliasing", "-ffp-contract=off", "-fno-math-errno",
+# no contraction into fused multiply-adds and wrapping int64: numba's bits; errno never read. The
+# dynamic cost model lets -O2 vectorise loops behind a runtime alias check (the extremes' loop)
+FLAGS = ("-O2", "-fvect-cost-model=dynamic", "-march=native", "-fwrapv", "-fno-strict-aliasing", "-ffp-contract=off", "-fno-math-errno",
          "-fPIC", "-shared", "-w")
 BACKENDS = ("native", "numba")
 _ELEMENTS = {"i8": INT, "f8": FLOAT, "b1": BOOL}
@@ -99,6 +100,13 @@ def arg_type(value):
     raise Untranslatable(f"an argument of type {type(value).__name__}")
 
 
+def _plain(value):
+    """A NumPy scalar as the Python scalar the extension function takes (arrays unchanged)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
 class NativeFunction:
     """The function ``name`` of a generated kernel module, compiled to C per argument types."""
 
@@ -106,8 +114,29 @@ class NativeFunction:
         self.source, self.prefix, self.name = source, prefix, name
         self._calls: dict = {}
         self._lock = threading.Lock()
+        self._defaults = None
+        self._arity = -1
+        self._last = None
 
     def __call__(self, *args):
+        # the last specialization checks its own arguments (C, before the kernel runs) and says
+        # TypeError or BufferError when they are of other types: then the types are worked out
+        call = self._last
+        if call is not None and len(args) == self._arity:
+            try:
+                return call(*args)
+            except (TypeError, BufferError):
+                pass
+        return self._dispatch(args)
+
+    def _dispatch(self, args: tuple):
+        if self._defaults is None:
+            try:
+                self._defaults, self._arity = defaults(self.source, self.name), arity(self.source, self.name)
+            except Untranslatable:
+                self._defaults = ()
+        if len(args) < self._arity:
+            args = args + self._defaults[len(self._defaults) - (self._arity - len(args)):]
         try:
             key = tuple(arg_type(a) for a in args)
         except Untranslatable as why:
@@ -115,6 +144,8 @@ class NativeFunction:
         call = self._calls.get(key)
         if call is None:
             call = self._specialize(key)
+        self._last = call
+        args = tuple(_plain(a) for a in args)
         try:
             return call(*args)
         except BufferError:
@@ -210,11 +241,13 @@ def _wrapper(fn, key: tuple) -> str:
             lines += [f"    if (take(args[{i}], &views[held], {item}, {t.ndim}, \"{formats}\") < 0) goto done;",
                       f"    {var} = ({C_TYPE[t.elem]} *)views[held++].buf;"]
         elif t == INT:
-            lines.append(f"    {var} = PyLong_AsLongLong(args[{i}]); if ({var} == -1 && PyErr_Occurred()) goto done;")
+            # an int or NumPy integer (its __index__); not a bool or float, which numba types apart
+            lines += [f"    if (!PyIndex_Check(args[{i}]) || PyBool_Check(args[{i}]) || PyFloat_Check(args[{i}])) goto mismatch;",
+                      f"    {var} = PyLong_AsLongLong(args[{i}]); if ({var} == -1 && PyErr_Occurred()) goto done;"]
         elif t == FLOAT:
-            lines.append(f"    {var} = PyFloat_AsDouble(args[{i}]); if ({var} == -1.0 && PyErr_Occurred()) goto done;")
+            lines.append(f"    if (!PyFloat_Check(args[{i}])) goto mismatch; {var} = PyFloat_AS_DOUBLE(args[{i}]);")
         else:
-            lines.append(f"    {{ int truth = PyObject_IsTrue(args[{i}]); if (truth < 0) goto done; {var} = truth; }}")
+            lines.append(f"    if (!PyBool_Check(args[{i}])) goto mismatch; {var} = (args[{i}] == Py_True);")
     flat = []
     for n, t in zip(names, key):
         if isinstance(t, ArrayType):
@@ -222,14 +255,21 @@ def _wrapper(fn, key: tuple) -> str:
         else:
             flat += c_args(n, t)
     invoke = f"{fn.cname}({', '.join(flat)})"
+    raised = ["    if (zero_division) {",
+              "        PyErr_SetString(PyExc_ZeroDivisionError, \"division by zero\");", "        goto done;", "    }"]
     if fn.returns is None:
-        lines += ["    Py_BEGIN_ALLOW_THREADS", f"    {invoke};", "    Py_END_ALLOW_THREADS",
-                  "    result = Py_None; Py_INCREF(result);"]
+        lines += ["    Py_BEGIN_ALLOW_THREADS", "    zero_division = 0;", f"    {invoke};", "    Py_END_ALLOW_THREADS",
+                  *raised, "    result = Py_None; Py_INCREF(result);"]
     else:
+        if fn.returns not in (INT, FLOAT, BOOL):
+            raise Untranslatable(f"{fn.fdef.name} returns a tuple to Python")
         box = {INT: "PyLong_FromLongLong", FLOAT: "PyFloat_FromDouble", BOOL: "PyBool_FromLong"}[fn.returns]
-        lines += [f"    {{ {C_TYPE[fn.returns]} r;", "    Py_BEGIN_ALLOW_THREADS", f"    r = {invoke};",
-                  "    Py_END_ALLOW_THREADS", f"    result = {box}(r); }}"]
-    lines += ["done:", "    for (int i = 0; i < held; i++) PyBuffer_Release(&views[i]);", "    return result;", "}", ""]
+        lines += [f"    {{ {C_TYPE[fn.returns]} r;", "    Py_BEGIN_ALLOW_THREADS", "    zero_division = 0;",
+                  f"    r = {invoke};", "    Py_END_ALLOW_THREADS", *["    " + x for x in raised],
+                  f"    result = {box}(r); }}"]
+    lines += ["    goto done;", "mismatch:",
+              "    PyErr_SetString(PyExc_TypeError, \"pendc native kernel: an argument of another type\");",
+              "done:", "    for (int i = 0; i < held; i++) PyBuffer_Release(&views[i]);", "    return result;", "}", ""]
     return "\n".join(lines)
 
 

@@ -1,7 +1,9 @@
 """C text of one typed function (:class:`pendc.native.translate.Function`).
 
-Every Python name ``x`` prints as ``py_x`` (no clash with C keywords or libm); an array ``a``
-travels as ``py_a`` with its extents ``py_a_n0``, ``py_a_n1``... (C-contiguous, so no strides).
+Every Python name ``name`` prints as ``py_name`` (no clash with C keywords or libm); an array
+``arr`` travels as ``py_arr`` with its extents ``py_arr_n0``, ``py_arr_n1``... (C-contiguous, so no
+strides). :func:`translate` is the entry: a module's function typed for its arguments, and every
+function it calls, printed after the prelude and the tuple types.
 """
 
 from __future__ import annotations
@@ -9,15 +11,21 @@ from __future__ import annotations
 import ast
 import math
 
-from .translate import (BOOL, C_TYPE, FLOAT, INT, _BINARY, _COMPARE, _MATH, _MATH_CONST, ArrayType,
-                        Untranslatable, _call_name, _is_shape, _name)
+from .prelude import PRELUDE
+from .translate import (BOOL, C_TYPE, FLOAT, INT, _BINARY, _COMPARE, _MATH, _MATH_CONST, ArrayType, TupleType,
+                        Module, Untranslatable, _call_name, _constant_index, _is_shape, _name)
 
 
 def c_params(name: str, t) -> list:
     """The C parameters one Python parameter of type ``t`` becomes."""
     if isinstance(t, ArrayType):
         return [f"{C_TYPE[t.elem]}* {_name(name)}"] + [f"int64_t {_name(name)}_n{d}" for d in range(t.ndim)]
-    return [f"{C_TYPE[t]} {_name(name)}"]
+    return [f"{c_type(t)} {_name(name)}"]
+
+
+def c_type(t) -> str:
+    """The C type of a scalar or tuple."""
+    return t.c_name if isinstance(t, TupleType) else C_TYPE[t]
 
 
 def c_args(name: str, t) -> list:
@@ -36,11 +44,11 @@ class FunctionPrinter:
     def text(self) -> str:
         fn = self.fn
         params = [p for name, t in fn.params.items() for p in c_params(name, t)]
-        ret = C_TYPE[fn.returns] if fn.returns else "void"
+        ret = c_type(fn.returns) if fn.returns else "void"
         head = [f"static {ret} {fn.cname}({', '.join(params) or 'void'}) {{"]
         for name, t in sorted(fn.types.items()):
             if name not in fn.params and not isinstance(t, ArrayType):
-                head.append(f"    {C_TYPE[t]} {_name(name)} = 0;")
+                head.append(f"    {c_type(t)} {_name(name)} = {{0}};")
         self.block(fn.fdef.body, 1)
         return "\n".join(head + self.lines + ["}"])
 
@@ -61,7 +69,14 @@ class FunctionPrinter:
                 out(f"{pad}{C_TYPE[t.elem]} {var}[{n}]; int64_t {var}_n0 = {n};")
                 out(f"{pad}memset({var}, 0, sizeof({var}));")
                 return
-            out(f"{pad}{self.expr(target)} = {self.expr(s.value)};")
+            if isinstance(target, ast.Tuple):
+                out(f"{pad}{{ const {t.c_name} unpacked = {self.expr(s.value)};")
+                for i, x in enumerate(target.elts):
+                    out(f"{pad}  {_name(x.id)} = {_element('unpacked', t, i)};")
+                out(f"{pad}}}")
+                return
+            want = self.fn.types.get(target.id) if isinstance(target, ast.Name) else None
+            out(f"{pad}{self.expr(target)} = {self.expr(s.value, want)};")
         elif isinstance(s, ast.AugAssign):
             value = ast.BinOp(left=s.target, op=s.op, right=s.value)
             out(f"{pad}{self.expr(s.target)} = {self.expr(value)};")
@@ -79,7 +94,7 @@ class FunctionPrinter:
                 self.block(s.orelse, depth + 1)
             out(f"{pad}}}")
         elif isinstance(s, ast.Return):
-            out(f"{pad}return;" if s.value is None else f"{pad}return {self.expr(s.value)};")
+            out(f"{pad}return;" if s.value is None else f"{pad}return {self.expr(s.value, self.fn.returns)};")
         elif isinstance(s, ast.Expr):
             if not isinstance(s.value, ast.Constant):
                 out(f"{pad}{self.expr(s.value)};")
@@ -113,8 +128,14 @@ class FunctionPrinter:
         self.lines.append(f"{pad}}} }}")
 
     # ---------------------------------------------------------------- expressions
-    def expr(self, e) -> str:
+    def expr(self, e, want=None) -> str:
+        """C of the expression ``e``; a tuple display is built as the tuple type ``want`` when
+        given (a variable's or a return's joined type), else as its own."""
         fn = self.fn
+        if isinstance(e, ast.Tuple):
+            t = want if isinstance(want, TupleType) else fn.type_of(e)
+            items = ", ".join(f"({C_TYPE[et]})({self.expr(x)})" for x, et in zip(e.elts, t.elems))
+            return f"(({t.c_name}){{{{{items}}}}})" if t.uniform else f"(({t.c_name}){{{items}}})"
         if isinstance(e, ast.Constant):
             v = e.value
             if isinstance(v, bool):
@@ -162,6 +183,12 @@ class FunctionPrinter:
         raise Untranslatable(f"expression {type(e).__name__}")
 
     def subscript(self, e) -> str:
+        t = self.fn.type_of(e.value)
+        if isinstance(t, TupleType):
+            index = _constant_index(e.slice)
+            if index is None:
+                return f"({self.expr(e.value)}).e[wrap_i({self.expr(e.slice)}, {len(t.elems)})]"
+            return _element(f"({self.expr(e.value)})", t, index % len(t.elems))
         arr = _name(e.value.id)
         idx = e.slice.elts if isinstance(e.slice, ast.Tuple) else [e.slice]
         parts = [self.index(x, f"{arr}_n{d}") for d, x in enumerate(idx)]
@@ -171,9 +198,12 @@ class FunctionPrinter:
         return f"{arr}[{flat}]"
 
     def index(self, x, extent: str) -> str:
-        # numba wraps a negative index around, as Python does
+        # numba wraps a negative index around, as Python does; a literal or a counting loop's
+        # variable cannot be negative (and a plain index lets the compiler vectorise the loop)
         if isinstance(x, ast.Constant) and isinstance(x.value, int) and x.value >= 0:
             return str(x.value)
+        if isinstance(x, ast.Name) and x.id in self.fn.counters:
+            return self.expr(x)
         return f"wrap_i({self.expr(x)}, {extent})"
 
     def binop(self, e) -> str:
@@ -185,12 +215,13 @@ class FunctionPrinter:
             return f"shl_i({a}, {b})"
         if op is ast.RShift:
             return f"((int64_t)({a}) >> ({b}))"
+        checked = "_checked" if fn.raises else ""
         if op is ast.Div:
-            return f"((double)({a}) / (double)({b}))"
+            return f"div_checked({a}, {b})" if fn.raises else f"((double)({a}) / (double)({b}))"
         if op is ast.FloorDiv:
-            return f"floordiv_{t}({a}, {b})"
+            return f"floordiv_{t}{checked}({a}, {b})"
         if op is ast.Mod:
-            return f"mod_{t}({a}, {b})"
+            return f"mod_{t}{checked}({a}, {b})"
         if op is ast.Pow:
             if t == INT:
                 return f"ipow_i({a}, {b})"
@@ -240,9 +271,14 @@ class FunctionPrinter:
                         raise Untranslatable("an array argument that is not a name")
                     flat += c_args(a.id, ty)
                 else:
-                    flat.append(self.expr(a))
+                    flat.append(self.expr(a, ty))
             return f"{callee.cname}({', '.join(flat)})"
         raise Untranslatable(f"call of {name}")
+
+
+def _element(value: str, t, i: int) -> str:
+    """Element ``i`` of the tuple ``value`` of type ``t``."""
+    return f"{value}.e[{i}]" if t.uniform else f"{value}.e{i}"
 
 
 def _float_literal(e):
@@ -253,3 +289,13 @@ def _float_literal(e):
         inner = _float_literal(e.operand)
         return None if inner is None else -inner
     return None
+
+
+def translate(source: str, entry: str, args: tuple) -> tuple:
+    """(C text of ``entry`` of the module ``source`` typed for ``args``, and of every function it
+    calls, callees first; its typed :class:`~pendc.native.translate.Function`)."""
+    module = Module(source)
+    fn = module.function(entry, tuple(args))
+    chunks = [FunctionPrinter(f).text() for f in module.order]    # printing may add tuple types
+    typedefs = "".join(t.c_typedef() + "\n" for _, t in sorted(module.tuples.items()))
+    return PRELUDE + typedefs + "\n" + "\n\n".join(chunks) + "\n", fn

@@ -16,7 +16,9 @@ Anything outside the subset raises :class:`Untranslatable`; the caller then uses
 from __future__ import annotations
 
 import ast
+import threading
 from dataclasses import dataclass
+
 
 BOOL, INT, FLOAT = "b", "i", "f"
 C_TYPE = {BOOL: "_Bool", INT: "int64_t", FLOAT: "double"}
@@ -35,44 +37,12 @@ _MATH_CONST = {"pi": "3.141592653589793", "e": "2.718281828459045", "tau": "6.28
 _BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.BitOr: "|", ast.BitAnd: "&", ast.BitXor: "^"}
 _COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!="}
 
-PRELUDE = r"""#include <stdint.h>
-#include <string.h>
-#include <math.h>
-static inline int64_t wrap_i(int64_t i, int64_t n) { return i < 0 ? i + n : i; }
-static inline int64_t shl_i(int64_t a, int64_t s) { return (int64_t)((uint64_t)a << s); }
-static inline int64_t abs_i(int64_t a) { return a < 0 ? (int64_t)(0 - (uint64_t)a) : a; }
-static inline int64_t max_i(int64_t a, int64_t b) { return b > a ? b : a; }
-static inline int64_t min_i(int64_t a, int64_t b) { return b < a ? b : a; }
-static inline double max_f(double a, double b) { return b > a ? b : a; }
-static inline double min_f(double a, double b) { return b < a ? b : a; }
-static inline _Bool max_b(_Bool a, _Bool b) { return b > a ? b : a; }
-static inline _Bool min_b(_Bool a, _Bool b) { return b < a ? b : a; }
-static inline int64_t floordiv_i(int64_t a, int64_t b) {
-    if (b == 0) return 0;
-    if (b == -1) return (int64_t)(0 - (uint64_t)a);
-    int64_t q = a / b; if ((a % b != 0) && ((a < 0) != (b < 0))) q -= 1; return q; }
-static inline int64_t mod_i(int64_t a, int64_t b) {
-    if (b == 0 || b == -1) return 0;
-    int64_t r = a % b; if (r != 0 && ((r < 0) != (b < 0))) r += b; return r; }
-static inline double mod_f(double a, double b) {
-    double r = fmod(a, b);
-    if (r != 0.0) { if ((b < 0.0) != (r < 0.0)) r += b; } else r = copysign(0.0, b);
-    return r; }
-static inline double floordiv_f(double a, double b) {
-    double m = fmod(a, b), d = (a - m) / b;
-    if (m != 0.0 && ((b < 0.0) != (m < 0.0))) d -= 1.0;
-    if (d != 0.0) { double f = floor(d); if (d - f > 0.5) f += 1.0; d = f; } else d = copysign(0.0, a / b);
-    return b == 0.0 ? a / b : d; }
-static inline double ipow_f(double a, int64_t e) {
-    int inv = e < 0; uint64_t n = inv ? 0 - (uint64_t)e : (uint64_t)e; double r = 1.0;
-    while (n) { if (n & 1) r = r * a; n >>= 1; a = a * a; }
-    return inv ? 1.0 / r : r; }
-static inline int64_t ipow_i(int64_t a, int64_t e) {
-    if (e < 0) { if (a == 1) return 1; if (a == -1) return (e & 1) ? -1 : 1; return 0; }
-    uint64_t r = 1, x = (uint64_t)a, n = (uint64_t)e;
-    while (n) { if (n & 1) r = r * x; n >>= 1; x = x * x; }
-    return (int64_t)r; }
-"""
+
+
+# CPython 3.11's AST conversion keeps its recursion depth in shared state: two threads parsing
+# at once (kernels first called side by side) can fail with "AST constructor recursion depth
+# mismatch", so parsing is one thread at a time
+PARSE_LOCK = threading.Lock()
 
 
 class Untranslatable(Exception):
@@ -86,9 +56,32 @@ class ArrayType:
     ndim: int
 
 
+@dataclass(frozen=True)
+class TupleType:
+    """A tuple of scalars (a C struct: ``e[i]`` when all are of one type, else ``e0``, ``e1``...)."""
+    elems: tuple
+
+    @property
+    def uniform(self) -> bool:
+        return len(set(self.elems)) == 1
+
+    @property
+    def c_name(self) -> str:
+        return f"tup_{self.elems[0]}{len(self.elems)}" if self.uniform else "tup_" + "".join(self.elems)
+
+    def c_typedef(self) -> str:
+        if self.uniform:
+            return f"typedef struct {{ {C_TYPE[self.elems[0]]} e[{len(self.elems)}]; }} {self.c_name};"
+        return "typedef struct { " + " ".join(f"{C_TYPE[t]} e{i};" for i, t in enumerate(self.elems)) + f" }} {self.c_name};"
+
+
 def _join(a, b):
     if a is None or b is None:
         return b if a is None else a
+    if isinstance(a, TupleType) or isinstance(b, TupleType):
+        if not (isinstance(a, TupleType) and isinstance(b, TupleType) and len(a.elems) == len(b.elems)):
+            raise Untranslatable("a name holds a tuple and another value")
+        return TupleType(tuple(_join(x, y) for x, y in zip(a.elems, b.elems)))
     if isinstance(a, ArrayType) or isinstance(b, ArrayType):
         if a != b:
             raise Untranslatable("a name holds an array and another value")
@@ -109,15 +102,21 @@ class Module:
 
     def __init__(self, source: str):
         self.funcs: dict = {}
+        self.numpy_errors: set = set()     # id() of the functions compiled with error_model="numpy"
         self._read(source)
         self.emitted: dict = {}
-        self.chunks: list = []
+        self.order: list = []
+        self.tuples: dict = {}            # C name -> TupleType, for the typedefs
 
     def _read(self, source: str, alias: dict | None = None):
-        tree = ast.parse(source)
+        with PARSE_LOCK:
+            tree = ast.parse(source)
         for node in tree.body:
             if isinstance(node, ast.FunctionDef):
-                self.funcs[(alias or {}).get(node.name, node.name)] = node
+                name = (alias or {}).get(node.name, node.name)
+                self.funcs[name] = node
+                if _numpy_errors(node):
+                    self.numpy_errors.add(id(node))
             elif isinstance(node, (ast.Import, ast.ImportFrom)):
                 continue
             elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
@@ -136,7 +135,10 @@ class Module:
                 raise Untranslatable(f"call of unknown function {name}")
             fn = Function(self, self.funcs[name], args, f"f{len(self.emitted)}_{name}")
             self.emitted[key] = fn
-            self.chunks.append(fn.emit())
+            self.order.append(fn)          # after its callees: they were typed while it was
+            for t in list(fn.types.values()) + [fn.returns]:
+                if isinstance(t, TupleType):
+                    self.tuples[t.c_name] = t
         return self.emitted[key]
 
 
@@ -153,10 +155,11 @@ class Function:
     def __init__(self, module: Module, fdef: ast.FunctionDef, args: tuple, cname: str):
         self.module, self.fdef, self.cname = module, fdef, cname
         names = [a.arg for a in fdef.args.args]
-        if len(names) != len(args) or fdef.args.vararg or fdef.args.kwarg:
+        if len(names) != len(args) or fdef.args.vararg or fdef.args.kwarg or fdef.args.kwonlyargs:
             raise Untranslatable(f"{fdef.name}: {len(args)} arguments for {len(names)} parameters")
         self.params = dict(zip(names, args))
         self.types = dict(self.params)
+        self.counters = _counters(fdef)
         self.returns = None
         for _ in range(8):      # types only widen, so this reaches the fixed point
             before = (dict(self.types), self.returns)
@@ -175,7 +178,18 @@ class Function:
                 target = s.targets[0]
                 if isinstance(target, ast.Name):
                     self._bind(target.id, self.type_of(s.value))
+                elif isinstance(target, ast.Tuple):
+                    t = self.type_of(s.value)
+                    if t is None:
+                        continue
+                    if not (isinstance(t, TupleType) and len(t.elems) == len(target.elts)
+                            and all(isinstance(x, ast.Name) for x in target.elts)):
+                        raise Untranslatable("unpacking other than names from a tuple of as many")
+                    for x, et in zip(target.elts, t.elems):
+                        self._bind(x.id, et)
                 elif isinstance(target, ast.Subscript):
+                    if isinstance(self.type_of(target.value), TupleType):
+                        raise Untranslatable("assignment to a tuple's element")
                     self.type_of(target)
                     self.type_of(s.value)
                 else:
@@ -215,6 +229,12 @@ class Function:
             elif not isinstance(s, (ast.Pass, ast.Break, ast.Continue)):
                 raise Untranslatable(f"statement {type(s).__name__}")
 
+    @property
+    def raises(self) -> bool:
+        """Whether a division by zero raises (numba's default error model), as the prelude's
+        checked helpers report it."""
+        return id(self.fdef) not in self.module.numpy_errors
+
     def _bind(self, name, t):
         if name in self.params and self.params[name] != t:
             if isinstance(t, ArrayType) or isinstance(self.params[name], ArrayType) or _join(self.params[name], t) != self.params[name]:
@@ -244,6 +264,15 @@ class Function:
             if _is_shape(e):
                 return INT
             arr = self.type_of(e.value)
+            if isinstance(arr, TupleType):
+                if _constant_index(e.slice) is None and (not arr.uniform or self.type_of(e.slice) not in (INT, BOOL)):
+                    raise Untranslatable("a tuple of mixed types indexed by a variable")
+                index = _constant_index(e.slice)
+                if index is not None and not -len(arr.elems) <= index < len(arr.elems):
+                    raise Untranslatable("tuple index out of range")
+                return arr.elems[0] if index is None else arr.elems[index]
+            if arr is None:
+                return None
             if not isinstance(arr, ArrayType):
                 raise Untranslatable("subscript of a non-array")
             idx = e.slice.elts if isinstance(e.slice, ast.Tuple) else [e.slice]
@@ -284,9 +313,10 @@ class Function:
                     raise Untranslatable("bitwise operator on a float")
                 return BOOL if a == b == BOOL else INT
             if op is ast.Pow:
-                if b == FLOAT or a == FLOAT:
-                    return FLOAT
-                return INT
+                if b != FLOAT and not (isinstance(e.right, ast.Constant) and e.right.value >= 0):
+                    # numba raises ZeroDivisionError for 0 ** -n, which C cannot
+                    raise Untranslatable("a power by an integer that is not a non-negative literal")
+                return FLOAT if FLOAT in (a, b) else INT
             if op in (ast.Add, ast.Sub, ast.Mult, ast.FloorDiv, ast.Mod):
                 return _arith(_join(a, b))
             raise Untranslatable(f"operator {op.__name__}")
@@ -302,6 +332,15 @@ class Function:
             if any(type(o) not in _COMPARE for o in e.ops):
                 raise Untranslatable("comparison operator")
             return BOOL
+        if isinstance(e, ast.Tuple):
+            ts = tuple(self.type_of(x) for x in e.elts)
+            if None in ts:
+                return None
+            if not ts or any(isinstance(t, (ArrayType, TupleType)) for t in ts):
+                raise Untranslatable("a tuple of other than scalars")
+            t = TupleType(ts)
+            self.module.tuples[t.c_name] = t
+            return t
         if isinstance(e, ast.IfExp):
             self.type_of(e.test)
             return _join(self.type_of(e.body), self.type_of(e.orelse))
@@ -342,11 +381,6 @@ class Function:
             return self.module.function(name, tuple(ts)).returns
         raise Untranslatable(f"call of {name}")
 
-    # ---------------------------------------------------------------- printing
-    def emit(self) -> str:
-        from .emit import FunctionPrinter
-        return FunctionPrinter(self).text()
-
 
 def _call_name(e) -> str:
     f = e.func
@@ -357,13 +391,69 @@ def _call_name(e) -> str:
     raise Untranslatable("call of an expression")
 
 
+def _counters(fdef) -> set:
+    """Names that only ever count up from a non-negative literal: the targets of
+    ``for ... in range(...)`` loops starting at 0 or a positive literal with a positive step,
+    assigned nowhere else in the function."""
+    bound: dict = {}
+    counting = set()
+    for node in ast.walk(fdef):
+        targets = []
+        if isinstance(node, ast.Assign):
+            targets = [t for t in ast.walk(node.targets[0]) if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.AugAssign) and isinstance(node.target, ast.Name):
+            targets = [node.target]
+        elif isinstance(node, ast.For) and isinstance(node.target, ast.Name):
+            targets = [node.target]
+            args = node.iter.args if isinstance(node.iter, ast.Call) else []
+            start = 0 if len(args) == 1 else _constant_index(args[0]) if args else None
+            step = 1 if len(args) < 3 else _constant_index(args[2])
+            if start is not None and start >= 0 and step is not None and step > 0:
+                counting.add(node.target.id)
+        for t in targets:
+            bound[t.id] = bound.get(t.id, 0) + 1
+    return {name for name in counting if bound[name] == 1}
+
+
+def _constant_index(e):
+    """The integer a subscript's index is when it is a literal (negative ones too), else None."""
+    if isinstance(e, ast.Constant) and isinstance(e.value, int) and not isinstance(e.value, bool):
+        return e.value
+    if isinstance(e, ast.UnaryOp) and isinstance(e.op, ast.USub):
+        inner = _constant_index(e.operand)
+        return None if inner is None else -inner
+    return None
+
+
+def _function_def(source: str, name: str):
+    with PARSE_LOCK:
+        tree = ast.parse(source)
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and node.name == name:
+            return node
+    raise Untranslatable(f"no function {name}")
+
+
+def defaults(source: str, name: str) -> tuple:
+    """The literal default values of the function ``name``'s last parameters."""
+    node = _function_def(source, name)
+    if not all(isinstance(d, ast.Constant) for d in node.args.defaults):
+        raise Untranslatable(f"{name}: a default that is not a literal")
+    return tuple(d.value for d in node.args.defaults)
+
+
+def arity(source: str, name: str) -> int:
+    """The number of parameters of the function ``name``."""
+    return len(_function_def(source, name).args.args)
+
+
+def _numpy_errors(fdef) -> bool:
+    """Whether the function's decorator asks numba for error_model="numpy"."""
+    return any(isinstance(d, ast.Call) and any(k.arg == "error_model" and isinstance(k.value, ast.Constant)
+                                               and k.value.value == "numpy" for k in d.keywords)
+               for d in fdef.decorator_list)
+
+
 def _is_shape(e) -> bool:
     return (isinstance(e.value, ast.Attribute) and e.value.attr == "shape"
             and isinstance(e.value.value, ast.Name) and isinstance(e.slice, ast.Constant))
-
-
-def translate(source: str, entry: str, args: tuple) -> tuple[str, "Function"]:
-    """(C text of ``entry`` and every function it calls, typed for ``args``; its Function)."""
-    module = Module(source)
-    fn = module.function(entry, tuple(args))
-    return PRELUDE + "\n\n".join(module.chunks) + "\n", fn   # callees are printed before callers

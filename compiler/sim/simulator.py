@@ -81,7 +81,7 @@ class Simulator:
         self.param_names = tuple(s.name for s in model.equations.params)
         self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
         self.signals = signals_of(model)
-        self._kernel = load_kernel(model.equations, self.signals.clamped())
+        self._simulate = load_kernel(model.equations, self.signals.clamped())
         eq = model.equations
         self._offsets = tuple((name, eq.params.index(expr) if expr in eq.params else None, expr)
                               for name, expr in eq.sensor_offsets)
@@ -130,8 +130,10 @@ class Simulator:
         """Unchecked kernel call for inner loops (identification): states array and the
         number of valid rows (fewer than len(t) if the run diverged). The run starts at
         row ``k0`` from ``s0``; rows before it only give an input delay its history."""
-        return self._kernel.simulate(_frozen(t), _frozen(u), _frozen(s0), _frozen(p), self.dt,
-                                     self.method == "rk4", int(k0))
+        out = np.empty((len(t), len(self.state_names)))
+        rows = self._simulate(_frozen(t), _frozen(u), _frozen(s0), _frozen(p), self.dt, self.method == "rk4",
+                              int(k0), out)
+        return out, rows
 
     def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
         t = np.ascontiguousarray(t, dtype=np.float64)

@@ -1,0 +1,226 @@
+"""pendc.native: kernels compiled by the C compiler give numba's bits.
+
+Each check runs one source twice, through numba (``pendc.codegen.load_source``) and through the
+C translation (``NativeFunction``), on the same arguments, and compares every array the kernel
+writes and its result exactly. Warnings are errors here: a fall-back to numba would make the
+comparison vacuous.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from pendc.codegen import load_source
+from pendc.ir.compiled import CompiledGraph
+from pendc.native import NativeFunction, Untranslatable, backend, translate
+from pendc.native.build import toolchain
+from pendc.ir.graph import Graph
+from pendc.ir.nodes import Kind, make
+from pendc.ir.qformat import QFormat
+from test_compiled import MODES, block, random_inputs
+
+pytestmark = pytest.mark.skipif(toolchain() is None, reason="no C compiler or Python headers here")
+
+# every construct the kernel printers use, and the corners where C and numba could part
+SOURCE = '''
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def helper(k, a, out):
+    out[k, 0] = a[k] * 3
+    return a[k] >> 2
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def kernel(a, b, x, y, out, fl, n, scale, flag):
+    acc = 0
+    total = 0.0
+    buf = np.zeros(8, np.int64)
+    for k in range(n):
+        p = a[k]
+        q = b[k]
+        out[k, 1] = p * q                         # wraps
+        out[k, 2] = (p << 13) >> 7                # unsigned left shift, arithmetic right shift
+        out[k, 3] = p // q if q != 0 else 0
+        out[k, 4] = p % q if q != 0 else 0
+        out[k, 5] = abs(p) + min(p, q) - max(p, q)
+        out[k, 6] = int((p > q) | (p == 0)) + int(not (q < 0)) * 2
+        out[k, 7] = p * (q > 0) + q * (p <= 0) - (p & 255) + (q ^ 7) + (~p | 1)
+        out[k, 8] = (p % 9) ** 3 + 2 ** 5 + (q % 4) ** 0
+        out[k, 9] = helper(k, a, out) + (1 if flag else -1) + (-p)
+        buf[k % 8] = p
+        out[k, 10] = buf[-1] + buf[(k + 3) % 8]
+        u = x[k]
+        v = y[k]
+        fl[k, 0] = u * v - u / v
+        fl[k, 1] = u // v + u % v
+        fl[k, 2] = math.exp(-abs(u)) + math.sin(u) * math.cos(v) + math.copysign(1.0, v) + math.atan2(u, v)
+        fl[k, 3] = u ** 2 + u ** 3 + abs(v) ** 0.5 + abs(u) ** 1.0 + (u ** 17) % 3 + u ** v
+        fl[k, 4] = max(u, v) - min(u, v) + max(v, 0.25) + min(u, math.nan)
+        fl[k, 5] = 1.0 * (u < v) + -2.5 * (u == v) + 0.0 * (u > v) + u * (v > 0) + math.inf * (u != u)
+        w = u if math.isfinite(u) else 0.5
+        z = v if math.isfinite(v) else 1.5
+        fl[k, 6] = float(math.floor(w)) + math.ceil(z) + int(w * 3.7) + (u if u > v else p)
+        fl[k, 7] = scale * p + (1.0 if math.isfinite(u) else 0.0) + (2.0 if math.isnan(v) else 0.0)
+        total += fl[k, 0] if fl[k, 0] == fl[k, 0] else 0.0
+        acc += 1
+    j = 0
+    while True:
+        j += 3
+        if j < 10:
+            continue
+        if j > 20:
+            break
+    for i in range(n - 1, -1, -2):
+        acc += i
+    return acc + j + int(total > 0)
+'''
+
+
+def _arguments(seed: int, n: int = 4000):
+    rng = np.random.default_rng(seed)
+    edges = np.array([0, 1, -1, 2**62, -2**63, 2**63 - 1, 7, -7, 255, -256], np.int64)
+    a = rng.integers(-2**40, 2**40, n)
+    b = rng.integers(-50, 50, n)
+    a[:len(edges)] = edges
+    b[:len(edges)] = edges[::-1]
+    x = rng.normal(0, 10, n)
+    y = rng.normal(0, 3, n)
+    x[:6] = [0.0, -0.0, np.inf, -np.inf, np.nan, 1e308]
+    y[:6] = [-0.0, 0.0, 2.0, np.nan, 1.0, -1e-308]
+    return [a, b, x, y, np.zeros((n, 11), np.int64), np.zeros((n, 8)), n, 0.75, True]
+
+
+def _same(numba_args, native_args):
+    for mine, theirs in zip(native_args, numba_args):
+        if isinstance(theirs, np.ndarray):
+            np.testing.assert_array_equal(mine, theirs)
+            if mine.dtype.kind == "f":       # -0.0 is not 0.0 (a NaN's sign is no value's)
+                numbers = ~np.isnan(theirs)
+                assert np.array_equal(np.signbit(mine[numbers]), np.signbit(theirs[numbers]))
+
+
+def test_every_construct_gives_numbas_bits():
+    reference = load_source(SOURCE, "pendc_test").kernel
+    native = NativeFunction(SOURCE, "pendc_test")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with np.errstate(all="ignore"):
+            for seed in (1, 2):
+                theirs, mine = _arguments(seed), _arguments(seed)
+                assert native(*mine) == reference(*theirs)
+                _same(theirs, mine)
+
+
+def test_strided_arrays_are_copied_in_and_written_back():
+    reference = load_source(SOURCE, "pendc_test").kernel
+    native = NativeFunction(SOURCE, "pendc_test")
+    theirs, mine = _arguments(3), _arguments(3)
+    mine[4] = np.zeros((11, 4000), np.int64).T                # the output array in Fortran order
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert native(*mine) == reference(*theirs)
+    _same(theirs, mine)
+
+
+def test_scalar_types_specialize_like_numba():
+    """An int where a float was passed before is another specialization, as numba types it."""
+    native = NativeFunction(SOURCE, "pendc_test")
+    with np.errstate(all="ignore"):
+        native(*_arguments(4))
+        args = _arguments(4)
+        args[7] = 3                                          # scale: an int this time
+        native(*args)
+    assert len(native._calls) == 2
+
+
+@pytest.mark.parametrize("change", [("    j = 0\n", "    j = 0\n    pair = [1, 2]\n    j = pair[0] - 1\n", "List"),
+                                    ("u ** 3", "u ** -3", "non-negative literal")])
+def test_a_source_outside_the_subset_runs_on_numba_with_a_warning(change):
+    old, new, why = change
+    source = SOURCE.replace(old, new)
+    with pytest.raises(Untranslatable, match=why):
+        translate(source, "kernel", tuple(_argument_types(_arguments(5))))
+    if why != "List":
+        return          # numba raises ZeroDivisionError on these arguments (0.0 ** -3)
+    with pytest.warns(RuntimeWarning, match="runs on numba"), np.errstate(all="ignore"):
+        got = NativeFunction(source, "pendc_test")(*_arguments(5))
+    with np.errstate(all="ignore"):
+        assert got == load_source(SOURCE, "pendc_test").kernel(*_arguments(5))
+
+
+def _argument_types(args):
+    from pendc.native.build import arg_type
+    return [arg_type(a) for a in args]
+
+
+@pytest.mark.parametrize("mode", ["fixed", "float"])
+def test_every_node_kind_kernel_gives_numbas_bits(mode):
+    """Every node kind's kernel (both roundings and overflows, LUTs, FSMs), run by numba and by C:
+    every recorded node, the extremes and the first overflow steps."""
+    nodes = [make("u", Kind.INPUT, qformat=QFormat.parse("FIX16_8"), port="u"),
+             make("w", Kind.INPUT, qformat=QFormat.parse("FIX12_4"), port="w")]
+    for sfx in ("nt", "ts"):        # both roundings, both overflows; numba compiles a kernel per mode here
+        nodes += block(sfx, *MODES[sfx])
+    g = Graph.build("native_pair", nodes, [(n.name, n.name) for n in nodes])
+    cg = CompiledGraph(g, mode)
+    reference = load_source(cg.source, "pendc_ir").kernel
+    inputs = random_inputs(3000, seed=11)
+    results = []
+    for kernel in (reference, NativeFunction(cg.source, "pendc_ir")):
+        cg._kernel = kernel
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            trace = cg.run(inputs, track_max=True, every=3)
+        results.append(trace)
+    theirs, mine = results
+    assert mine.steps == theirs.steps and mine.overflows == theirs.overflows
+    assert mine.max_abs == theirs.max_abs or mode == "float"
+    for port, values in theirs.outputs.items():
+        np.testing.assert_array_equal(mine.outputs[port], values, err_msg=port)
+
+
+def test_backend_follows_the_environment(monkeypatch):
+    monkeypatch.setenv("PENDC_KERNELS", "numba")
+    assert backend() == "numba"
+    monkeypatch.setenv("PENDC_KERNELS", "native")
+    assert backend() == "native"
+    monkeypatch.setenv("PENDC_KERNELS", "llvm")
+    with pytest.raises(ValueError, match="PENDC_KERNELS"):
+        backend()
+
+
+@pytest.mark.parametrize("method", ["rk4", "euler"])
+def test_float_simulator_gives_numbas_bits(method):
+    """The identification simulator (tuples of states and parameters, helper functions returning
+    tuples, numba's raising error model) from the same source, run both ways."""
+    from pendc import load_model
+    from pendc.sim.kernel import kernel_source
+    from pendc.sim.simulator import Simulator
+    sim = Simulator(load_model(), dt=1e-4, method=method)
+    t = np.arange(0.0, 1.5, 1e-3)
+    u = 4.0 * np.sin(9.0 * t)
+    s0 = np.array([0.0, 0.05, 0.3, -0.1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mine, rows = sim.raw(t, u, s0, sim.param_vector)
+    source = kernel_source(sim.model.equations, sim.signals.clamped())
+    theirs = np.empty_like(mine)
+    assert load_source(source, "pendc_kernel").simulate(t, u, s0, sim.param_vector, 1e-4, method == "rk4", 0,
+                                                        theirs) == rows == len(t)
+    np.testing.assert_array_equal(mine, theirs)
+
+
+def test_a_division_by_zero_raises_as_in_numba():
+    source = "from numba import njit\n\n\n@njit(cache=True)\ndef ratio(a, b):\n    return a / b + a // b\n"
+    with pytest.raises(ZeroDivisionError):
+        load_source(source, "pendc_test").ratio(1.0, 0.0)
+    native = NativeFunction(source, "pendc_test", "ratio")
+    assert native(7.0, 2.0) == load_source(source, "pendc_test").ratio(7.0, 2.0) == 6.5
+    with pytest.raises(ZeroDivisionError):
+        native(1.0, 0.0)
