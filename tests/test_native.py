@@ -224,3 +224,18 @@ def test_a_division_by_zero_raises_as_in_numba():
     assert native(7.0, 2.0) == load_source(source, "pendc_test").ratio(7.0, 2.0) == 6.5
     with pytest.raises(ZeroDivisionError):
         native(1.0, 0.0)
+
+
+def test_a_compiler_that_fails_means_numba_without_a_warning(monkeypatch, tmp_path):
+    from pendc.native.build import kernel_function
+    monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", "false")                 # exists, and fails on everything
+    toolchain.cache_clear()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert toolchain() is None and backend() == "numba"
+            assert not isinstance(kernel_function(SOURCE, "pendc_test"), NativeFunction)
+    finally:
+        monkeypatch.undo()
+        toolchain.cache_clear()

@@ -25,7 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ..codegen import cache_dir  # noqa: F401  (re-exported for callers)
-from ..native import kernel_function
+from ..native.build import kernel_function
 
 from .kernel_module import kernel_source
 from .graph import Graph

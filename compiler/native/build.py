@@ -22,6 +22,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import tempfile
 import threading
 import warnings
 import weakref
@@ -60,7 +61,23 @@ def toolchain() -> tuple | None:
     except OSError:
         pass
     tag = hashlib.sha256("\n".join([cc, version, platform.machine(), flags, sys.version, " ".join(FLAGS)]).encode())
-    return cc, include, tag.hexdigest()[:16]
+    tag = tag.hexdigest()[:16]
+    # a compiler that refuses a flag (-march=native, say) must not make every kernel fall back
+    # with a warning: an extension is compiled once per toolchain, and without it numba is used
+    marker = cache_dir("native") / f"toolchain-{tag}.ok"
+    if not marker.exists():
+        with tempfile.TemporaryDirectory() as folder:
+            probe = Path(folder, "probe.c")
+            probe.write_text("#include <Python.h>\nPyMODINIT_FUNC PyInit_probe(void) { return NULL; }\n")
+            try:
+                done = subprocess.run([cc, *FLAGS, f"-I{include}", str(probe), "-o", str(probe.with_suffix(".so"))],
+                                      capture_output=True, timeout=120)
+            except (OSError, subprocess.SubprocessError):
+                return None
+            if done.returncode != 0:
+                return None
+        marker.touch()
+    return cc, include, tag
 
 
 def backend() -> str:

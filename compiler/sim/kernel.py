@@ -13,7 +13,7 @@ an argument, so a fit re-runs the same machine code with new values.
 from __future__ import annotations
 
 from ..codegen import NumbaPrinter
-from ..native import kernel_function
+from ..native.build import kernel_function
 from ..model.plant import Equations
 
 KERNEL_FORMAT = 8  # bump when the generated source changes shape

@@ -32,19 +32,17 @@ def _step_source(n_states: int, n_params: int, n_start: int) -> str:
     return f'''
 
 @njit(cache=True)
-def plant_start(s0, u0, p):
-    """All states at power-on from the mechanical ones (extra states from the input)."""
+def plant_start(s0, u0, p, out):
+    """All states at power-on (into out) from the mechanical ones (extra states from the input)."""
     P = {tup(f"p[{i}]" for i in range(n_params))}
     S = start({tup(f"s0[{i}]" for i in range(n_start))}, u0, P)
-    out = np.empty({ns})
     for i in range({ns}):
         out[i] = S[i]
-    return out
 
 
 @njit(cache=True)
-def plant_advance(s, u, p, dt, use_rk4):
-    """States after len(u) steps of dt from s, u[m] held over step m; ok False if non-finite."""
+def plant_advance(s, u, p, dt, use_rk4, out):
+    """States after len(u) steps of dt from s, u[m] held over step m, into out; False if non-finite."""
     P = {tup(f"p[{i}]" for i in range(n_params))}
     S = {tup(f"s[{i}]" for i in range(ns))}
     h = dt
@@ -52,10 +50,9 @@ def plant_advance(s, u, p, dt, use_rk4):
     h6 = dt / 6.0
     for m in range(u.shape[0]):
         uk = u[m]
-{integration_step(ns, "        ")}    out = np.empty({ns})
-    for i in range({ns}):
+{integration_step(ns, "        ")}    for i in range({ns}):
         out[i] = S[i]
-    return out, math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))})
+    return math.isfinite({" + ".join(f"S[{i}]" for i in range(ns))})
 '''
 
 
@@ -72,7 +69,7 @@ class FloatPlant:
     """
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler", initial: tuple | None = None):
-        from ...codegen import load_source
+        from ...native.build import kernel_function
         from ...sim.kernel import kernel_source
         from ...sim.simulator import Simulator
 
@@ -99,7 +96,8 @@ class FloatPlant:
         self._origin = {e.name: start.get(e.state, 0.0) for e in self.ports.encoders}
         clamped = next((st.name for st in model.interface.states if st.velocity_bound is not None), None)
         source = kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
-        self._module = load_source(source, "pendc_plant")
+        self._plant_start = kernel_function(source, "pendc_plant", "plant_start")
+        self._plant_advance = kernel_function(source, "pendc_plant", "plant_advance")
         values = model.parameter_values()
         self._delay_steps = (float(eq.delay.subs({s: values[s.name] for s in eq.delay.free_symbols}))
                              / self.dt if eq.delay is not None else 0.0)
@@ -136,10 +134,11 @@ class FloatPlant:
     def step(self, u_volts: float, n_steps: int) -> PlantState:
         u, n = check_step_request(u_volts, n_steps)
         if self._state is None:
-            self._state = self._module.plant_start(self._start, u, self._params)
+            self._state = np.empty(len(self.model.equations.states))
+            self._plant_start(self._start, u, self._params, self._state)
         self._history.append((self._k, u))
-        new, ok = self._module.plant_advance(self._state, self._inputs(u, n), self._params, self.dt,
-                                             self.method == "rk4")
+        new = np.empty_like(self._state)
+        ok = self._plant_advance(self._state, self._inputs(u, n), self._params, self.dt, self.method == "rk4", new)
         if not ok:
             raise PendcError(f"float plant diverged (non-finite state) before t = {(self._k + n) * self.dt:.6g} s")
         self._state = new
