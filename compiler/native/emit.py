@@ -224,7 +224,7 @@ class FunctionPrinter:
             return f"mod_{t}{checked}({a}, {b})"
         if op is ast.Pow:
             if t == INT:
-                return f"ipow_i({a}, {b})"
+                return f"ipow_i({a}, {b}, {int(fn.raises)})"
             if tb in (INT, BOOL):
                 return f"ipow_f((double)({a}), {b})"
             return f"pow((double)({a}), (double)({b}))"

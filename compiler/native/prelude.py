@@ -44,12 +44,20 @@ static inline int64_t mod_i_checked(int64_t a, int64_t b) { if (b == 0) { zero_d
 static inline double floordiv_f_checked(double a, double b) { if (b == 0.0) { zero_division = 1; return 0.0; } return floordiv_f(a, b); }
 static inline double mod_f_checked(double a, double b) { if (b == 0.0) { zero_division = 1; return 0.0; } return mod_f(a, b); }
 static inline double ipow_f(double a, int64_t e) {
+    /* numba's integer power of a float: square and multiply; above 2**16 math.pow; a negative
+       exponent inverts, and inverting zero raises (numba compiles 1.0 / r under its default model) */
     int inv = e < 0; uint64_t n = inv ? 0 - (uint64_t)e : (uint64_t)e; double r = 1.0;
     if (n > 0x10000) return pow(a, (double)e);
     while (n) { if (n & 1) r = r * a; n >>= 1; a = a * a; }
-    return inv ? 1.0 / r : r; }
-static inline int64_t ipow_i(int64_t a, int64_t e) {
-    if (e < 0) { if (a == 1) return 1; if (a == -1) return (e & 1) ? -1 : 1; return 0; }
+    if (!inv) return r;
+    if (r == 0.0) { zero_division = 1; return 0.0; }
+    return 1.0 / r; }
+static inline int64_t ipow_i(int64_t a, int64_t e, int raises) {
+    if (e < 0) {
+        if (a == 0) { if (raises) zero_division = 1; return INT64_MIN; }
+        if (a == 1) return 1;
+        if (a == -1) return (e & 1) ? -1 : 1;
+        return 0; }
     uint64_t r = 1, x = (uint64_t)a, n = (uint64_t)e;
     while (n) { if (n & 1) r = r * x; n >>= 1; x = x * x; }
     return (int64_t)r; }

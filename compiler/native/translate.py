@@ -313,9 +313,6 @@ class Function:
                     raise Untranslatable("bitwise operator on a float")
                 return BOOL if a == b == BOOL else INT
             if op is ast.Pow:
-                if b != FLOAT and not (isinstance(e.right, ast.Constant) and e.right.value >= 0):
-                    # numba raises ZeroDivisionError for 0 ** -n, which C cannot
-                    raise Untranslatable("a power by an integer that is not a non-negative literal")
                 return FLOAT if FLOAT in (a, b) else INT
             if op in (ast.Add, ast.Sub, ast.Mult, ast.FloorDiv, ast.Mod):
                 return _arith(_join(a, b))
