@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from pendc.codegen import load_source
+from pendc.errors import PendcError
 from pendc.ir.compiled import CompiledGraph
 from pendc.native import NativeFunction, Untranslatable, backend, translate
 from pendc.native.build import toolchain
@@ -190,7 +191,7 @@ def test_backend_follows_the_environment(monkeypatch):
     monkeypatch.setenv("PENDC_KERNELS", "native")
     assert backend() == "native"
     monkeypatch.setenv("PENDC_KERNELS", "llvm")
-    with pytest.raises(ValueError, match="PENDC_KERNELS"):
+    with pytest.raises(PendcError, match="PENDC_KERNELS"):
         backend()
 
 

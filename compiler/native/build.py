@@ -31,13 +31,14 @@ from pathlib import Path
 import numpy as np
 
 from ..codegen import cache_dir, load_source
+from ..errors import PendcError
 from .emit import c_args, c_params, translate
 from .translate import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable, arity, defaults
 
 # no contraction into fused multiply-adds and wrapping int64: numba's bits; errno never read. The
 # dynamic cost model lets -O2 vectorise loops behind a runtime alias check (the extremes' loop)
-FLAGS = ("-O2", "-fvect-cost-model=dynamic", "-march=native", "-fwrapv", "-fno-strict-aliasing", "-ffp-contract=off", "-fno-math-errno",
-         "-fPIC", "-shared", "-w")
+FLAGS = ("-O2", "-fvect-cost-model=dynamic", "-march=native", "-fwrapv", "-fno-strict-aliasing",
+         "-ffp-contract=off", "-fno-math-errno", "-fPIC", "-shared", "-w")
 BACKENDS = ("native", "numba")
 _ELEMENTS = {"i8": INT, "f8": FLOAT, "b1": BOOL}
 _FORMATS = {INT: (8, "lq"), FLOAT: (8, "d"), BOOL: (1, "?")}
@@ -85,7 +86,7 @@ def backend() -> str:
     ``PENDC_KERNELS=numba`` chooses numba."""
     wanted = os.environ.get("PENDC_KERNELS", "native")
     if wanted not in BACKENDS:
-        raise ValueError(f"PENDC_KERNELS must be one of {', '.join(BACKENDS)}, got {wanted!r}")
+        raise PendcError(f"PENDC_KERNELS must be one of {', '.join(BACKENDS)}, got {wanted!r}")
     return "native" if wanted == "native" and toolchain() is not None else "numba"
 
 
@@ -245,7 +246,8 @@ def _wrapper(fn, key: tuple) -> str:
              "static PyObject *call(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {",
              f"    Py_buffer views[{max(arrays, 1)}];", "    int held = 0;", "    PyObject *result = NULL;"]
     for n, t in zip(names, key):
-        lines += [f"    {p};" for p in c_params(n, t)] if not isinstance(t, ArrayType) else [f"    {c_params(n, t)[0]} = NULL;"]
+        first = c_params(n, t)[0]
+        lines.append(f"    {first} = NULL;" if isinstance(t, ArrayType) else f"    {first};")
     lines += [f"    if (nargs != {len(key)}) {{",
               f"        PyErr_SetString(PyExc_TypeError, \"pendc native kernel: {len(key)} arguments expected\");",
               "        return NULL;", "    }"]
@@ -259,7 +261,8 @@ def _wrapper(fn, key: tuple) -> str:
                       f"    {var} = ({C_TYPE[t.elem]} *)views[held++].buf;"]
         elif t == INT:
             # an int or NumPy integer (its __index__); not a bool or float, which numba types apart
-            lines += [f"    if (!PyIndex_Check(args[{i}]) || PyBool_Check(args[{i}]) || PyFloat_Check(args[{i}])) goto mismatch;",
+            arg = f"args[{i}]"
+            lines += [f"    if (!PyIndex_Check({arg}) || PyBool_Check({arg}) || PyFloat_Check({arg})) goto mismatch;",
                       f"    {var} = PyLong_AsLongLong(args[{i}]); if ({var} == -1 && PyErr_Occurred()) goto done;"]
         elif t == FLOAT:
             lines.append(f"    if (!PyFloat_Check(args[{i}])) goto mismatch; {var} = PyFloat_AS_DOUBLE(args[{i}]);")

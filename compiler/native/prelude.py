@@ -39,10 +39,14 @@ static inline double mod_f(double a, double b) {
     double m; if (b == 0.0) return fmod(a, b); divmod_f(a, b, &m); return m; }
 static inline double floordiv_f(double a, double b) {
     double m; if (b == 0.0) return a / b; return divmod_f(a, b, &m); }
-static inline int64_t floordiv_i_checked(int64_t a, int64_t b) { if (b == 0) { zero_division = 1; return 0; } return floordiv_i(a, b); }
-static inline int64_t mod_i_checked(int64_t a, int64_t b) { if (b == 0) { zero_division = 1; return 0; } return mod_i(a, b); }
-static inline double floordiv_f_checked(double a, double b) { if (b == 0.0) { zero_division = 1; return 0.0; } return floordiv_f(a, b); }
-static inline double mod_f_checked(double a, double b) { if (b == 0.0) { zero_division = 1; return 0.0; } return mod_f(a, b); }
+static inline int64_t floordiv_i_checked(int64_t a, int64_t b) {
+    if (b == 0) { zero_division = 1; return 0; } return floordiv_i(a, b); }
+static inline int64_t mod_i_checked(int64_t a, int64_t b) {
+    if (b == 0) { zero_division = 1; return 0; } return mod_i(a, b); }
+static inline double floordiv_f_checked(double a, double b) {
+    if (b == 0.0) { zero_division = 1; return 0.0; } return floordiv_f(a, b); }
+static inline double mod_f_checked(double a, double b) {
+    if (b == 0.0) { zero_division = 1; return 0.0; } return mod_f(a, b); }
 static inline double ipow_f(double a, int64_t e) {
     /* numba's integer power of a float: square and multiply; above 2**16 math.pow; a negative
        exponent inverts, and inverting zero raises (numba compiles 1.0 / r under its default model) */

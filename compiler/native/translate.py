@@ -72,7 +72,8 @@ class TupleType:
     def c_typedef(self) -> str:
         if self.uniform:
             return f"typedef struct {{ {C_TYPE[self.elems[0]]} e[{len(self.elems)}]; }} {self.c_name};"
-        return "typedef struct { " + " ".join(f"{C_TYPE[t]} e{i};" for i, t in enumerate(self.elems)) + f" }} {self.c_name};"
+        fields = " ".join(f"{C_TYPE[t]} e{i};" for i, t in enumerate(self.elems))
+        return f"typedef struct {{ {fields} }} {self.c_name};"
 
 
 def _join(a, b):
@@ -237,7 +238,8 @@ class Function:
 
     def _bind(self, name, t):
         if name in self.params and self.params[name] != t:
-            if isinstance(t, ArrayType) or isinstance(self.params[name], ArrayType) or _join(self.params[name], t) != self.params[name]:
+            own = self.params[name]
+            if isinstance(t, ArrayType) or isinstance(own, ArrayType) or _join(own, t) != own:
                 raise Untranslatable(f"parameter {name} rebound to another type")
             return
         if t is None:
