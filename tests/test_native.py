@@ -240,3 +240,12 @@ def test_a_compiler_that_fails_means_numba_without_a_warning(monkeypatch, tmp_pa
     finally:
         monkeypatch.undo()
         toolchain.cache_clear()
+
+
+@pytest.mark.parametrize("line", ["    j = 0 if flag else 1\n    t2 = (1.0, 2.0) if flag else (3.0, 4.0)\n",
+                                  "    t2 = (1.0, 2.0) + (3.0,)\n", "    t2 = max((1.0, 2.0), (0.5, 3.0))\n"])
+def test_tuples_outside_the_subset_are_refused(line):
+    """numba adds, compares and picks tuples; the translator refuses rather than guess."""
+    source = SOURCE.replace("    j = 0\n", "    j = 0\n" + line)
+    with pytest.raises(Untranslatable, match="tuple"):
+        translate(source, "kernel", tuple(_argument_types(_arguments(6))))

@@ -190,6 +190,9 @@ class NativeFunction:
                     self._calls[key] = compiled_call(self.source, self.name, key)
                 except Untranslatable as why:
                     self._calls[key] = self._numba(why)
+                except (KeyError, AttributeError, TypeError, ValueError, RecursionError) as bug:
+                    # a gap in the translator, not in the kernel: numba still runs it, and says so
+                    self._calls[key] = self._numba(f"the translator failed ({type(bug).__name__}: {bug})")
             return self._calls[key]
 
 

@@ -230,6 +230,14 @@ class Function:
             elif not isinstance(s, (ast.Pass, ast.Break, ast.Continue)):
                 raise Untranslatable(f"statement {type(s).__name__}")
 
+    @staticmethod
+    def _scalar(t):
+        """``t``, which an operator or a conditional takes only as a scalar (numba would add
+        tuples, compare them element by element, or pick one of two)."""
+        if isinstance(t, (ArrayType, TupleType)):
+            raise Untranslatable("an operator or conditional on an array or tuple")
+        return t
+
     @property
     def raises(self) -> bool:
         """Whether a division by zero raises (numba's default error model), as the prelude's
@@ -289,7 +297,7 @@ class Function:
                 return FLOAT
             raise Untranslatable(f"attribute {ast.unparse(e)}")
         if isinstance(e, ast.UnaryOp):
-            t = self.type_of(e.operand)
+            t = self._scalar(self.type_of(e.operand))
             if isinstance(e.op, ast.Not):
                 return BOOL
             if isinstance(e.op, ast.Invert):
@@ -298,7 +306,7 @@ class Function:
                 return INT
             return None if t is None else _arith(t)
         if isinstance(e, ast.BinOp):
-            a, b = self.type_of(e.left), self.type_of(e.right)
+            a, b = self._scalar(self.type_of(e.left)), self._scalar(self.type_of(e.right))
             if a is None or b is None:
                 return None
             if isinstance(a, ArrayType) or isinstance(b, ArrayType):
@@ -326,8 +334,8 @@ class Function:
             return BOOL
         if isinstance(e, ast.Compare):
             for x in [e.left] + e.comparators:
-                if isinstance(self.type_of(x), ArrayType):
-                    raise Untranslatable("comparison of arrays")
+                if isinstance(self.type_of(x), (ArrayType, TupleType)):
+                    raise Untranslatable("comparison of arrays or tuples")
             if any(type(o) not in _COMPARE for o in e.ops):
                 raise Untranslatable("comparison operator")
             return BOOL
@@ -341,8 +349,8 @@ class Function:
             self.module.tuples[t.c_name] = t
             return t
         if isinstance(e, ast.IfExp):
-            self.type_of(e.test)
-            return _join(self.type_of(e.body), self.type_of(e.orelse))
+            self._scalar(self.type_of(e.test))
+            return _join(self._scalar(self.type_of(e.body)), self._scalar(self.type_of(e.orelse)))
         if isinstance(e, ast.Call):
             return self._call_type(e)
         raise Untranslatable(f"expression {type(e).__name__}")
@@ -358,8 +366,8 @@ class Function:
                 raise Untranslatable("np.zeros of a size that is not an integer")
             return ArrayType(DTYPES[e.args[1].attr], 1)
         ts = [self.type_of(a) for a in e.args]
-        if any(isinstance(t, ArrayType) for t in ts) and name not in self.module.funcs:
-            raise Untranslatable(f"{name} of an array")
+        if any(isinstance(t, (ArrayType, TupleType)) for t in ts) and name not in self.module.funcs:
+            raise Untranslatable(f"{name} of an array or tuple")
         if name in ("int", "float"):
             if len(ts) != 1:
                 raise Untranslatable(f"{name} with {len(ts)} arguments")
