@@ -8,6 +8,6 @@ compiles it, caches the shared object and calls it as a Python extension functio
 
 from .build import NativeFunction, backend, kernel_function
 from .emit import translate
-from .translate import Untranslatable
+from .types import Untranslatable
 
 __all__ = ["NativeFunction", "Untranslatable", "backend", "kernel_function", "translate"]

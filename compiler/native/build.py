@@ -33,7 +33,8 @@ import numpy as np
 from ..codegen import cache_dir, load_source
 from ..errors import PendcError
 from .emit import c_args, c_params, translate
-from .translate import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable, arity, defaults
+from .syntax import signature
+from .types import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable
 
 # no contraction into fused multiply-adds and wrapping int64: numba's bits; errno never read. The
 # dynamic cost model lets -O2 vectorise loops behind a runtime alias check (the extremes' loop)
@@ -150,7 +151,7 @@ class NativeFunction:
     def _dispatch(self, args: tuple):
         if self._defaults is None:
             try:
-                self._defaults, self._arity = defaults(self.source, self.name), arity(self.source, self.name)
+                self._arity, self._defaults = signature(self.source, self.name)
             except Untranslatable:
                 self._defaults = ()
         if len(args) < self._arity:

@@ -12,15 +12,16 @@ import ast
 import math
 
 from .prelude import PRELUDE
-from .translate import (BOOL, C_TYPE, FLOAT, INT, _BINARY, _COMPARE, _MATH, _MATH_CONST, ArrayType, TupleType,
-                        Module, Untranslatable, _call_name, _constant_index, _is_shape, _name)
+from .syntax import BINARY, COMPARE, MATH, MATH_CONST, call_name, constant_index, is_shape
+from .translate import Module
+from .types import BOOL, C_TYPE, FLOAT, INT, ArrayType, TupleType, Untranslatable, py_name
 
 
 def c_params(name: str, t) -> list:
     """The C parameters one Python parameter of type ``t`` becomes."""
     if isinstance(t, ArrayType):
-        return [f"{C_TYPE[t.elem]}* {_name(name)}"] + [f"int64_t {_name(name)}_n{d}" for d in range(t.ndim)]
-    return [f"{c_type(t)} {_name(name)}"]
+        return [f"{C_TYPE[t.elem]}* {py_name(name)}"] + [f"int64_t {py_name(name)}_n{d}" for d in range(t.ndim)]
+    return [f"{c_type(t)} {py_name(name)}"]
 
 
 def c_type(t) -> str:
@@ -31,8 +32,8 @@ def c_type(t) -> str:
 def c_args(name: str, t) -> list:
     """The C arguments that pass the Python name ``name`` of type ``t`` on to a callee."""
     if isinstance(t, ArrayType):
-        return [_name(name)] + [f"{_name(name)}_n{d}" for d in range(t.ndim)]
-    return [_name(name)]
+        return [py_name(name)] + [f"{py_name(name)}_n{d}" for d in range(t.ndim)]
+    return [py_name(name)]
 
 
 class FunctionPrinter:
@@ -48,7 +49,7 @@ class FunctionPrinter:
         head = [f"static {ret} {fn.cname}({', '.join(params) or 'void'}) {{"]
         for name, t in sorted(fn.types.items()):
             if name not in fn.params and not isinstance(t, ArrayType):
-                head.append(f"    {c_type(t)} {_name(name)} = {{0}};")
+                head.append(f"    {c_type(t)} {py_name(name)} = {{0}};")
         self.block(fn.fdef.body, 1)
         return "\n".join(head + self.lines + ["}"])
 
@@ -65,14 +66,14 @@ class FunctionPrinter:
             if isinstance(t, ArrayType):
                 if not (isinstance(target, ast.Name) and isinstance(s.value, ast.Call)):
                     raise Untranslatable("array assigned other than from np.zeros")
-                n, var = self.expr(s.value.args[0]), _name(target.id)
+                n, var = self.expr(s.value.args[0]), py_name(target.id)
                 out(f"{pad}{C_TYPE[t.elem]} {var}[{n}]; int64_t {var}_n0 = {n};")
                 out(f"{pad}memset({var}, 0, sizeof({var}));")
                 return
             if isinstance(target, ast.Tuple):
                 out(f"{pad}{{ const {t.c_name} unpacked = {self.expr(s.value)};")
                 for i, x in enumerate(target.elts):
-                    out(f"{pad}  {_name(x.id)} = {_element('unpacked', t, i)};")
+                    out(f"{pad}  {py_name(x.id)} = {_element('unpacked', t, i)};")
                 out(f"{pad}}}")
                 return
             want = self.fn.types.get(target.id) if isinstance(target, ast.Name) else None
@@ -123,7 +124,7 @@ class FunctionPrinter:
         self.loops += 1
         self.lines.append(f"{pad}{{ const int64_t hi{i} = {hi};")
         self.lines.append(f"{pad}for (int64_t i{i} = {lo}; i{i} {cmp} hi{i}; i{i} += {step}) {{")
-        self.lines.append(f"{pad}    {_name(s.target.id)} = i{i};")
+        self.lines.append(f"{pad}    {py_name(s.target.id)} = i{i};")
         self.block(s.body, depth + 1)
         self.lines.append(f"{pad}}} }}")
 
@@ -143,18 +144,18 @@ class FunctionPrinter:
             if isinstance(v, int):
                 return "INT64_MIN" if v == -(1 << 63) else f"INT64_C({v})"
             if v != v:
-                return _MATH_CONST["nan"]
+                return MATH_CONST["nan"]
             if v in (float("inf"), float("-inf")):
-                return _MATH_CONST["inf"] if v > 0 else f"(-{_MATH_CONST['inf']})"
+                return MATH_CONST["inf"] if v > 0 else f"(-{MATH_CONST['inf']})"
             return repr(float(v))
         if isinstance(e, ast.Name):
-            return _name(e.id)
+            return py_name(e.id)
         if isinstance(e, ast.Subscript):
-            if _is_shape(e):
-                return f"{_name(e.value.value.id)}_n{e.slice.value}"
+            if is_shape(e):
+                return f"{py_name(e.value.value.id)}_n{e.slice.value}"
             return self.subscript(e)
         if isinstance(e, ast.Attribute):
-            return _MATH_CONST[e.attr]
+            return MATH_CONST[e.attr]
         if isinstance(e, ast.UnaryOp):
             x = self.expr(e.operand)
             if isinstance(e.op, ast.USub):
@@ -172,7 +173,7 @@ class FunctionPrinter:
         if isinstance(e, ast.Compare):
             terms, left = [], e.left
             for op, right in zip(e.ops, e.comparators):
-                terms.append(f"(({self.expr(left)}) {_COMPARE[type(op)]} ({self.expr(right)}))")
+                terms.append(f"(({self.expr(left)}) {COMPARE[type(op)]} ({self.expr(right)}))")
                 left = right
             return terms[0] if len(terms) == 1 else "(" + " && ".join(terms) + ")"
         if isinstance(e, ast.IfExp):
@@ -185,11 +186,11 @@ class FunctionPrinter:
     def subscript(self, e) -> str:
         t = self.fn.type_of(e.value)
         if isinstance(t, TupleType):
-            index = _constant_index(e.slice)
+            index = constant_index(e.slice)
             if index is None:
                 return f"({self.expr(e.value)}).e[wrap_i({self.expr(e.slice)}, {len(t.elems)})]"
             return _element(f"({self.expr(e.value)})", t, index % len(t.elems))
-        arr = _name(e.value.id)
+        arr = py_name(e.value.id)
         idx = e.slice.elts if isinstance(e.slice, ast.Tuple) else [e.slice]
         parts = [self.index(x, f"{arr}_n{d}") for d, x in enumerate(idx)]
         flat = parts[0]
@@ -242,11 +243,11 @@ class FunctionPrinter:
                 return f"(({flag}) ? ({value}) : {zero})"
         if t == INT and BOOL in (ta, tb) and op in (ast.Add, ast.Sub, ast.Mult):
             a, b = f"(int64_t)({a})", f"(int64_t)({b})"
-        return f"(({a}) {_BINARY[op]} ({b}))"
+        return f"(({a}) {BINARY[op]} ({b}))"
 
     def call(self, e) -> str:
         fn = self.fn
-        name = _call_name(e)
+        name = call_name(e)
         args = [self.expr(a) for a in e.args]
         t = fn.type_of(e)
         if name == "int":
@@ -258,7 +259,7 @@ class FunctionPrinter:
         if name in ("max", "min"):
             return f"{name}_{t}(({C_TYPE[t]})({args[0]}), ({C_TYPE[t]})({args[1]}))"
         if name.startswith("math."):
-            cname, rt = _MATH[name[5:]]
+            cname, rt = MATH[name[5:]]
             inner = f"{cname}({', '.join(f'(double)({a})' for a in args)})"
             return f"((int64_t){inner})" if rt == INT else f"((_Bool){inner})" if rt == BOOL else inner
         if name in fn.module.funcs:

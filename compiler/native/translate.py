@@ -1,11 +1,11 @@
-"""The generated kernel modules' Python, translated to C with numba's semantics.
+"""The generated kernel modules' Python, typed as numba types it (printed as C by :mod:`pendc.native.emit`).
 
 The kernels pendc prints (:mod:`pendc.ir.kernel_module`, :mod:`pendc.ir.kernel_parts`) are a
 small subset of Python: assignments of int64/float64/bool scalars, arithmetic, comparisons,
 ``if``/``for range``/``while``, array loads and stores, ``min``/``max``/``abs``/``int``/``float``,
 ``math`` functions, local ``np.zeros`` arrays and calls of other functions of the module. This
 module types that subset as numba does (a variable's type is the join of its assignments:
-bool < int64 < float64) and prints C whose every operation gives numba's bits: int64 arithmetic
+bool < int64 < float64); the C printed from it gives numba's bits in every operation: int64 arithmetic
 wraps (compiled with ``-fwrapv``, left shifts done unsigned), ``>>`` is arithmetic, ``//`` and
 ``%`` are Python's floor forms, ``**`` by an integer is numba's square-and-multiply, ``max(a, b)``
 is ``b if b > a else a``, and no floating-point contraction or reassociation is allowed.
@@ -16,86 +16,10 @@ Anything outside the subset raises :class:`Untranslatable`; the caller then uses
 from __future__ import annotations
 
 import ast
-import threading
-from dataclasses import dataclass
 
-
-BOOL, INT, FLOAT = "b", "i", "f"
-C_TYPE = {BOOL: "_Bool", INT: "int64_t", FLOAT: "double"}
-_ORDER = (BOOL, INT, FLOAT)
-DTYPES = {"int64": INT, "float64": FLOAT, "bool_": BOOL, "bool": BOOL}
-
-# math functions numba maps to libm: (C name, result type)
-_MATH = {name: (name, FLOAT) for name in (
-    "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh",
-    "atanh", "exp", "expm1", "log1p", "log10", "log2", "sqrt", "fabs", "copysign", "hypot", "pow",
-    "fmod", "erf", "erfc")}
-_MATH.update({"floor": ("floor", INT), "ceil": ("ceil", INT), "trunc": ("trunc", INT),
-              "isfinite": ("isfinite", BOOL), "isnan": ("isnan", BOOL), "isinf": ("isinf", BOOL)})
-_MATH_CONST = {"pi": "3.141592653589793", "e": "2.718281828459045", "tau": "6.283185307179586",
-               "inf": "__builtin_inf()", "nan": "__builtin_nan(\"\")"}
-_BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.BitOr: "|", ast.BitAnd: "&", ast.BitXor: "^"}
-_COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!="}
-
-
-
-# CPython 3.11's AST conversion keeps its recursion depth in shared state: two threads parsing
-# at once (kernels first called side by side) can fail with "AST constructor recursion depth
-# mismatch", so parsing is one thread at a time
-PARSE_LOCK = threading.Lock()
-
-
-class Untranslatable(Exception):
-    """The source leaves the subset this translator knows; the kernel runs on numba instead."""
-
-
-@dataclass(frozen=True)
-class ArrayType:
-    """A C-contiguous array argument or local: element type and number of dimensions."""
-    elem: str
-    ndim: int
-
-
-@dataclass(frozen=True)
-class TupleType:
-    """A tuple of scalars (a C struct: ``e[i]`` when all are of one type, else ``e0``, ``e1``...)."""
-    elems: tuple
-
-    @property
-    def uniform(self) -> bool:
-        return len(set(self.elems)) == 1
-
-    @property
-    def c_name(self) -> str:
-        return f"tup_{self.elems[0]}{len(self.elems)}" if self.uniform else "tup_" + "".join(self.elems)
-
-    def c_typedef(self) -> str:
-        if self.uniform:
-            return f"typedef struct {{ {C_TYPE[self.elems[0]]} e[{len(self.elems)}]; }} {self.c_name};"
-        fields = " ".join(f"{C_TYPE[t]} e{i};" for i, t in enumerate(self.elems))
-        return f"typedef struct {{ {fields} }} {self.c_name};"
-
-
-def _join(a, b):
-    if a is None or b is None:
-        return b if a is None else a
-    if isinstance(a, TupleType) or isinstance(b, TupleType):
-        if not (isinstance(a, TupleType) and isinstance(b, TupleType) and len(a.elems) == len(b.elems)):
-            raise Untranslatable("a name holds a tuple and another value")
-        return TupleType(tuple(_join(x, y) for x, y in zip(a.elems, b.elems)))
-    if isinstance(a, ArrayType) or isinstance(b, ArrayType):
-        if a != b:
-            raise Untranslatable("a name holds an array and another value")
-        return a
-    return _ORDER[max(_ORDER.index(a), _ORDER.index(b))]
-
-
-def _arith(t):
-    return INT if t == BOOL else t
-
-
-def _name(n: str) -> str:
-    return "py_" + n
+from .syntax import (COMPARE, MATH, MATH_CONST, call_name, constant_index, counters, is_part_load, is_shape,
+                     numpy_errors, parse)
+from .types import BOOL, DTYPES, FLOAT, INT, ArrayType, TupleType, Untranslatable, arithmetic, join
 
 
 class Module:
@@ -110,19 +34,18 @@ class Module:
         self.tuples: dict = {}            # C name -> TupleType, for the typedefs
 
     def _read(self, source: str, alias: dict | None = None):
-        with PARSE_LOCK:
-            tree = ast.parse(source)
+        tree = parse(source)
         for node in tree.body:
             if isinstance(node, ast.FunctionDef):
                 name = (alias or {}).get(node.name, node.name)
                 self.funcs[name] = node
-                if _numpy_errors(node):
+                if numpy_errors(node):
                     self.numpy_errors.add(id(node))
             elif isinstance(node, (ast.Import, ast.ImportFrom)):
                 continue
             elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
                 continue
-            elif _is_part_load(node):
+            elif is_part_load(node):
                 # name = _load_part("<module source>", "prefix").part: a function of another module
                 self._read(node.value.value.args[0].value, {node.value.attr: node.targets[0].id})
             else:
@@ -143,13 +66,6 @@ class Module:
         return self.emitted[key]
 
 
-def _is_part_load(node) -> bool:
-    return (isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name)
-            and isinstance(node.value, ast.Attribute) and isinstance(node.value.value, ast.Call)
-            and len(node.value.value.args) >= 1 and isinstance(node.value.value.args[0], ast.Constant)
-            and isinstance(node.value.value.args[0].value, str))
-
-
 class Function:
     """One Python function typed for one tuple of argument types, and its C text."""
 
@@ -160,7 +76,7 @@ class Function:
             raise Untranslatable(f"{fdef.name}: {len(args)} arguments for {len(names)} parameters")
         self.params = dict(zip(names, args))
         self.types = dict(self.params)
-        self.counters = _counters(fdef)
+        self.counters = counters(fdef)
         self.returns = None
         for _ in range(8):      # types only widen, so this reaches the fixed point
             before = (dict(self.types), self.returns)
@@ -203,7 +119,7 @@ class Function:
                     self._bind(s.target.id, t)
             elif isinstance(s, ast.For):
                 if not (isinstance(s.target, ast.Name) and isinstance(s.iter, ast.Call)
-                        and _call_name(s.iter) == "range" and not s.orelse and 1 <= len(s.iter.args) <= 3):
+                        and call_name(s.iter) == "range" and not s.orelse and 1 <= len(s.iter.args) <= 3):
                     raise Untranslatable("a loop other than for ... in range(...)")
                 for a in s.iter.args:
                     if self.type_of(a) not in (INT, BOOL):
@@ -223,7 +139,7 @@ class Function:
                 t = None if s.value is None else self.type_of(s.value)
                 if isinstance(t, ArrayType):
                     raise Untranslatable("returns an array")
-                self.returns = _join(self.returns, t)
+                self.returns = join(self.returns, t)
             elif isinstance(s, ast.Expr):
                 if not isinstance(s.value, ast.Constant):
                     self.type_of(s.value)
@@ -247,12 +163,12 @@ class Function:
     def _bind(self, name, t):
         if name in self.params and self.params[name] != t:
             own = self.params[name]
-            if isinstance(t, ArrayType) or isinstance(own, ArrayType) or _join(own, t) != own:
+            if isinstance(t, ArrayType) or isinstance(own, ArrayType) or join(own, t) != own:
                 raise Untranslatable(f"parameter {name} rebound to another type")
             return
         if t is None:
             raise Untranslatable(f"{name} bound to a value of no type")
-        self.types[name] = _join(self.types.get(name), t)
+        self.types[name] = join(self.types.get(name), t)
 
     def type_of(self, e):
         if isinstance(e, ast.Constant):
@@ -271,13 +187,13 @@ class Function:
                 return None         # assigned later in the body: the next round of typing knows it
             return self.types[e.id]
         if isinstance(e, ast.Subscript):
-            if _is_shape(e):
+            if is_shape(e):
                 return INT
             arr = self.type_of(e.value)
             if isinstance(arr, TupleType):
-                if _constant_index(e.slice) is None and (not arr.uniform or self.type_of(e.slice) not in (INT, BOOL)):
+                if constant_index(e.slice) is None and (not arr.uniform or self.type_of(e.slice) not in (INT, BOOL)):
                     raise Untranslatable("a tuple of mixed types indexed by a variable")
-                index = _constant_index(e.slice)
+                index = constant_index(e.slice)
                 if index is not None and not -len(arr.elems) <= index < len(arr.elems):
                     raise Untranslatable("tuple index out of range")
                 return arr.elems[0] if index is None else arr.elems[index]
@@ -293,7 +209,7 @@ class Function:
                     raise Untranslatable("a non-integer index")
             return arr.elem
         if isinstance(e, ast.Attribute):
-            if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr in _MATH_CONST:
+            if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr in MATH_CONST:
                 return FLOAT
             raise Untranslatable(f"attribute {ast.unparse(e)}")
         if isinstance(e, ast.UnaryOp):
@@ -304,7 +220,7 @@ class Function:
                 if t != INT:
                     raise Untranslatable("~ of a non-integer")
                 return INT
-            return None if t is None else _arith(t)
+            return None if t is None else arithmetic(t)
         if isinstance(e, ast.BinOp):
             a, b = self._scalar(self.type_of(e.left)), self._scalar(self.type_of(e.right))
             if a is None or b is None:
@@ -325,7 +241,7 @@ class Function:
             if op is ast.Pow:
                 return FLOAT if FLOAT in (a, b) else INT
             if op in (ast.Add, ast.Sub, ast.Mult, ast.FloorDiv, ast.Mod):
-                return _arith(_join(a, b))
+                return arithmetic(join(a, b))
             raise Untranslatable(f"operator {op.__name__}")
         if isinstance(e, ast.BoolOp):
             ts = [self.type_of(v) for v in e.values]
@@ -336,7 +252,7 @@ class Function:
             for x in [e.left] + e.comparators:
                 if isinstance(self.type_of(x), (ArrayType, TupleType)):
                     raise Untranslatable("comparison of arrays or tuples")
-            if any(type(o) not in _COMPARE for o in e.ops):
+            if any(type(o) not in COMPARE for o in e.ops):
                 raise Untranslatable("comparison operator")
             return BOOL
         if isinstance(e, ast.Tuple):
@@ -350,7 +266,7 @@ class Function:
             return t
         if isinstance(e, ast.IfExp):
             self._scalar(self.type_of(e.test))
-            return _join(self._scalar(self.type_of(e.body)), self._scalar(self.type_of(e.orelse)))
+            return join(self._scalar(self.type_of(e.body)), self._scalar(self.type_of(e.orelse)))
         if isinstance(e, ast.Call):
             return self._call_type(e)
         raise Untranslatable(f"expression {type(e).__name__}")
@@ -358,7 +274,7 @@ class Function:
     def _call_type(self, e):
         if e.keywords:
             raise Untranslatable("keyword arguments")
-        name = _call_name(e)
+        name = call_name(e)
         if name in ("np.zeros", "np.empty"):
             if len(e.args) != 2 or not (isinstance(e.args[1], ast.Attribute) and e.args[1].attr in DTYPES):
                 raise Untranslatable("np.zeros without a dtype")
@@ -373,94 +289,17 @@ class Function:
                 raise Untranslatable(f"{name} with {len(ts)} arguments")
             return INT if name == "int" else FLOAT
         if name == "abs":
-            return None if ts[0] is None else _arith(ts[0])
+            return None if ts[0] is None else arithmetic(ts[0])
         if name in ("max", "min"):
             if len(ts) != 2:
                 raise Untranslatable(f"{name} of {len(ts)} arguments")
-            return None if None in ts else _join(*ts)
+            return None if None in ts else join(*ts)
         if name.startswith("math."):
-            if name[5:] not in _MATH:
+            if name[5:] not in MATH:
                 raise Untranslatable(f"{name}")
-            return _MATH[name[5:]][1]
+            return MATH[name[5:]][1]
         if name in self.module.funcs:
             if None in ts:
                 return None
             return self.module.function(name, tuple(ts)).returns
         raise Untranslatable(f"call of {name}")
-
-
-def _call_name(e) -> str:
-    f = e.func
-    if isinstance(f, ast.Name):
-        return f.id
-    if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name):
-        return f"{f.value.id}.{f.attr}"
-    raise Untranslatable("call of an expression")
-
-
-def _counters(fdef) -> set:
-    """Names that only ever count up from a non-negative literal: the targets of
-    ``for ... in range(...)`` loops starting at 0 or a positive literal with a positive step,
-    assigned nowhere else in the function."""
-    bound: dict = {}
-    counting = set()
-    for node in ast.walk(fdef):
-        targets = []
-        if isinstance(node, ast.Assign):
-            targets = [t for t in ast.walk(node.targets[0]) if isinstance(t, ast.Name)]
-        elif isinstance(node, ast.AugAssign) and isinstance(node.target, ast.Name):
-            targets = [node.target]
-        elif isinstance(node, ast.For) and isinstance(node.target, ast.Name):
-            targets = [node.target]
-            args = node.iter.args if isinstance(node.iter, ast.Call) else []
-            start = 0 if len(args) == 1 else _constant_index(args[0]) if args else None
-            step = 1 if len(args) < 3 else _constant_index(args[2])
-            if start is not None and start >= 0 and step is not None and step > 0:
-                counting.add(node.target.id)
-        for t in targets:
-            bound[t.id] = bound.get(t.id, 0) + 1
-    return {name for name in counting if bound[name] == 1}
-
-
-def _constant_index(e):
-    """The integer a subscript's index is when it is a literal (negative ones too), else None."""
-    if isinstance(e, ast.Constant) and isinstance(e.value, int) and not isinstance(e.value, bool):
-        return e.value
-    if isinstance(e, ast.UnaryOp) and isinstance(e.op, ast.USub):
-        inner = _constant_index(e.operand)
-        return None if inner is None else -inner
-    return None
-
-
-def _function_def(source: str, name: str):
-    with PARSE_LOCK:
-        tree = ast.parse(source)
-    for node in tree.body:
-        if isinstance(node, ast.FunctionDef) and node.name == name:
-            return node
-    raise Untranslatable(f"no function {name}")
-
-
-def defaults(source: str, name: str) -> tuple:
-    """The literal default values of the function ``name``'s last parameters."""
-    node = _function_def(source, name)
-    if not all(isinstance(d, ast.Constant) for d in node.args.defaults):
-        raise Untranslatable(f"{name}: a default that is not a literal")
-    return tuple(d.value for d in node.args.defaults)
-
-
-def arity(source: str, name: str) -> int:
-    """The number of parameters of the function ``name``."""
-    return len(_function_def(source, name).args.args)
-
-
-def _numpy_errors(fdef) -> bool:
-    """Whether the function's decorator asks numba for error_model="numpy"."""
-    return any(isinstance(d, ast.Call) and any(k.arg == "error_model" and isinstance(k.value, ast.Constant)
-                                               and k.value.value == "numpy" for k in d.keywords)
-               for d in fdef.decorator_list)
-
-
-def _is_shape(e) -> bool:
-    return (isinstance(e.value, ast.Attribute) and e.value.attr == "shape"
-            and isinstance(e.value.value, ast.Name) and isinstance(e.slice, ast.Constant))
