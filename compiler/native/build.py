@@ -5,8 +5,8 @@ the same statements translated to C (:mod:`pendc.native.translate`) compile in a
 of a second with ``cc -O2`` and run at least as fast. :class:`NativeFunction` is a drop-in for
 a numba dispatcher: it specializes on the argument types of each call (arrays by element type
 and dimensions), compiles each specialization once into the cache folder (named by the hash of
-its C text and of the compiler and machine, since ``-march=native`` code is the host's), and
-releases the GIL while the kernel runs. A source the translator does not know, or an argument
+its source, types, translator and of the compiler and machine, since ``-march=native`` code is
+the host's), and releases the GIL while the kernel runs. A source the translator does not know, or an argument
 it does not take (another dtype), runs on numba from the same source, with a warning.
 """
 
@@ -197,19 +197,30 @@ class NativeFunction:
             return self._calls[key]
 
 
+@functools.cache
+def _translator_digest() -> str:
+    """Hash of pendc.native's own source files: a changed translator makes new extensions."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 def compiled_call(source: str, name: str, key: tuple):
     """The extension function running ``name`` of ``source`` on arguments of types ``key``
     (translated, compiled and cached on first use)."""
     cc, include, tag = toolchain()
-    body, fn = translate(source, name, key)
-    text = body + _wrapper(fn, key)
-    digest = hashlib.sha256((text + tag).encode()).hexdigest()[:20]
-    module = f"pendc_native_{digest}"
+    # named by what it is made from (the source, the entry, the types, the toolchain and this
+    # package's own code), so a process that finds it built does not translate again
+    made_from = "\n".join([source, name, repr(key), tag, _translator_digest()])
+    module = f"pendc_native_{hashlib.sha256(made_from.encode()).hexdigest()[:20]}"
     if module in sys.modules:
         return sys.modules[module].call
     folder = cache_dir("native")
     path = folder / f"{module}.so"
     if not path.exists():
+        body, fn = translate(source, name, key)
+        text = body + _wrapper(fn, key)
         c_file = folder / f"{module}.c"
         full = text + _module_def(module)
         if not c_file.exists() or c_file.read_text() != full:
