@@ -228,7 +228,7 @@ class FunctionPrinter:
                 return f"ipow_i({a}, {b}, {int(fn.raises)})"
             if tb in (INT, BOOL):
                 return f"ipow_f((double)({a}), {b})"
-            return f"pow((double)({a}), (double)({b}))"
+            return f"pow_f((double)({a}), (double)({b}))"
         if op is ast.Mult and BOOL in (ta, tb) and ta != tb:
             # x * (a comparison): a select, as LLVM makes of numba's multiply by a zero-extended
             # bool (gcc keeps the multiply); exact for int64, and for a float literal whose

@@ -56,6 +56,10 @@ static inline double ipow_f(double a, int64_t e) {
     if (!inv) return r;
     if (r == 0.0) { zero_division = 1; return 0.0; }
     return 1.0 / r; }
+static inline double pow_f(double a, double b) {
+    /* an exponent of one (a Stribeck form factor of 1) returns its base: pow's result is within
+       0.52 ulp of the exact one, and a base that is a double is the only double that near */
+    return b == 1.0 ? a : pow(a, b); }
 static inline int64_t ipow_i(int64_t a, int64_t e, int raises) {
     if (e < 0) {
         if (a == 0) { if (raises) zero_division = 1; return INT64_MIN; }
