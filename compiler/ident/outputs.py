@@ -93,7 +93,7 @@ def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
     values = {o: [] for o in positions}
     resolution = {}
     for data in datasets:
-        exp = experiment_of(data)
+        exp = experiment_of(data, model)
         source = getattr(data, "source", "<data>")
         missing = set(getattr(data, "missing", ()) or ())
         held = irrelevant_axes(model, exp)

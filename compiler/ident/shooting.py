@@ -68,7 +68,7 @@ def measured_motion(data, model=None) -> tuple[dict, dict]:
     starts from the data (free run, horizon segments, diagnose, fit) starts from the same state."""
     sig = signals_for(data)
     t = np.asarray(data.t, dtype=np.float64)
-    held = irrelevant_axes(model, experiment_of(data)) if model is not None else set()
+    held = irrelevant_axes(model, experiment_of(data, model)) if model is not None else set()
     measured, velocity = {}, {}
     for pos in sig.positions:
         column = data.columns.get(pos)
@@ -95,13 +95,14 @@ def prepare(data, segment: float, outputs: tuple = None, model=None) -> Record:
     sig = signals_for(data)
     for pos in sig.positions:
         data.column(pos)            # a position the file must have: a one-line error if it has not
-    positions, rates = measured_motion(data, _model(model))
+    plant = _model(model)
+    positions, rates = measured_motion(data, plant)
     h = float(np.median(np.diff(t)))
     n = max(2, int(round(segment / h)))
     bounds = tuple((i, min(i + n, len(t) - 1)) for i in range(0, len(t) - 1, n) if min(i + n, len(t) - 1) - i >= 2)
     if not bounds:
         raise PendcError(f"{data.source}: too short for identification ({len(t)} samples)")
-    return Record(t=t, u=u, positions=positions, rates=rates, bounds=bounds, experiment=experiment_of(data),
+    return Record(t=t, u=u, positions=positions, rates=rates, bounds=bounds, experiment=experiment_of(data, plant),
                   outputs=tuple(sig.positions if outputs is None else outputs),
                   source=getattr(data, "source", "<data>"), rate_names=tuple((p, sig.rate(p)) for p in sig.positions))
 
