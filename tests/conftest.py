@@ -18,7 +18,14 @@ The Furuta's full build is first needed by test_emit.py, well before test_sim_se
 
 from __future__ import annotations
 
+import os
 from collections import Counter
+
+# One BLAS thread per process, set before anything imports numpy (the workers and every
+# subprocess inherit it): the suite runs two workers on two cores, and OpenBLAS's threads spin
+# after each call on the fits' long residual vectors, a quarter of a `pendc fit`'s CPU time
+# (61 against 47 s, the same wall time) taken from the other worker.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 SLOWEST_FIRST = (
     "test_sim.py",                  # 455 CPU s at c257d7e; since then Verilator on the thesis preset (its cold compile, ~200 s)

@@ -9,7 +9,6 @@ too, uses the same filter over a longer window (:func:`velocity_and_acceleration
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 SAVGOL_WINDOW = 0.031   # s: smooths encoder quantisation, short against the pendulum period (~1 s)
 # s: the equation-error evidence differentiates twice, which amplifies the quantisation more
@@ -24,6 +23,8 @@ def savgol_window(t: np.ndarray, window: float = SAVGOL_WINDOW) -> int:
 
 def estimate_velocities(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     """dy/dt by a cubic Savitzky-Golay filter over ~31 ms (uniform sampling assumed)."""
+    from scipy.signal import savgol_filter     # here: importing scipy.signal takes 1.4 s
+
     n = savgol_window(t)
     if len(y) < n:
         return np.gradient(y, t)
@@ -32,6 +33,8 @@ def estimate_velocities(t: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def velocity_and_acceleration(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(dy/dt, d2y/dt2) by a cubic Savitzky-Golay filter over ~51 ms (at least 7 samples)."""
+    from scipy.signal import savgol_filter
+
     h = float(np.median(np.diff(t)))
     n = max(7, savgol_window(t, ACCELERATION_WINDOW))
     if len(y) <= n:

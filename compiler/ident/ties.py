@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import t as student_t
 
 from ..model.definition import IdentificationNotes
 
@@ -68,6 +67,8 @@ def noise_of_difference(best, other, floor: float = 0.0) -> float:
     if d.size < 2 or against <= noise:
         return noise
     se = math.sqrt(d.size) * float(np.std(d, ddof=1))
+    from scipy.stats import t as student_t     # here: scipy.stats takes half a second to import
+
     return max(noise, float(student_t.ppf(0.5 + CONFIDENCE / 2, d.size - 1)) * se)
 
 
