@@ -69,11 +69,12 @@ def _travel(consts: PendulumConstants) -> str:
 
 
 def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design: PlantModel | None = None,
-                         period: float = 1e-3, plant_name: str = "") -> ScenarioResult:
+                         period: float = 1e-3, plant_name: str = "",
+                         consts: PendulumConstants | None = None) -> ScenarioResult:
     """Fig. IV.23: from rest, swing up and hold upright. Pass: the pendulum within 0.05 rad of the upright
     for the last 3 s and the driven position within the track limit throughout. ``design`` is the model the controller is
-    designed on (default: the plant's own model)."""
-    consts = PendulumConstants.from_model(design or model)
+    designed on (default: the plant's own model); ``consts``: its constants, if already made."""
+    consts = consts or PendulumConstants.from_model(design or model)
     run = run_closed_loop(plant, Supervisor(consts, period), seconds, period=period, plant_name=plant_name)
     phi = _phi(run, consts)
     last = run.t >= run.t[-1] - HOLD_SECONDS + 1e-9 if run.t.size else np.zeros(0, bool)
@@ -88,12 +89,12 @@ def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design
 
 
 def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float = 1e-3,
-                  plant_name: str = "", within: float = 5.0) -> ScenarioResult:
+                  plant_name: str = "", within: float = 5.0, consts: PendulumConstants | None = None) -> ScenarioResult:
     """Fig. IV.22: the energy swing-up alone brings the pendulum into the supervisor's catch
     window (within 0.4 rad of the upright) within 5 s, the driven position within the track limit
     throughout. It does not
     hold it there: energy pumping keeps it swinging about the upright."""
-    consts = PendulumConstants.from_model(model)
+    consts = consts or PendulumConstants.from_model(model)
     run = run_closed_loop(plant, EnergySwingUp(consts, period), seconds, period=period, plant_name=plant_name)
     phi = np.abs(_phi(run, consts))
     near = np.flatnonzero(phi < CATCH_ANGLE)
@@ -110,7 +111,8 @@ def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float 
                           run, figures, tuple(failures))
 
 
-def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name: str = "") -> ScenarioResult:
+def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name: str = "",
+                     consts: PendulumConstants | None = None) -> ScenarioResult:
     """Fig. IV.21: balanced upright, the cart's set point steps 4 cm left at t = 7 s. Pass: within
     2 s after the step, the driven position within 4 mm of its set point and the pendulum within
     0.05 rad of the upright, and they stay so until the end (t = 11 s); upright before the step; the
@@ -119,7 +121,7 @@ def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name:
         return STEP_SIZE if t >= STEP_AT else 0.0
 
     seconds = STEP_AT + 2 * SETTLE_LIMIT
-    consts = PendulumConstants.from_model(model)
+    consts = consts or PendulumConstants.from_model(model)
     run = run_closed_loop(plant, Supervisor(consts, period, position_ref=set_point), seconds, period=period,
                           plant_name=plant_name)
     phi = _phi(run, consts)

@@ -17,9 +17,10 @@ from ..hil.scenarios import HOLD_SECONDS, TRACK_LIMIT, ScenarioResult
 
 
 def swing_up_balance_with(controller_spec: str, plant, design, seconds: float, period: float,
-                          plant_name: str) -> ScenarioResult:
-    """Run ``controller_spec`` (designed on ``design``) against ``plant`` for ``seconds`` and judge it."""
-    consts = PendulumConstants.from_model(design)
+                          plant_name: str, consts: PendulumConstants | None = None) -> ScenarioResult:
+    """Run ``controller_spec`` (designed on ``design``, whose constants ``consts`` are if already
+    made) against ``plant`` for ``seconds`` and judge it."""
+    consts = consts or PendulumConstants.from_model(design)
     controller = make_controller(controller_spec, design, period)
     run = run_closed_loop(plant, controller, seconds, period=period, plant_name=plant_name)
     phi = np.array([consts.upright_error(v) for v in run.column(consts.angle)])
