@@ -93,7 +93,8 @@ def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float 
     """Fig. IV.22: the energy swing-up alone brings the pendulum into the supervisor's catch
     window (within 0.4 rad of the upright) within 5 s, the driven position within the track limit
     throughout. It does not
-    hold it there: energy pumping keeps it swinging about the upright."""
+    hold it there: energy pumping keeps it swinging about the upright. ``consts``: the model's
+    constants, if already made."""
     consts = consts or PendulumConstants.from_model(model)
     run = run_closed_loop(plant, EnergySwingUp(consts, period), seconds, period=period, plant_name=plant_name)
     phi = np.abs(_phi(run, consts))
@@ -116,7 +117,8 @@ def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name:
     """Fig. IV.21: balanced upright, the cart's set point steps 4 cm left at t = 7 s. Pass: within
     2 s after the step, the driven position within 4 mm of its set point and the pendulum within
     0.05 rad of the upright, and they stay so until the end (t = 11 s); upright before the step; the
-    driven position within the track limit throughout."""
+    driven position within the track limit throughout. ``consts``: the model's constants, if
+    already made."""
     def set_point(t: float) -> float:
         return STEP_SIZE if t >= STEP_AT else 0.0
 
