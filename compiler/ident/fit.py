@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.optimize import least_squares, minimize_scalar
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
@@ -186,6 +185,7 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
         # cost may be a staircase in this coordinate)
         left, right = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
         if right > left:
+            from scipy.optimize import minimize_scalar   # here: a sweep's plan reads parameter_bounds only
             res = minimize_scalar(lambda g: cost_at(i, g), bounds=(left, right), method="bounded",
                                   options={"xatol": 1e-3 * max(abs(grid[k]), 1e-9) + 1e-12, "maxiter": 30})
             z[i] = res.x if res.fun < costs[k] else grid[k]
@@ -270,6 +270,7 @@ def _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, sea
     cost_before = problem.cost(tf.to_values(z0))
     if search:
         z0 = grid_search(problem, tf, z0)
+    from scipy.optimize import least_squares
     try:
         with np.errstate(all="ignore"):
             sol = (least_squares(lambda z: problem.residual(tf.to_values(z)), z0, bounds=(lo, hi), method="trf",

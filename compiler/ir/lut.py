@@ -24,7 +24,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-import sympy as sp
 
 from .qformat import QFormat, Rounding, shift_round
 
@@ -32,6 +31,7 @@ from .qformat import QFormat, Rounding, shift_round
 @lru_cache(maxsize=256)
 def lut_function(expr: str):
     """numpy-callable of the LUT's expression in ``v`` (parsed once per distinct text)."""
+    import sympy as sp      # here, not above: the HDL backend reads this module without tabulating
     v = sp.Symbol("v", real=True)
     return sp.lambdify(v, sp.sympify(expr, locals={"v": v}), "numpy")
 
