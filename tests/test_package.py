@@ -30,7 +30,6 @@ def modules_the_compile_imports() -> list:
     """)
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=ROOT)
     files = json.loads(out.stdout)
-    files.pop("pendc.api")   # pendc/__init__ re-exports the API; the compile never calls it
     return sorted(Path(f) for f in files.values() if f)
 
 

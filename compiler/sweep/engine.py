@@ -78,12 +78,39 @@ def read_results(folder: str | os.PathLike, indices: Iterable[int]) -> dict:
     return out
 
 
+def _refused(scheduler: str) -> str | None:
+    """Why a ``tcp://`` scheduler address refuses a connection outright, else None. Dask's
+    client retries a refused address until its timeout: a mistyped port would cost 10 s of
+    waiting for an answer the machine gave at once. Anything but a refusal (a timeout, a host
+    that does not resolve, another protocol) is left to Dask's own connect and its message."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(scheduler)
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        return None
+    if parts.scheme != "tcp" or not host or port is None:
+        return None
+    try:
+        with socket.create_connection((host, port), timeout=10):
+            return None
+    except ConnectionRefusedError:
+        return "connection refused"
+    except OSError:
+        return None
+
+
 def open_client(scheduler: str | None, workers: int | None):
     """(client, cluster): a client on ``scheduler``, else on a new LocalCluster of ``workers``
     single-threaded processes (default one per core; ``cluster`` is None for a scheduler's)."""
     from distributed import Client, LocalCluster
 
     if scheduler:
+        refused = _refused(scheduler)
+        if refused:
+            raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({refused})")
         try:
             return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
