@@ -140,7 +140,8 @@ def test_a_sweep_through_a_scheduler_started_by_hand(local_sweep, tmp_path, caps
     (["--ii", "2", "--workers", "0"], "--workers must be at least 1"),
     (["--ii", "2", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "a --scheduler's cluster has its own"),
     (["--ii", "2", "--freq", "-5"], "--freq"),
-    (["--ii", "2", "--scheduler", "tcp://127.0.0.1:1"], "--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler"),
+    (["--ii", "2", "--scheduler", "tcp://127.0.0.1:1"],
+     "--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler there (connection refused)"),
 ])
 def test_bad_input_is_one_line(capsys, tmp_path, argv, message):
     rc, out, err = run_cli(capsys, "explore", "--out", tmp_path / "x", *argv)

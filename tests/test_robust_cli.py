@@ -84,7 +84,7 @@ def test_resuming_a_complete_sweep_runs_nothing(sweep, capsys):
     (["--workers", "0"], "--workers must be at least 1"),
     (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "a --scheduler's cluster has its own workers"),
     (["--scheduler", "tcp://127.0.0.1:1", "--vary", "alpha=200:300", "--samples", "2"],
-     "--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler there"),
+     "--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler there (connection refused)"),
 ])
 def test_bad_input_is_one_line(capsys, tmp_path, argv, message):
     rc, out, err = run_cli(capsys, "robust", "--out", tmp_path / "x", *argv)

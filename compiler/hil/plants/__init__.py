@@ -14,9 +14,15 @@ golden model and the generated Verilog.
 
 May import model, sim, golden, ir, backend, caching, codegen and errors; never the controllers or
 the loop (they import the plants). ``make_plant`` is re-exported: ``from pendc.hil.plants import
-make_plant``.
+make_plant``, on first use: a cocotb simulator unpickles its vectors' :class:`~.core_ports.CorePorts`
+and needs this package, not the plants (which import sympy and the model modules).
 """
 
-from .plant import make_plant
-
 __all__ = ["make_plant"]
+
+
+def __getattr__(name: str):
+    if name != "make_plant":
+        raise AttributeError(f"module 'pendc.hil.plants' has no attribute {name!r}")
+    from .plant import make_plant
+    return make_plant
