@@ -78,11 +78,12 @@ def read_results(folder: str | os.PathLike, indices: Iterable[int]) -> dict:
     return out
 
 
-def _refused(scheduler: str) -> str | None:
-    """Why a ``tcp://`` scheduler address refuses a connection outright, else None. Dask's
-    client retries a refused address until its timeout: a mistyped port would cost 10 s of
-    waiting for an answer the machine gave at once. Anything but a refusal (a timeout, a host
-    that does not resolve, another protocol) is left to Dask's own connect and its message."""
+def _unreachable(scheduler: str) -> str | None:
+    """Why a ``tcp://`` scheduler address cannot be connected to, else None. Dask's client
+    retries a refused address until its timeout: a mistyped port would cost 10 s of waiting
+    for an answer the machine gave at once (the scheduler logs the probe's connection at INFO
+    level, closed before a handshake). Anything else (a host that does not resolve, another
+    protocol) is left to Dask's own connect and its message."""
     import socket
     from urllib.parse import urlsplit
 
@@ -98,6 +99,8 @@ def _refused(scheduler: str) -> str | None:
             return None
     except ConnectionRefusedError:
         return "connection refused"
+    except TimeoutError:
+        return "no answer in 10 s"          # Dask's connect would wait as long again
     except OSError:
         return None
 
@@ -108,9 +111,9 @@ def open_client(scheduler: str | None, workers: int | None):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        refused = _refused(scheduler)
-        if refused:
-            raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({refused})")
+        unreachable = _unreachable(scheduler)
+        if unreachable:
+            raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({unreachable})")
         try:
             return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
