@@ -11,8 +11,8 @@ The main objects, importable from here::
     compare, diagnose, fit                identification from Python (see pendc.api)
 
 Each is imported on first use (PEP 562), so a process that needs one corner of pendc (the
-HDL backend in a cocotb simulator, a Dask worker, ``pendc --help``) does not pay for the rest:
-the model modules import sympy and its units, about a second of every process start.
+HDL backend in a cocotb simulator) does not pay for the rest: the model modules import sympy
+and its units, about a second of every process start.
 """
 
 from importlib import import_module

@@ -185,7 +185,7 @@ def grid_search(problem: ShootingProblem, tf: "_Transform", z: np.ndarray, point
         # cost may be a staircase in this coordinate)
         left, right = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
         if right > left:
-            from scipy.optimize import minimize_scalar   # here: a sweep's plan reads parameter_bounds only
+            from scipy.optimize import minimize_scalar   # here: parameter_bounds' readers need no optimiser
             res = minimize_scalar(lambda g: cost_at(i, g), bounds=(left, right), method="bounded",
                                   options={"xatol": 1e-3 * max(abs(grid[k]), 1e-9) + 1e-12, "maxiter": 30})
             z[i] = res.x if res.fun < costs[k] else grid[k]

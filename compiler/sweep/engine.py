@@ -78,9 +78,12 @@ def read_results(folder: str | os.PathLike, indices: Iterable[int]) -> dict:
     return out
 
 
+CONNECT_S = 10      # how long a --scheduler address may take to answer
+
+
 def _unreachable(scheduler: str) -> str | None:
     """Why a ``tcp://`` scheduler address cannot be connected to, else None. Dask's client
-    retries a refused address until its timeout: a mistyped port would cost 10 s of waiting
+    retries a refused address until its timeout: a mistyped port would cost CONNECT_S of waiting
     for an answer the machine gave at once (the scheduler logs the probe's connection at INFO
     level, closed before a handshake). Anything else (a host that does not resolve, another
     protocol) is left to Dask's own connect and its message."""
@@ -95,12 +98,12 @@ def _unreachable(scheduler: str) -> str | None:
     if parts.scheme != "tcp" or not host or port is None:
         return None
     try:
-        with socket.create_connection((host, port), timeout=10):
+        with socket.create_connection((host, port), timeout=CONNECT_S):
             return None
     except ConnectionRefusedError:
         return "connection refused"
     except TimeoutError:
-        return "no answer in 10 s"          # Dask's connect would wait as long again
+        return f"no answer in {CONNECT_S} s"     # Dask's connect would wait as long again
     except OSError:
         return None
 
@@ -115,7 +118,7 @@ def open_client(scheduler: str | None, workers: int | None):
         if unreachable:
             raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({unreachable})")
         try:
-            return Client(scheduler, timeout="10s"), None
+            return Client(scheduler, timeout=f"{CONNECT_S}s"), None
         except (OSError, TimeoutError, ValueError) as exc:
             raise PendcError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
     n = workers or os.cpu_count() or 1
