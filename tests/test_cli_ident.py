@@ -45,7 +45,10 @@ def test_fit_writes_a_model_and_json(spring_fit):
     assert result["fit_after"]["pooled"]["x"] > result["fit_before"]["pooled"]["x"]
     assert [f["file"] for f in result["fit_after"]["files"]] == [str(DATA / "hidden_spring.csv")]
     assert err == ""
-    assert set(result["params"]) == {"k_c", "x_0"} and len(result["params"]["k_c"]["ci95"]) == 2
+    assert set(result["params"]) == {"k_c", "x_0"}
+    for p, truth in (("k_c", 300.0), ("x_0", 0.05)):      # the spring data/generate.py hid
+        value, (lo, hi) = result["params"][p]["value"], result["params"][p]["ci95"]
+        assert value == pytest.approx(truth, rel=0.1) and lo < value < hi and hi - lo < 0.2 * truth, (p, value, lo, hi)
     fitted = load_model(out)
     assert fitted.effects["cart_spring"]["k_c"] == pytest.approx(result["params"]["k_c"]["value"])
 
@@ -195,15 +198,3 @@ def test_diagnose_of_another_pendulum_points_at_its_constants_and_tests_them(tmp
     assert set(tested) == {"L", "b_theta"}
     # the other pendulum's L is 5 % shorter: freeing L moves it that way and removes much of the error
     assert tested["L"]["value"] < tested["L"]["start"] and tested["L"]["cost_reduction"] > 0.3
-
-
-def test_another_pendulum_is_fitted_with_the_issue_command(tmp_path, capsys):
-    # the default model has viscous_pendulum: --add then fits it (with a note) rather than refusing
-    out = tmp_path / "other.toml"
-    rc, text, err = run(capsys, "fit", DATA / "unknown_pendulum_swing.csv", "--add", "viscous_pendulum",
-                        "--free", "I", "-o", out, "--json")
-    assert rc == 0 and err.count("\n") == 1 and "viscous_pendulum already" in err, err
-    result = json.loads(text)
-    assert result["free_run_after"]["pooled"]["theta"] >= 90.0 > result["free_run_before"]["pooled"]["theta"]
-    assert result["params"]["b_theta"]["value"] == pytest.approx(0.0025, rel=0.10)
-    assert load_model(out).plant["I"] == pytest.approx(result["params"]["I"]["value"])

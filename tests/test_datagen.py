@@ -37,8 +37,8 @@ def test_closed_loop_swing_up_swings_high_and_stays_on_the_track():
 
 def test_shipped_files_are_what_the_generator_makes():
     made = demo_datasets(load_model())
-    for name in ("hidden_spring", "unknown_pendulum_swing"):
-        columns, description, *extra = made[name]
+    assert sorted(made) == sorted(p.stem for p in DATA.glob("*.csv"))      # every shipped file, each made again
+    for name, (columns, description, *extra) in made.items():
         meta = {"description": description, "generator": "data/generate.py", **(extra[0] if extra else {})}
         assert (DATA / f"{name}.csv").read_text() == format_csv(columns, meta=meta), name
 

@@ -22,13 +22,18 @@ HIDDEN_DAMPING = 0.0025     # data/generate.py: the other pendulum's b_theta
 
 
 def test_free_run_objective_on_the_realistic_swing(tmp_path, capsys):
+    """The issue's command; the default model has viscous_pendulum: --add then fits it (with a
+    note) rather than refusing."""
     out = tmp_path / "fitted.toml"
     rc = main(["fit", str(SWING), "--add", "viscous_pendulum", "--free", "I", "-o", str(out), "--json"])
     captured = capsys.readouterr()
     assert rc == 0, captured.err
+    assert captured.err.count("\n") == 1 and "viscous_pendulum already" in captured.err, captured.err
     result = json.loads(captured.out)
     assert result["objective"] == "free-run" and result["horizons"] == [0.5, 2.0, 8.0, "whole record"]
+    assert result["free_run_before"]["pooled"]["theta"] < 90.0
     assert result["free_run_after"]["pooled"]["theta"] >= 95.0
+    assert load_model(out).plant["I"] == pytest.approx(result["params"]["I"]["value"])
     assert result["params"]["b_theta"]["value"] == pytest.approx(HIDDEN_DAMPING, rel=0.05)
     assert result["fit_after"]["pooled"]["theta"] > result["fit_before"]["pooled"]["theta"]   # still reported
     assert 'objective = "free-run"' in out.read_text()

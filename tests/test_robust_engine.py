@@ -1,8 +1,8 @@
 """pendc.robust.engine: the sweep on Dask, its faults and its determinism.
 
-One reference sweep on one LocalCluster worker; the same seed on two workers, on a real scheduler
-and two workers started as separate processes (one of them killed mid-sweep), and a sweep
-interrupted by Ctrl-C and resumed must all give exactly its rows: none missing, none twice.
+One reference sweep on one LocalCluster worker; the same seed on a real scheduler and two workers
+started as separate processes (one of them killed mid-sweep), and on a LocalCluster of two workers
+interrupted by Ctrl-C and resumed, must give exactly its rows: none missing, none twice.
 """
 
 import os
@@ -11,7 +11,7 @@ import signal
 import pytest
 
 from dask_processes import dask_cluster
-from pendc.robust.engine import read_manifest, read_rows, run_sweep
+from pendc.robust.engine import read_rows
 from robust_helpers import HANG_GUARD_S, ROOT, rows_of, start_pendc, sweep_args, wait_for_rows
 
 SAMPLES = 8
@@ -24,19 +24,11 @@ def reference(tmp_path_factory):
     proc = start_pendc(sweep_args(out, SAMPLES, "--workers", "1"))
     stdout, stderr = proc.communicate(timeout=HANG_GUARD_S)
     assert proc.returncode == 0, stderr
+    assert f"ran {SAMPLES} runs" in stdout
     rows = rows_of(out)
     assert [r["index"] for r in rows] == list(range(SAMPLES))
-    return out, rows
-
-
-def test_two_workers_give_the_same_rows(reference, tmp_path):
-    folder, rows = reference
-    spec, plan = read_manifest(folder)
-    from pendc.robust.engine import write_manifest
-    write_manifest(tmp_path, spec, plan)
-    outcome = run_sweep(spec, plan, tmp_path, workers=2, progress=False)
-    assert outcome.rows == rows and outcome.ran_now == SAMPLES and not outcome.interrupted
     assert sum(r["passed"] for r in rows) not in (0, SAMPLES), "the ranges should make some runs fail"
+    return out, rows
 
 
 def test_a_killed_worker_on_a_real_scheduler_loses_nothing(reference, tmp_path):

@@ -156,6 +156,9 @@ def test_the_minute_of_full_scale_switching_stays_on_the_track(rig, minute):
     assert len(run["rows"]) == MINUTE * 1000 and run["overflows"] == {}     # no node left its range
     x = np.array([r["x"] for r in run["rows"]]) * build.graph.output("x").qformat.lsb
     assert np.max(np.abs(x)) <= X_STOPS and np.max(np.abs(x)) > 0.375     # it hit the stops
+    # the hits on the stops shake the pendulum hard; theta stays continuous (turns: the spin)
+    theta = np.array([r["theta"] for r in run["rows"]]) * build.graph.output("theta").qformat.lsb
+    assert np.max(np.abs(theta)) > 0.3 and np.max(np.abs(np.diff(theta))) < 0.05
 
 
 @needs_verilator

@@ -3,8 +3,8 @@ Verilator, and the chirp accuracy of the core through a standalone Verilator har
 
 The HDL of the default model is the repository's hdl_out/ when ``pendc build --check``
 says it is current, else a fresh build under pytest's tmp folder; the golden vectors
-are computed once per session (tb/pendtb.py). Icarus runs the core, RAPTOR wrapper and
-AXI4-Lite wrapper suites, two at a time; Verilator the core and AXI4-Lite ones (see SUITES); a cocotb
+are computed once per session (tb/pendtb.py). Icarus runs the core and RAPTOR wrapper suites,
+Verilator the core and AXI4-Lite ones (see SUITES); a cocotb
 failure fails the test with the failing cocotb tests and their messages. ``make sim`` runs
 every suite on both simulators through tb/run.py, there with the full profile on Verilator
 (seconds of model time; see CI_PROFILE).
@@ -31,11 +31,13 @@ import pendtb  # noqa: E402
 # `make sim TB_ARGS="--preset fast"` (every suite on both simulators) and make bench's synthesis.
 SCHEDULES = {"icarus": None, "verilator": {"preset": "thesis"}}
 
-# Which suites each simulator runs here. The bus wrappers do not depend on the schedule beyond
-# ``ready``, and each Verilator suite is a build of the whole core: Verilator reads the RAPTOR
-# wrapper in tests/test_sim_debug_status.py (its debug build), so here only the AXI4-Lite one;
-# `make sim` runs every suite on both simulators.
-SUITES = {"icarus": ("core", "raptor", "axil"), "verilator": ("core", "axil")}
+# Which suites each simulator runs here: the core on both, each bus wrapper's whole suite on one
+# (the RAPTOR one on Icarus, the AXI4-Lite one on Verilator). The wrappers do not depend on the
+# schedule beyond ``ready``, the two suites are the same tests through another bus, and each
+# Verilator suite is a build of the whole core (Verilator also reads the RAPTOR wrapper in
+# tests/test_sim_debug_status.py, its debug build, and runs its reset values for a new plant in
+# tests/test_new_plant_end_to_end.py); `make sim` runs every suite on both simulators.
+SUITES = {"icarus": ("core", "raptor"), "verilator": ("core", "axil")}
 
 
 # The CI profile of the cocotb suites on both simulators: every every-step window, the bus
