@@ -124,13 +124,16 @@ def meet_error_budget(typed, budgets: dict, dt: float, seconds: float, engine: s
         def node_errors_now():      # a second run of every stimulus: only when a decision or the report reads it
             return compare_fixed_float(graph, stimuli, dt, engine, like=like, float_runs=float_runs, states=False)[1]
 
-        # a last round that only answers whether the budget holds stops once it does not; a round
-        # that a remedy will follow stops once every state is over (its errors then only name them)
+        # a last round that only answers whether the budget holds, and a round that a remedy will
+        # follow, stop once a state is over its budget: which remedy comes next does not depend on
+        # which states are over, nor by how much (the products' choice runs its own comparison).
+        # Its action then names the states found over before the runs stopped. (Running such a
+        # round to its end to name every state over was two thirds of a default build's budget.)
         last_answer = not full_report and round_ == max_rounds - 1
         remedy = _next_remedy(graph, widen, levels, max_level)
         followed = round_ < max_rounds - 1 and remedy is not None
         runs = compare_segmented(graph, stimuli, dt, like=like, plain=False,
-                                 stop_above=budgets if last_answer or followed else None, stop_when_all=followed)
+                                 stop_above=budgets if last_answer or followed else None)
         errors = {k: r.segmented for k, r in runs.items()}
         node_errors = None
         worst = {s: max(errors[k][s] for k in errors) for s in budgets}

@@ -211,21 +211,19 @@ class _Lane:
 
 
 def compare_segmented(graph: Graph, stimuli: dict, dt: float, like: Graph | None = None,
-                      chunk: int = CHUNK, plain: bool = True, stop_above: dict | None = None,
-                      stop_when_all: bool = False) -> dict:
+                      chunk: int = CHUNK, plain: bool = True, stop_above: dict | None = None) -> dict:
     """Stimulus name -> :class:`SegmentedRun` of ``graph`` against its float twin on ``stimuli``
     (name -> (t, u) on the graph's one input), side by side on the machine's cores; ``plain``
     False leaves the plain error out (None: a run less). An overflow of the fixed run is a
     BudgetError. ``stop_above`` (state -> error) ends every stimulus' run once a state's segmented
     error exceeds it in one of them (``SegmentedRun.stopped_at``; the errors are then lower
-    bounds): enough for whoever asks only whether a budget holds; with ``stop_when_all`` once every
-    state of ``stop_above`` has exceeded it (in one run or another): enough to know which are over."""
+    bounds): enough for whoever asks only whether a budget holds."""
     d = Decisions(graph)
     twin, alias = float_twin(graph)
     fixed, flt = CompiledGraph(graph, "fixed", like=like), CompiledGraph(twin, "float")
     fixed_pos = {graph.nodes[i].name: p for p, i in enumerate(state_indices(graph))}
-    # the states seen over ``stop_above`` by any run; once enough, every run stops at its next piece
-    halt = _Halt(dict(stop_above or {}), stop_when_all)
+    # the states seen over ``stop_above`` by any run; once one is, every run stops at its next piece
+    halt = _Halt(dict(stop_above or {}))
     calls = [lambda t=t, u=u, name=name: _compare_one(d, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, plain,
                                                       halt)
              for name, (t, u) in stimuli.items()]
@@ -235,13 +233,13 @@ def compare_segmented(graph: Graph, stimuli: dict, dt: float, like: Graph | None
 class _Halt:
     """What the runs of one comparison share: the states any of them found over ``limits``."""
 
-    def __init__(self, limits: dict, when_all: bool):
-        self.limits, self.when_all, self.over = limits, when_all, set()
+    def __init__(self, limits: dict):
+        self.limits, self.over = limits, set()
 
     def update(self, worst: dict) -> bool:
         """Note the states of ``worst`` (a run's errors so far) over their limits; whether to stop."""
         self.over |= {s for s, limit in self.limits.items() if worst.get(s, 0.0) > limit}
-        return bool(self.over) and (not self.when_all or self.over >= set(self.limits))
+        return bool(self.over)
 
 
 def _compare_one(d: Decisions, fixed, flt, alias, fixed_pos, name, t, u, dt, chunk, with_plain,
