@@ -78,13 +78,14 @@ def _decode_errors(rows: np.ndarray, ports) -> int:
 
 
 def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int = WINDOW,
-                 long_chunks: dict | None = None) -> dict:
+                 long_chunks: dict | None = None, overflow: bool = True, bus: bool = True) -> dict:
     """Every golden expectation of the core and bus tests.
 
     The plant's names (input, states, encoders, register names) come from the plant interface
     the build's graph carries; they travel in the vectors (``core_ports``, ``register_names``).
     ``stimuli_names`` (default: every window stimulus), ``window`` (steps per every-step window)
-    and ``long_chunks`` (default :data:`LONG_CHUNKS`) shorten a run."""
+    and ``long_chunks`` (default :data:`LONG_CHUNKS`) shorten a run; ``overflow`` and ``bus``
+    False leave the overflow scenario and the bus runs out (for tests that do not read them)."""
     from pendc.backend.hdl import schedule_of
     from pendc.backend.viewmodel import build_view
     from pendc.golden import GoldenModel
@@ -189,7 +190,23 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     log(f"pendtb: long runs {long_chunks} chunks ({time.time() - t0:.1f} s)")
 
     # -- overflow: the input's full scale held drives the plant beyond its trained range
-    t0 = time.time()
+    if overflow:
+        t0 = time.time()
+        vec["overflow"] = _overflow_scenario(golden, graph, iface, ports, state_names, dt)
+        log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
+
+    # -- bus: runs from reset with a constant U (lockstep bursts, free run)
+    for name, level in (BUS_LEVELS.items() if bus else ()):
+        q = int(golden.quantize_input([stimuli.on_input(level)])[0])
+        tr = golden.run_steps(np.full(BUS_STEPS + 1, q, dtype=np.int64), every=1)
+        rows = port_rows(tr, ports)
+        vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}
+    return vec
+
+
+def _overflow_scenario(golden, graph, iface, ports, state_names, dt: float) -> dict:
+    """The full push from reset to the first overflow (both golden engines agreeing on its step
+    and nodes), or, for a plant whose full push stays in range, the run from a format's edge."""
     t, u = full_push(iface.input.full_scale)
     ints = golden.quantize_input(steps_of(t, u, dt))
     chunks = len(ints) // CHUNK
@@ -197,35 +214,25 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     if not tr.overflows:
         # a plant whose full push stays in range (its rates saturate, its angles wrap): start at
         # the edge of a position register's format instead, moving out
-        vec["overflow"] = _overflow_from_edge(graph, iface, ports, state_names, int(ints[0]), dt)
-    else:
-        k_star = min(tr.overflows.values())
-        nodes = sorted(n for n, s in tr.overflows.items() if s == k_star)
-        k0 = max(0, (k_star // CHUNK - 1) * CHUNK)
-        n_win = k_star - k0 + 500
-        state = {n: int(tr.outputs[n][k0 // CHUNK]) for n in state_names}
-        u_win = ints[k0:k0 + n_win]
-        rows, ovf_rel = interp_window(graph, state, u_win)
-        first_rel = min(ovf_rel.values()) if ovf_rel else None
-        rel_nodes = sorted(n for n, s in ovf_rel.items() if s == first_rel)
-        if first_rel != k_star - k0 or rel_nodes != nodes:
-            raise RuntimeError(f"golden engines disagree on the first overflow: compiled step {k_star} {nodes}, "
-                               f"interpreter step {None if first_rel is None else k0 + first_rel} {rel_nodes}")
-        vec["overflow"] = {
-            "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
-            "coarse": port_rows(tr, ports)[: k0 // CHUNK + 1].copy(),
-            "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows), "from_reset": True,
-            "k0": k0, "state": rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
-        }
-    log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
-
-    # -- bus: runs from reset with a constant U (lockstep bursts, free run)
-    for name, level in BUS_LEVELS.items():
-        q = int(golden.quantize_input([stimuli.on_input(level)])[0])
-        tr = golden.run_steps(np.full(BUS_STEPS + 1, q, dtype=np.int64), every=1)
-        rows = port_rows(tr, ports)
-        vec["bus"][name] = {"input": q, "rows": rows, "cnt": _decoded(rows, ports), "overflows": dict(tr.overflows)}
-    return vec
+        return _overflow_from_edge(graph, iface, ports, state_names, int(ints[0]), dt)
+    k_star = min(tr.overflows.values())
+    nodes = sorted(n for n, s in tr.overflows.items() if s == k_star)
+    k0 = max(0, (k_star // CHUNK - 1) * CHUNK)
+    n_win = k_star - k0 + 500
+    state = {n: int(tr.outputs[n][k0 // CHUNK]) for n in state_names}
+    u_win = ints[k0:k0 + n_win]
+    rows, ovf_rel = interp_window(graph, state, u_win)
+    first_rel = min(ovf_rel.values()) if ovf_rel else None
+    rel_nodes = sorted(n for n, s in ovf_rel.items() if s == first_rel)
+    if first_rel != k_star - k0 or rel_nodes != nodes:
+        raise RuntimeError(f"golden engines disagree on the first overflow: compiled step {k_star} {nodes}, "
+                           f"interpreter step {None if first_rel is None else k0 + first_rel} {rel_nodes}")
+    return {
+        "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
+        "coarse": port_rows(tr, ports)[: k0 // CHUNK + 1].copy(),
+        "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows), "from_reset": True,
+        "k0": k0, "state": rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
+    }
 
 
 EDGE_STEPS = 1500      # steps from the deposited edge state to the overflow (the bus test's second burst)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from pendc.backend.hdl import port_formats  # noqa: F401  (re-exported)
 from tbconfig import *  # noqa: F401,F403  (the constants, re-exported for the cocotb modules)
-from tbconfig import REPO, TB_TOP, verilog_files
+from tbconfig import LONG_CHUNKS, REPO, TB_TOP, TEST_VECTORS, verilog_files
 from golden_vectors import *  # noqa: F401,F403
 from golden_vectors import make_vectors
 from simulators import *  # noqa: F401,F403
@@ -237,9 +237,26 @@ def add_vectors(prep: Prepared, log=print, **options) -> Prepared:
     return prep
 
 
-def prepare(work: Path, use_repo_hdl: bool = True, log=print, model_path=None, request: dict | None = None) -> Prepared:
-    """HDL for both buses, the testbench top and the golden vectors, under ``work``."""
-    return add_vectors(prepare_hdl(work, use_repo_hdl, log, model_path, request), log)
+def vector_options(testcase: str | None) -> dict:
+    """The :func:`golden_vectors.make_vectors` options that compute what the cocotb tests
+    ``testcase`` selects (comma-separated names, matched as cocotb's runner matches them: the
+    end of ``module.test``) read of the vectors (:data:`tbconfig.TEST_VECTORS`), and no more;
+    every test when ``testcase`` is None or selects none of them."""
+    names = [n.strip() for n in (testcase or "").split(",") if n.strip()]
+    picked = [need for test, need in TEST_VECTORS.items() if any(test.endswith(n) for n in names)]
+    if not picked:
+        return {}
+    windows = {s for need in picked for s in need.get("windows", ())}
+    long = {s for need in picked for s in need.get("long", ())}
+    return {"stimuli_names": tuple(sorted(windows)), "long_chunks": {s: LONG_CHUNKS[s] for s in sorted(long)},
+            "overflow": any(need.get("overflow") for need in picked), "bus": any(need.get("bus") for need in picked)}
+
+
+def prepare(work: Path, use_repo_hdl: bool = True, log=print, model_path=None, request: dict | None = None,
+            testcase: str | None = None) -> Prepared:
+    """HDL for both buses, the testbench top and the golden vectors, under ``work`` (only what
+    the cocotb tests ``testcase`` read, when given: :func:`vector_options`)."""
+    return add_vectors(prepare_hdl(work, use_repo_hdl, log, model_path, request), log, **vector_options(testcase))
 
 
 # ---------------------------------------------------------------- simulators

@@ -41,7 +41,8 @@ def main(argv=None) -> int:
                          "and removed by `make clean`)")
     ap.add_argument("--no-repo-hdl", action="store_true", help="always build the HDL, even if hdl_out/ is current")
     ap.add_argument("--serial", action="store_true", help="one suite at a time (default: two in parallel)")
-    ap.add_argument("-k", "--testcase", help="only the cocotb test(s) with this name (comma-separated)")
+    ap.add_argument("-k", "--testcase", help="only the cocotb test(s) with this name (comma-separated; the golden "
+                                               "vectors then hold only what they read)")
     ap.add_argument("--waves", action="store_true", help="record waveforms")
     ap.add_argument("--json", help="write a summary JSON here")
     ap.add_argument("--model", help="model file whose HDL to test (default: the default model)")
@@ -65,7 +66,8 @@ def main(argv=None) -> int:
     work = Path(args.work).resolve()      # the simulators run in their own folders: a relative path would not reach them
     t_all = time.time()
     try:
-        prep = pendtb.prepare(work, use_repo_hdl=not args.no_repo_hdl, model_path=args.model, request=request)
+        prep = pendtb.prepare(work, use_repo_hdl=not args.no_repo_hdl, model_path=args.model, request=request,
+                              testcase=args.testcase)
     except Exception as exc:  # a bad model file or schedule: one line, like pendc
         from pendc.errors import PendcError
         if not isinstance(exc, (PendcError, OSError, ValueError)):

@@ -20,6 +20,24 @@ MIN_VERILATOR = (5, 36)
 WINDOW_STIMULI = ("chirp_low", "chirp_high", "steps", "swing_up", "random",   # the training set
                   "multisine_seed7_1MHz", "steps_other_levels")                 # never seen in training
 
+# What each cocotb test reads of the golden vectors (tb/test_core.py, tb/test_bus.py): the
+# windows of these stimuli, these long runs, the overflow scenario, the bus runs. A run of some
+# tests only (tb/run.py -k) computes no more (pendtb.vector_options); a test that reads more than
+# it says here fails on the missing part, it cannot pass on it.
+TEST_VECTORS = {
+    "test_core.reset_state": {"windows": ("chirp_low",)},
+    **{f"test_core.every_step/stim={s}": {"windows": (s,)} for s in WINDOW_STIMULI},
+    "test_core.long_run_chirp": {"long": ("chirp",)},
+    "test_core.encoders_decode": {"long": ("random",)},
+    "test_core.converters_code": {"long": ("chirp",)},
+    "test_core.overflow_full_push": {"windows": ("chirp_low",), "overflow": True},
+    "test_core.reset_mid_run": {"windows": ("random",)},
+    "test_core.step_handshake": {"windows": ("multisine_seed7_1MHz",)},
+    **{f"test_bus.{t}": {"bus": True} for t in ("reset_values", "read_write", "unmapped", "lockstep", "free_run",
+                                                 "soft_and_hard_reset", "step_counter")},
+    "test_bus.overflow_flags": {"bus": True, "overflow": True},
+}
+
 
 
 def verilog_files(hdl_dir: Path) -> list[Path]:

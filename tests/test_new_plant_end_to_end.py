@@ -3,7 +3,7 @@
 The complete example of the reference (copied as a user copies it) is written into a folder
 outside the repository and goes through the whole chain with the command line: `plant check`,
 `build` (Verilog in that folder), the cocotb regression on Icarus and Verilator (bit-exact
-against the golden vectors: every-step windows, reset, the step handshake, the bus), `stimulus`
+against the golden vectors: every-step windows, reset, the step handshake; the bus on Icarus), `stimulus`
 and `simulate` float and `--fixed` (agreeing within the build's error budget), `diagnose` and
 `fit` on data the independent generator made with the file's damping hidden from the model
 (named first, recovered within 10 %), and `hil` (the builtin swing-up and LQR at the file's
@@ -35,7 +35,9 @@ sys.path.insert(0, str(REPO / "tb"))
 import pendtb  # noqa: E402
 
 CORE_TESTS = ("reset_state", "every_step/stim=chirp_low", "reset_mid_run", "step_handshake", "encoders_decode")
-BUS_TESTS = ("reset_values",)
+# the bus wrapper's registers under the file's names, on Icarus: on Verilator it would be a second
+# build of the whole core for the one test (tests/test_sim.py: the RAPTOR suite on Icarus, the AXI4-Lite one on Verilator)
+BUS_TESTS = {"icarus": ("reset_values",), "verilator": ()}
 DAMPING = 2e-3                    # the example's pivot damping (its [effects.damping] b)
 
 
@@ -82,7 +84,9 @@ def test_the_cocotb_regression_is_bit_exact(prepared, sim, tmp_path):
     if why:
         pytest.skip(why)
     problems = []
-    for suite, tests in [("core", CORE_TESTS), ("raptor", BUS_TESTS)]:
+    for suite, tests in [("core", CORE_TESTS), ("raptor", BUS_TESTS[sim])]:
+        if not tests:
+            continue
         r = pendtb.run_suite(prepared, sim, suite, tmp_path, profile="quick", testcase=",".join(tests))
         if r.tests != len(tests):
             problems.append(f"{sim}/{suite}: {r.tests} cocotb tests ran, {len(tests)} selected (log {r.log})")
