@@ -7,6 +7,7 @@ comparison vacuous.
 """
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -240,6 +241,28 @@ def test_a_compiler_that_fails_means_numba_without_a_warning(monkeypatch, tmp_pa
     finally:
         monkeypatch.undo()
         toolchain.cache_clear()
+
+
+def test_the_kernels_read_python_h_precompiled(monkeypatch, tmp_path):
+    """GCC makes the prelude's precompiled header once in the cache folder and uses it for a
+    kernel's C with the kernels' own flags (-H marks a used one with '!'); another compiler gets
+    no arguments and parses the headers as text."""
+    import subprocess
+    from pendc.native.build import FLAGS, _is_gcc, precompiled_prelude
+    monkeypatch.setenv("PENDC_CACHE_DIR", str(tmp_path))
+    cc, include, _ = toolchain()
+    if not _is_gcc(cc):
+        assert precompiled_prelude() == ()
+        return
+    args = precompiled_prelude()
+    header = Path(args[1])
+    assert args[0] == "-include" and header.parent == tmp_path / "native" and Path(f"{header}.gch").is_file()
+    c = tmp_path / "k.c"
+    c.write_text("#include <Python.h>\nint twice(int a) { return 2 * a; }\n")
+    done = subprocess.run([cc, *FLAGS, *args, f"-I{include}", "-H", str(c), "-o", str(tmp_path / "k.so")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and f"! {header}.gch" in done.stderr, done.stderr[:500]
+    assert precompiled_prelude() == args                  # made once
 
 
 @pytest.mark.parametrize("line", ["    j = 0 if flag else 1\n    t2 = (1.0, 2.0) if flag else (3.0, 4.0)\n",
