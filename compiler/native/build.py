@@ -33,6 +33,7 @@ import numpy as np
 from ..codegen import cache_dir, load_source
 from ..errors import PendcError
 from .emit import c_args, c_params, translate
+from .prelude import PRELUDE
 from .syntax import signature
 from .types import BOOL, C_TYPE, FLOAT, INT, ArrayType, Untranslatable
 
@@ -53,9 +54,8 @@ def toolchain() -> tuple | None:
     include = sysconfig.get_paths().get("include", "")
     if not cc or not shutil.which(cc) or not Path(include, "Python.h").exists():
         return None
-    try:
-        version = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
-    except (OSError, subprocess.SubprocessError):
+    version = _compiler_version(cc)
+    if version is None:
         return None
     flags = ""
     try:
@@ -82,28 +82,29 @@ def toolchain() -> tuple | None:
     return cc, include, tag
 
 
-# What every kernel's C includes, Python.h first as its manual asks. Parsing Python.h is a third of
-# a small kernel's compile (0.10 of 0.35 s), so GCC reads it precompiled (made once per toolchain
-# beside the kernels, with the kernels' flags). GCC falls back to the text of a precompiled header
-# it cannot use: the objects are the same either way.
-PRELUDE = "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n#include <math.h>\n#include <stdint.h>\n#include <string.h>\n"
-
-
 @functools.cache
-def _is_gcc(cc: str) -> bool:
+def _compiler_version(cc: str) -> str | None:
     try:
-        return "Free Software Foundation" in subprocess.run([cc, "--version"], capture_output=True, text=True,
-                                                            timeout=30).stdout
+        return subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
     except (OSError, subprocess.SubprocessError):
-        return False
+        return None
+
+
+# Python.h as the extension wrapper includes it; with the prelude's C headers, what every kernel's C
+# includes. Parsing Python.h is a third of a small kernel's compile (0.10 of 0.35 s), so GCC reads
+# them precompiled (made once per toolchain beside the kernels, with the kernels' flags; Python.h
+# first, as its manual asks). GCC falls back to the text of a precompiled header it cannot use: the
+# objects are the same either way.
+PYTHON_H = "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n"
+HEADERS = PYTHON_H + "".join(line + "\n" for line in PRELUDE.splitlines() if line.startswith("#include"))
 
 
 def precompiled_prelude() -> tuple:
-    """The compiler arguments that include :data:`PRELUDE` precompiled, or () (no compiler, not
+    """The compiler arguments that include :data:`HEADERS` precompiled, or () (no compiler, not
     GCC, or it could not make the header: kernels then parse their includes as text). Made in the
     cache folder of the moment, so a test's own cache folder gets its own."""
     found = toolchain()
-    if found is None or not _is_gcc(found[0]):
+    if found is None or "Free Software Foundation" not in (_compiler_version(found[0]) or ""):
         return ()
     cc, include, tag = found
     header = cache_dir("native") / f"prelude-{tag}.h"
@@ -112,7 +113,7 @@ def precompiled_prelude() -> tuple:
         part = f".{os.getpid()}.{threading.get_ident()}.tmp"
         text, made = header.with_name(f".{header.name}{part}"), pch.with_name(f".{pch.name}{part}")
         try:
-            text.write_text(PRELUDE)
+            text.write_text(HEADERS)
             os.replace(text, header)
             done = subprocess.run([cc, *(f for f in FLAGS if f != "-shared"), f"-I{include}", "-x", "c-header",
                                    str(header), "-o", str(made)], capture_output=True, timeout=120)
@@ -291,7 +292,7 @@ def _wrapper(fn, key: tuple) -> str:
     run without the GIL, its result boxed."""
     names = list(fn.params)
     arrays = sum(isinstance(t, ArrayType) for t in key)
-    lines = ["", "#define PY_SSIZE_T_CLEAN", "#include <Python.h>", "",
+    lines = ["", *PYTHON_H.splitlines(), "",
              "static int take(PyObject *o, Py_buffer *b, Py_ssize_t item, int ndim, const char *formats) {",
              "    if (PyObject_GetBuffer(o, b, PyBUF_RECORDS_RO) < 0) return -1;",
              "    const char *f = b->format ? b->format : \"B\";",
