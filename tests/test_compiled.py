@@ -299,24 +299,48 @@ def test_kernel_reused_across_register_resets_matches_each_interpreter(hand):
     assert_same(flt2.run(inputs, track_max=True), FloatInterpreter(other).run(inputs, track_max=True), exact=False)
 
 
-def test_step_is_single_assignment_and_nearly_branch_free(hand):
+def _step_loop(source: str):
+    import ast
+    return next(n for n in ast.walk(ast.parse(source)) if isinstance(n, ast.For) and n.target.id == "k")
+
+
+def _guarded_stores(loop) -> list:
+    """The step's ``if keep:`` blocks (values stored where computed, C kernels only)."""
+    import ast
+    return [n for n in ast.walk(loop) if isinstance(n, ast.If) and ast.unparse(n.test) == "keep"]
+
+
+@pytest.mark.parametrize("kernels", ["numba", "native"])
+def test_step_is_single_assignment_and_nearly_branch_free(kernels, monkeypatch):
     """What keeps numba's compile cheap (its SSA pass costs blocks x redefined variables): in the
     step loop every node's locals are assigned once, and the only branches are the per-step
     record/overflow blocks, not one per range check; the checks that fired are stored into an
-    array in the overflow block and read by one loop, not tested by an ``if`` each."""
+    array in the overflow block and read by one loop, not tested by an ``if`` each. The C kernels
+    add one branch per node: its value stored into ``buf`` where it is computed, when the step is
+    recorded or tracked (GCC's compile does not grow with blocks, and the values need not live to
+    the step's end)."""
     import ast
-    g, cg = hand
-    loop = next(n for n in ast.walk(ast.parse(cg.source)) if isinstance(n, ast.For) and n.target.id == "k")
+    monkeypatch.setenv("PENDC_KERNELS", kernels)
+    g = hand_graph()
+    loop = _step_loop(CompiledGraph(g, "fixed").source)
     assigned = [t.id for st in ast.walk(loop) if isinstance(st, ast.Assign) for t in st.targets
                 if isinstance(t, ast.Name)]
     node_locals = [x for x in assigned if x[0] in "vtrbdfjy" and x[1:2].isdigit() or x[:2] in ("jj", "ff")]
     repeated = sorted({x for x in node_locals if node_locals.count(x) > 1})
     assert node_locals and not repeated, repeated
-    ifs = [n for n in ast.walk(loop) if isinstance(n, (ast.If, ast.IfExp))]
+    guards = _guarded_stores(loop)
+    ifs = [n for n in ast.walk(loop) if isinstance(n, (ast.If, ast.IfExp)) and n not in guards]
     stored = [st for st in ast.walk(loop) if isinstance(st, ast.Assign) and isinstance(st.targets[0], ast.Subscript)
               and ast.unparse(st.targets[0]).startswith("fl[")]
     assert len(stored) > 20                                         # one store per checked node
     assert len(ifs) <= 8 and not any(isinstance(n, ast.IfExp) for n in ifs)
+    # the guards hold nothing but stores of values into buf; every node is stored once a step
+    assert all(ast.unparse(st).startswith("buf[") for n in guards for st in n.body)
+    stores = [ast.unparse(st) for st in ast.walk(loop) if isinstance(st, ast.Assign)
+              and ast.unparse(st.targets[0]).startswith("buf[")]
+    varying = [i for i, n in enumerate(g.nodes) if n.kind is not Kind.CONST]
+    assert sorted(stores) == sorted(f"buf[{i}] = v{i}" for i in varying)
+    assert (len(guards) > 0) == (kernels == "native")
 
 
 def test_cache_dir_from_environment(tmp_path, monkeypatch):

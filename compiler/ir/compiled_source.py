@@ -25,7 +25,7 @@ from .qformat import Rounding
 from .requant_source import Bounds, int_literal as _i, requant_lines
 from .visitor import NodeVisitor
 
-SOURCE_FORMAT = 4  # bump when the generated source changes shape
+SOURCE_FORMAT = 5  # bump when the generated source changes shape
 
 
 class _ExprPrinter(NumbaPrinter):

@@ -10,6 +10,9 @@ step is split into parts (:mod:`pendc.ir.kernel_parts`).
 
 from __future__ import annotations
 
+import re
+
+from ..native.build import backend
 from .compiled_source import SOURCE_FORMAT, _FixedGen, _Gen
 from .float_source import FloatGen
 from .graph import Graph
@@ -44,13 +47,16 @@ def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "")
             groups.append((gen.defined_by(i), [gen.comment(n)] + lines))
     head, update = gen.head, gen.update
     parts = ""
+    varying = [i for i, n in enumerate(nodes) if n.kind is not Kind.CONST]
     if sum(len(lines) for _, lines in groups) > SPLIT_ABOVE:
         parts, body, flags = split_step(gen, groups, data_args)
+        varying = []        # a split step has stored every value already (its parts pass them on through buf)
+    elif backend() == "native":
+        body, varying = _stored_where_computed(groups, varying)
+        body, flags = body + gen.late, gen.flags
     else:
         body, flags = [s for _, lines in groups for s in lines] + gen.late, gen.flags
     body += record_checks(flags, len(nodes), "k")
-    # a split step has stored every value already (its parts pass them on through buf)
-    varying = [] if parts else [i for i, n in enumerate(nodes) if n.kind is not Kind.CONST]
     if gen.fixed:
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        mx[i] = max(mx[i], x)",
                  "        mn[i] = min(mn[i], x)"]
@@ -59,7 +65,7 @@ def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "")
         # selects, not branches: the loop vectorises
         track = ["    for i in range(buf.shape[0]):", "        x = buf[i]", "        hi = mx[i]", "        lo = mn[i]",
                  "        mx[i] = x if (x > hi) | (x != x) else hi", "        mn[i] = x if (x < lo) | (x != x) else lo"]
-    loop = (["for k in range(steps):"] + ["    " + s for s in body]
+    loop = (["for k in range(steps):", "    keep = track or c == 0"] + ["    " + s for s in body]
             + ["    if track or c == 0:"] + [f"        buf[{i}] = v{i}" for i in varying]
             + ["        if c == 0:", "            for j in range(sel.shape[0]):",
                f"                out[{'j, row' if runtime_data else 'row, j'}] = buf[sel[j]]", "            row += 1", "        if track:"]
@@ -74,3 +80,32 @@ def assemble(gen: _Gen, runtime_data: bool, data_args: str = "", note: str = "")
            "sel, out, track, mx, mn, ov):\n"
            + "".join(f"    {s}\n" for s in lines) + "    return row\n")
     return src
+
+
+_ASSIGNS = re.compile(r"^(\s*)v(\d+) = ")
+
+
+def _stored_where_computed(groups: list, varying: list) -> tuple:
+    """(the step's statements, the nodes of ``varying`` left to store at the step's end): each
+    node whose value its own group assigns once, at the step's top level, is stored into ``buf``
+    right there when the step is recorded or tracked (``keep``), for the C kernels. Stored at the
+    end, every value of the step stays live to there, and GCC spilled and reloaded them on every
+    step, recorded or not: the SCT's fixed-point kernels ran 10-55 % faster this way (the most
+    where every step is recorded), float ones alike or up to 10 % faster, with the same numbers.
+    numba keeps the stores at the end: its compile time grows with the blocks of the step, and
+    this is one per node."""
+    where: dict = {}
+    for g, (_, lines) in enumerate(groups):
+        for line in lines:
+            m = _ASSIGNS.match(line)
+            if m:
+                i = int(m.group(2))
+                where[i] = (g, not m.group(1)) if i not in where else (None, False)
+    left, body = set(varying), []
+    for g, (ids, lines) in enumerate(groups):
+        body += lines
+        mine = [i for i in ids if i in left and where.get(i) == (g, True)]
+        if mine:
+            body += ["if keep:"] + [f"    buf[{i}] = v{i}" for i in mine]
+            left -= set(mine)
+    return body, [i for i in varying if i in left]
