@@ -6,6 +6,7 @@ writes and its result exactly. Warnings are errors here: a fall-back to numba wo
 comparison vacuous.
 """
 
+import re
 import warnings
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from pendc.errors import PendcError
 from pendc.ir.compiled import CompiledGraph
 from pendc.native import NativeFunction, Untranslatable, backend, translate
 from pendc.native.build import toolchain
+from pendc.native.types import FLOAT
 from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
@@ -272,3 +274,17 @@ def test_tuples_outside_the_subset_are_refused(line):
     source = SOURCE.replace("    j = 0\n", "    j = 0\n" + line)
     with pytest.raises(Untranslatable, match="tuple"):
         translate(source, "kernel", tuple(_argument_types(_arguments(6))))
+
+
+def test_short_callees_are_inlined_and_long_ones_stay_calls():
+    """A function the entry calls is inlined when it is short (a plant's derivatives, four calls a
+    RK4 step), and stays a call when long; the bits are numba's either way."""
+    from pendc.native.emit import INLINE_LINES
+    long_body = "".join(f"    a = a * 1.0000001 + {i}.0\n" for i in range(INLINE_LINES + 1))
+    source = ("from numba import njit\n\n\n@njit(cache=True)\ndef short(a):\n    return a * 2.0 + 1.0\n\n\n"
+              f"@njit(cache=True)\ndef long(a):\n{long_body}    return a\n\n\n"
+              "@njit(cache=True)\ndef entry(a):\n    return short(a) + long(a) + short(a + 1.0)\n")
+    text, _ = translate(source, "entry", (FLOAT,))
+    heads = {m.group(2): m.group(1) for m in re.finditer(r"^static (.*?)double f\d+_(\w+)\(", text, re.M)}
+    assert heads == {"short": "inline __attribute__((always_inline)) ", "long": "", "entry": ""}
+    assert NativeFunction(source, "pendc_test", "entry")(0.3) == load_source(source, "pendc_test").entry(0.3)

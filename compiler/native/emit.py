@@ -36,21 +36,31 @@ def c_args(name: str, t) -> list:
     return [py_name(name)]
 
 
+# statements of a called function that is inlined into its caller (see FunctionPrinter.text)
+INLINE_LINES = 200
+
+
 class FunctionPrinter:
     def __init__(self, fn):
         self.fn = fn
         self.lines: list = []
         self.loops = 0
 
-    def text(self) -> str:
+    def text(self, callee: bool = False) -> str:
+        """The C function; ``callee`` (a function the entry calls) is inlined where it is short."""
         fn = self.fn
         params = [p for name, t in fn.params.items() for p in c_params(name, t)]
         ret = c_type(fn.returns) if fn.returns else "void"
-        head = [f"static {ret} {fn.cname}({', '.join(params) or 'void'}) {{"]
+        self.block(fn.fdef.body, 1)
+        # GCC -O2 kept a plant's derivatives (called four times a step by RK4) out of line: inlined,
+        # the simulators' kernels ran a quarter faster, with the same numbers (-ffp-contract=off).
+        # A long one stays a call: the double pendulum's, inlined, compiled in 5.6 s instead of 1.
+        short = callee and len(self.lines) <= INLINE_LINES
+        head = [f"static {'inline __attribute__((always_inline)) ' if short else ''}{ret} {fn.cname}"
+                f"({', '.join(params) or 'void'}) {{"]
         for name, t in sorted(fn.types.items()):
             if name not in fn.params and not isinstance(t, ArrayType):
                 head.append(f"    {c_type(t)} {py_name(name)} = {{0}};")
-        self.block(fn.fdef.body, 1)
         return "\n".join(head + self.lines + ["}"])
 
     def block(self, body, depth):
@@ -297,6 +307,6 @@ def translate(source: str, entry: str, args: tuple) -> tuple:
     calls, callees first; its typed :class:`~pendc.native.translate.Function`)."""
     module = Module(source)
     fn = module.function(entry, tuple(args))
-    chunks = [FunctionPrinter(f).text() for f in module.order]    # printing may add tuple types
+    chunks = [FunctionPrinter(f).text(callee=f is not fn) for f in module.order]    # printing may add tuple types
     typedefs = "".join(t.c_typedef() + "\n" for _, t in sorted(module.tuples.items()))
     return PRELUDE + typedefs + "\n" + "\n\n".join(chunks) + "\n", fn
