@@ -168,3 +168,29 @@ def test_check_same():
         check_same(force, SYMS["M"] * SYMS["dx"], DIMS, "effects.drive", "the force")
     assert str(info.value) == ("effects.drive: the force has units of kg*m/s, "
                                "expected kg*m/s^2")
+
+
+def test_the_unit_table_is_sympys_and_is_kept_between_processes(tmp_path):
+    """Each unit resolved through sympy.physics.units, written once to the cache folder and read
+    back by later processes; a torn or foreign file is resolved again and rewritten."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from pendc.model.units import _UNIT_SOURCES, _resolve, unit_table
+    resolved = {name: _resolve(source) for name, source in _UNIT_SOURCES.items()}
+    assert resolved["N"] == Dim.of({"mass": 1, "length": 1, "time": -2}) and resolved["rpm"] == Dim.of({"time": -1})
+    folder = tmp_path / "units"              # cache_dir("units") under PENDC_CACHE_DIR=tmp_path
+    folder.mkdir()
+    assert unit_table(folder) == resolved
+    (kept,) = folder.glob("units-*.json")
+    assert unit_table(folder) == resolved
+    code = "import sys; from pendc.model.units import UNITS; print(len(UNITS), 'sympy.physics.units' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                          env={**os.environ, "PENDC_CACHE_DIR": str(tmp_path)})
+    assert done.stdout.split() == [str(len(resolved)), "False"]          # read back, sympy's units not imported
+    for torn in ('{"m": [["length"', json.dumps({"m": [["length", "1"]]})):
+        kept.write_text(torn)
+        assert unit_table(folder) == resolved
+        assert json.loads(kept.read_text()).keys() == resolved.keys()
