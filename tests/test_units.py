@@ -190,7 +190,7 @@ def test_the_unit_table_is_sympys_and_is_kept_between_processes(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                           env={**os.environ, "PENDC_CACHE_DIR": str(tmp_path)})
     assert done.stdout.split() == [str(len(resolved)), "False"]          # read back, sympy's units not imported
-    for torn in ('{"m": [["length"', json.dumps({"m": [["length", "1"]]})):
+    for torn in ('{"m": [["length"', json.dumps({"m": [["length", "1"]]}), "[1, 2]"):
         kept.write_text(torn)
         assert unit_table(folder) == resolved
         assert json.loads(kept.read_text()).keys() == resolved.keys()

@@ -23,13 +23,13 @@ from __future__ import annotations
 import ast
 import hashlib
 import json
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
 import sympy as sp
 
+from ..atomic import write_atomic
 from ..codegen import cache_dir
 from ..errors import PendcError
 
@@ -147,16 +147,14 @@ def unit_table(folder=None) -> dict:
         table = {name: Dim.of({b: Fraction(p) for b, p in exponents}) for name, exponents in kept.items()}
         if set(table) == set(_UNIT_SOURCES):
             return table
-    except (OSError, ValueError, TypeError, ZeroDivisionError):
+    except (OSError, ValueError, TypeError, AttributeError, ZeroDivisionError):
         pass                                  # not made yet, or not readable: resolved again
     table = {name: _resolve(source) for name, source in _UNIT_SOURCES.items()}
-    text = json.dumps({name: [[b, str(p)] for b, p in d.exponents] for name, d in table.items()}, ensure_ascii=False)
-    part = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        part.write_text(text, encoding="utf-8")
-        os.replace(part, path)
-    except OSError:
-        part.unlink(missing_ok=True)
+        write_atomic(path, json.dumps({name: [[b, str(p)] for b, p in d.exponents] for name, d in table.items()},
+                                      ensure_ascii=False))
+    except PendcError:
+        pass                                  # a folder not writable: resolved again next time
     return table
 
 
