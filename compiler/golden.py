@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import PendcError
-from .ir.compiled import CompiledGraph
+from .ir.compiled import CompiledGraph, record_buffer
 from .ir.graph import Graph
 from .ir.interpret import FixedInterpreter
 from .ir.resumable import make_resumable, reset_state, state_indices  # noqa: F401  (make_resumable: its old home)
@@ -237,7 +237,7 @@ class GoldenStepper:
         recording every step copies every node's value)."""
         ins = np.full((1, n + 1), int(u_int), dtype=np.int64)
         rows = n + 1 if every_step else 2
-        out = np.empty((len(self._sel), rows), np.int64)     # the kernel writes out[column, row]
+        out = record_buffer(len(self._sel), rows, np.int64)  # the kernel writes out[column, row]
         last = np.empty((len(self._sel), 1), np.int64)       # its own array: a slice would be another layout
         ov = np.full(len(self.graph.nodes), -1, np.int64)
         self.compiled.call(ins, n, 1 if every_step else n, self._sel, out, ov, self.state, self.k)
@@ -247,6 +247,7 @@ class GoldenStepper:
         self.compiled.call(ins[:, n:], 1, 1, self._sel, last, np.full(len(self.graph.nodes), -1, np.int64),
                            self.state, self.k + n)
         out[:, rows - 1] = last[:, 0]
+        out = out[:, :rows]
         self.state = after_n
         for i in np.flatnonzero(ov >= 0):
             self.overflows.setdefault(self.graph.nodes[int(i)].name, int(ov[i]))

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ir.compiled import CompiledGraph, run_side_by_side
+from ..ir.compiled import CompiledGraph, record_buffer, run_side_by_side
 from ..ir.graph import Graph
 from ..ir.nodes import Kind
 from ..ir.resumable import state_indices
@@ -205,9 +205,9 @@ class _Lane:
     def run(self, k: int, n: int, record: bool = True) -> dict | None:
         """Steps ``k .. k + n - 1``; their recorded columns (None: nothing recorded)."""
         ins = np.ascontiguousarray(self.ins[:, k:k + n])
-        out = np.empty((len(self.columns), n if record else 1), self.ins.dtype)
+        out = record_buffer(len(self.columns), n if record else 1, self.ins.dtype)
         self.c.call(ins, n, 1 if record else n, self.sel, out, self.ov, self.st, k)
-        return {c: out[j] for j, c in enumerate(self.columns)} if record else None
+        return {c: out[j, :n] for j, c in enumerate(self.columns)} if record else None
 
 
 def compare_segmented(graph: Graph, stimuli: dict, dt: float, like: Graph | None = None,
