@@ -14,6 +14,7 @@ from pathlib import Path
 
 from pendc.backend.memory_files import put_memory_files
 from pendc.caching.objcache import objcache_env
+from pendc.hil.plants.rtl_build import RUNTIME_OPT, VERILATOR_MAKE_VARS
 from tbconfig import (MIN_VERILATOR, TB_DIR, TB_TOP, verilog_files)
 
 
@@ -63,7 +64,6 @@ def simulator_missing(sim: str) -> str | None:
     return f"unknown simulator {sim!r}"
 
 
-VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include"
 # The model code's optimisation: -O3 where the simulation runs seconds of model time (the full
 # profile), -O1 for the quick profile's milliseconds, where the C++ compile is most of a suite's
 # CPU (a core build 12 -> 8 s, its 14 tests as fast: docs/testing.md)
@@ -92,7 +92,7 @@ def get_runner(sim: str, profile: str | None = None):
         def set_env_build():
             base()
             old = runner.env.get("MAKEFLAGS", "")
-            opt = f"OPT_FAST={OPT_FAST.get(profile, '-O3')}"
+            opt = f"OPT_FAST={OPT_FAST.get(profile, '-O3')} {RUNTIME_OPT}"
             runner.env["MAKEFLAGS"] = f"{old} {VERILATOR_MAKE_VARS} {opt}".strip()
             # Verilator's runtime objects come from earlier builds (pendc.caching.objcache)
             runner.env.update({k: v for k, v in objcache_env(runner.env).items()

@@ -26,7 +26,7 @@ from pathlib import Path
 from ...errors import PendcError
 from ...model.plant import PlantModel
 from .core_ports import CorePorts
-from .rtl_build import VERILATOR_MAKE_VARS, find_tool, build_cached
+from .rtl_build import RUNTIME_OPT, VERILATOR_MAKE_VARS, find_tool, build_cached
 from .rtl_plant import RtlPlant
 
 EXECUTABLE = "pendc_hil_cpp"
@@ -34,7 +34,7 @@ MAIN_FORMAT = 5          # bump when the C++ main changes shape
 MAX_PORT_WIDTH = 64      # every port must fit one C++ integer (Verilator's QData)
 # -O2 rather than verilated.mk's -Os: about 15 % more steps per second on this core, where
 # the core's own clocked logic takes over 80 % of the time
-MAKE_VARS = f"{VERILATOR_MAKE_VARS} OPT_FAST=-O2 OPT_GLOBAL=-O2"
+MAKE_VARS = f"{VERILATOR_MAKE_VARS} OPT_FAST=-O2 {RUNTIME_OPT}"
 
 
 # C++ shared by every harness around a Verilated core (also bench/core_step_loop.py): a signed port's
