@@ -59,7 +59,7 @@ def _cocotb(hdl: Path, report: dict, work: Path, seconds: float, per_step_steps:
     model, build = pendtb.model_and_build()
     t, u = Stimuli(model.interface.input).chirp()
     n = int(round(seconds * 1000))
-    ints = GoldenModel(build.graph, build.options.dt).quantize_input(pendtb.steps_of(t[:n + 1], u[:n + 1]))
+    ints = GoldenModel(build.graph, build.options.dt).input_integers(t[:n + 1], u[:n + 1])
     cfg = {"ii": report["ii"], "period_ns": pendtb.PERIOD_NS, "chunk": pendtb.CHUNK,
            "u_width": report["ports"]["u"]["width"], "u": [int(v) for v in ints[::pendtb.CHUNK]],
            "per_step_steps": per_step_steps}
@@ -111,7 +111,7 @@ def _step_loops(hdl: Path, report: dict, comb_hdl: Path, comb_report: dict, work
     model, build = pendtb.model_and_build()
     t, u = Stimuli(model.interface.input).chirp()
     n = int(round(seconds * 1000))
-    ints = GoldenModel(build.graph, build.options.dt).quantize_input(pendtb.steps_of(t[:n + 1], u[:n + 1]))
+    ints = GoldenModel(build.graph, build.options.dt).input_integers(t[:n + 1], u[:n + 1])
     u_chunks = ints.reshape(n, pendtb.CHUNK)[:, 0]
     runs = {}
     for build_name, (h, rep) in (("default", (hdl, report)), ("comb", (comb_hdl, comb_report))):

@@ -96,6 +96,14 @@ class GoldenModel:
         scaled = np.floor(np.ldexp(np.asarray(u, dtype=np.float64), f.frac) + 0.5)
         return np.clip(scaled, f.min_int, f.max_int).astype(np.int64)
 
+    def input_integers(self, t, u) -> np.ndarray:
+        """The input-port integer at every step of the zero-order-hold samples ``u`` at times
+        ``t`` (the last sample is held for no step): each sample quantised once, then held, the
+        same integers as quantising every step's value at a fraction of the work (seconds of
+        stimulus are millions of steps)."""
+        t = np.asarray(t, dtype=np.float64)
+        return np.repeat(self.quantize_input(np.asarray(u, dtype=np.float64)[:-1]), steps_per_sample(t, self.dt))
+
     def run_steps(self, u_per_step, every: int = 1, record: tuple = ()):
         """Raw trace for one input integer (or voltage) per step."""
         u = np.asarray(u_per_step)

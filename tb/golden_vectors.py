@@ -41,11 +41,6 @@ def full_push(full_scale: float, duration: float = 4.0):
     return t, np.full_like(t, float(full_scale))
 
 
-def steps_of(t, u, dt=1e-6) -> np.ndarray:
-    from pendc.passes.ranges import per_step
-    return per_step(np.asarray(u, float), np.asarray(t, float), dt)
-
-
 # ---------------------------------------------------------------- quadrature decoding
 
 # x4 decoder on s = 2*A + B; forward (position grows, A leads): 10 -> 11 -> 01 -> 00 -> 10
@@ -120,7 +115,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     for name, (t, u, trained) in window_stimuli(iface.input).items():
         if stimuli_names is not None and name not in stimuli_names:
             continue
-        ints = golden.quantize_input(steps_of(t, u, dt))
+        ints = golden.input_integers(t, u)
         total = len(ints)
         starts = [0] + sorted({int(round(f * total / window)) * window for f in WINDOW_POINTS})
         starts = [k for k in starts if k + window < total]
@@ -171,7 +166,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     sources = {"chirp": stimuli.chirp(), "random": stimuli.random_levels()}
     for name, chunks in long_chunks.items():
         t, u = sources[name]
-        ints = golden.quantize_input(steps_of(t, u, dt))[:chunks * CHUNK]
+        ints = golden.input_integers(t, u)[:chunks * CHUNK]
         per_chunk = ints.reshape(chunks, CHUNK)
         if not np.all(per_chunk == per_chunk[:, :1]):
             raise RuntimeError(f"stimulus {name} does not hold the input for {CHUNK} steps")
@@ -208,7 +203,7 @@ def _overflow_scenario(golden, graph, iface, ports, state_names, dt: float) -> d
     """The full push from reset to the first overflow (both golden engines agreeing on its step
     and nodes), or, for a plant whose full push stays in range, the run from a format's edge."""
     t, u = full_push(iface.input.full_scale)
-    ints = golden.quantize_input(steps_of(t, u, dt))
+    ints = golden.input_integers(t, u)
     chunks = len(ints) // CHUNK
     tr = golden.run_steps(ints, every=CHUNK, record=tuple(state_names))
     if not tr.overflows:

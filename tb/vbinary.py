@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendtb import CHUNK, core_ports_of, model_and_build, steps_of, use_venv_tools
+from pendtb import CHUNK, core_ports_of, model_and_build, use_venv_tools
 
 
 def build(hdl_dir: Path, report: dict, core_ports, log=print) -> tuple[Path, float]:
@@ -65,7 +65,7 @@ def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log
     n = int(round(seconds * 1000))
     t, u = t[:n + 1], u[:n + 1]
     golden = GoldenModel(build_.graph, dt)
-    ints = golden.quantize_input(steps_of(t, u, dt))
+    ints = golden.input_integers(t, u)
     u_chunks = ints.reshape(n, CHUNK)[:, 0]
     binary, build_s = build(hdl_dir, report, ports, log=log)
     rows, wall = run(binary, ports, u_chunks)
