@@ -11,8 +11,8 @@ from pendc.ir.graph import Graph
 from pendc.ir.nodes import Kind, make
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
-from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float, float_twin,
-                                       interpolation_error, meet_error_budget)
+from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, compare_fixed_float, complete_report,
+                                       float_twin, interpolation_error, meet_error_budget)
 from pendc.caching.build_cache import compile_cached
 from pendc.passes.pipeline import BuildOptions, compile_model
 from pendc.cli.heldout import CLASSES, format_budget, held_out_check, held_out_stimuli
@@ -85,6 +85,25 @@ def test_rounds_share_float_runs_without_changing_a_number(build):
     shared = [compare_fixed_float(g, stimuli, DT, float_runs=memo) for g in (base, wide)]
     assert len(memo) == 2 * len(stimuli)            # per stimulus: every step, and every 1000th
     assert shared == [compare_fixed_float(g, stimuli, DT) for g in (base, wide)]
+
+
+def test_a_met_answer_completed_is_the_full_report(build):
+    """What the narrowing keeps of its last check (pendc.passes.narrow_products): the answer-only
+    report of a met budget with the node and plain errors added equals the full report of the same
+    typing, every number; an answer that missed its budget is not completed (its runs stopped)."""
+    def typed(widen, addr):
+        return typed_default(build, widen)
+
+    # budgets the first typing meets (the build's own needed a widening), then ones it misses
+    budgets, seconds = {s: 1e3 * b for s, b in build.error.budgets.items()}, build.error.seconds
+    graph, full = meet_error_budget(typed, budgets, DT, seconds, max_rounds=1)
+    answer = meet_error_budget(typed, budgets, DT, seconds, max_rounds=1, full_report=False)[1]
+    assert full.met and answer.node_errors is None and answer.plain is None
+    assert complete_report(graph, answer, DT) == full
+    missed = meet_error_budget(typed, {s: b / 1e9 for s, b in budgets.items()}, DT, seconds, max_rounds=1,
+                               full_report=False)[1]
+    with pytest.raises(ValueError):
+        complete_report(graph, missed, DT)
 
 
 def test_widening_reduces_the_state_error(build):

@@ -29,7 +29,7 @@ from dataclasses import replace
 
 from ..model.interface import require_interface
 from ..sim.stimuli import Stimuli
-from .error_budget import meet_error_budget
+from .error_budget import complete_report, meet_error_budget
 from .resources import dsp_for, product_widths
 from .segmented_error import compare_segmented
 from .twin import BudgetError
@@ -93,7 +93,7 @@ def narrow_products(typed, graph, report, budgets: dict, dt: float, seconds: flo
             g, r = meet_error_budget(at_level_0(lowered), budgets, dt, seconds, engine=engine, max_rounds=1,
                                      inp=None, full_report=False)
             valid = validation_errors(g, budgets, dt, seconds) if r.met else None
-            checks[lowered] = (g, valid, valid is not None and all(valid[s] <= b for s, b in budgets.items()))
+            checks[lowered] = (g, valid, valid is not None and all(valid[s] <= b for s, b in budgets.items()), r)
         return checks[lowered]
 
     def prune(candidates: list, low: frozenset) -> frozenset:
@@ -111,11 +111,11 @@ def narrow_products(typed, graph, report, budgets: dict, dt: float, seconds: flo
     lowered = prune(wide, frozenset())
     if not lowered:
         return graph, report
-    narrowed, valid, holds = check(lowered)
+    narrowed, valid, holds, answer = check(lowered)
     if not holds:
         return graph, report
-    narrowed, checked = meet_error_budget(at_level_0(lowered), budgets, dt, seconds, engine=engine, max_rounds=1,
-                                          inp=None)
+    # the check's report with the node and plain errors a full one adds (its segmented runs ran to the end: met)
+    checked = complete_report(narrowed, answer, dt, engine)
     action = ("products back to one DSP block, the budget holding on the check stimuli and the validation "
               "inputs (worst " + ", ".join(f"{s} {v:.3g}" for s, v in valid.items()) + f"): {', '.join(sorted(lowered))}")
     return narrowed, replace(checked, actions=report.actions + (action,), widened=dict(report.widened),
