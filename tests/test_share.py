@@ -108,10 +108,19 @@ def test_narrowing_finds_the_products_the_budget_needs(plant, monkeypatch):
         valid_checks.append(lowered)
         return {"x": 2.0 if lowered & validated else 0.5}
 
+    completed = []
+
+    def fake_complete(graph, answer, dt, engine="compiled"):
+        completed.append((graph, answer))
+        return answer
+
     monkeypatch.setattr(narrow_mod, "meet_error_budget", fake_budget)
     monkeypatch.setattr(narrow_mod, "validation_errors", fake_validation)
+    monkeypatch.setattr(narrow_mod, "complete_report", fake_complete)
     report = _report(True, {p: 1 for p in raised})
     graph, out = narrow_mod.narrow_products(typed, wide, report, {"x": 1.0}, 1e-6, 0.1, SHAPE)
+    # the kept set's own check is the report, completed once: no budget run after the search
+    assert len(completed) == 1 and completed[0][0] is graph and completed[0][1].met
     assert out.levels == {p: (1 if p in needed | validated else 0) for p in raised}
     assert out.actions[0] == "budget" and "one DSP block" in out.actions[-1] and out.widened == {"x": 8}
     assert "validation inputs (worst x 0.5)" in out.actions[-1]
