@@ -165,3 +165,15 @@ def test_with_effect_uses_defaults_and_with_params_changes_values():
         m.with_params({"nope": 1.0})
     with pytest.raises(PendcError, match="already"):
         m.with_effect("cart_spring")
+
+
+def test_new_parameter_values_keep_the_derived_equations():
+    """The equations are symbolic in the parameters: a copy with other values shares the ones
+    already derived (not derived again), equal to the copy's own derivation; its values differ."""
+    m = model().with_effect("cart_spring")
+    fresh = m.with_params({"k_c": 5.0})            # before m derived anything: derives its own
+    eq = m.equations
+    m2 = m.with_params({"k_c": 5.0})
+    assert m2.equations is eq and fresh.equations is not eq
+    assert fresh.equations == eq and m2.parameter_vector() == fresh.parameter_vector() != m.parameter_vector()
+    assert m2.with_effect("viscous_pendulum").equations != eq       # another structure derives its own

@@ -122,7 +122,13 @@ class PlantModel:
             raise PendcError(f"unknown parameter(s) {', '.join(sorted(unknown))} for this model")
         plant = {k: float(values.get(k, v)) for k, v in self.plant.items()}
         effects = {e: {k: float(values.get(k, v)) for k, v in ps.items()} for e, ps in self.effects.items()}
-        return replace(self, plant=plant, effects=effects)
+        copy = replace(self, plant=plant, effects=effects)
+        # the equations are symbolic in the parameters (build_equations reads no value): the copy's
+        # are these, already derived; a robust sweep's runs and a fit's results each derived them
+        # again (0.3 s for the rig, 4 s for the double pendulum)
+        if "equations" in self.__dict__:
+            copy.__dict__["equations"] = self.__dict__["equations"]
+        return copy
 
     def with_effect(self, name: str, params: dict | None = None) -> "PlantModel":
         """A copy with effect ``name`` added (catalogue defaults for parameters not given)."""
