@@ -385,3 +385,15 @@ def test_float_kernel_resumes_where_it_stopped(hand):
     flt.call(np.ascontiguousarray(ins[:, :1]), 1, 1, sel, out, np.full(len(g.nodes), -1, np.int64), st, 600)
     name = g.nodes[state_indices(g)[reg]].name            # the hand graph outputs every node
     assert out[[node for _, node in g.outputs].index(name), 0] == 1.5
+
+
+def test_record_rows_are_not_a_multiple_of_4_kib_apart():
+    """A kernel's record array: at least ``rows`` wide, its columns an odd number of 64-byte lines
+    apart (a multiple of 4 KiB put every column of a step in one L1 set), for the powers of two the
+    segmented comparison records and for any other length."""
+    from pendc.ir.compiled import record_buffer
+    for rows in (1, 7, 8, 256, 1000, 4096, 16384, 16385, 2_000_000):
+        out = record_buffer(13, rows, np.int64)
+        assert out.shape[0] == 13 and out.shape[1] >= rows and out.flags.c_contiguous
+        assert (out.strides[0] // 64) % 2 == 1 and out.strides[0] % 64 == 0, rows
+

@@ -6,6 +6,7 @@ import pytest
 
 from pendc import Simulator, load_model
 from pendc.caching.build_cache import compile_cached
+from pendc.errors import PendcError
 from pendc.golden import GoldenModel
 from pendc.ir.interpret import FixedInterpreter
 from pendc.passes.ranges import per_step
@@ -73,6 +74,18 @@ def test_fast_path_is_the_interpreter_bit_for_bit(build, golden, stimulus):
     for port in fast.outputs:
         assert np.array_equal(np.asarray(fast.outputs[port], np.int64), np.asarray(slow.outputs[port], np.int64)), port
     assert fast.overflows == slow.overflows
+
+
+@pytest.mark.parametrize("stimulus", ["chirp_high", "steps", "random"])
+def test_input_integers_are_every_steps_value_quantised(golden, stimulus):
+    """Each held sample quantised once and held: the integers of quantising every step's value
+    (the golden vectors' inputs); sample times off the step grid are refused."""
+    from plants import STIMULI
+    t, u = STIMULI.named()[stimulus]
+    ints = golden.input_integers(t, u)
+    assert ints.dtype == np.int64 and np.array_equal(ints, golden.quantize_input(per_step(u, t, DT)))
+    with pytest.raises(PendcError, match="whole multiples"):
+        golden.input_integers(t + 0.3 * DT * np.arange(len(t)), u)
 
 
 def test_long_runs_go_sample_by_sample_with_the_same_integers(golden, monkeypatch):
