@@ -40,3 +40,15 @@ def test_numpy_semantics_for_every_argument_kind():
     assert math.isinf(q) and p == np.sin(1.0) and s == 1.0
     assert f(np.float64(-2.0), np.float64(1.0))[1:] == [np.cos(-2.0), -1.0]
     assert f(np.float64(0.0), np.float64(1.0))[2] == 0.0
+
+
+def test_made_once_per_model():
+    """The roles, the linearisations and the controllers of one run all ask for the same model's
+    numeric equations: made once and kept with the model; a copy with other values makes its own."""
+    model = load_model(MODELS[0])
+    numeric = NumericModel.of(model)
+    assert NumericModel.of(model) is numeric
+    other = model.with_params({model.parameter_names()[0]: 2 * model.parameter_vector()[0]})
+    assert NumericModel.of(other) is not numeric
+    state = np.linspace(0.1, 0.4, len(numeric.names))
+    assert not np.array_equal(NumericModel.of(other).derivatives(state, 1.0), numeric.derivatives(state, 1.0))

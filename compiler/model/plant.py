@@ -115,6 +115,19 @@ class PlantModel:
     def _experiment_copies(self) -> dict:
         return {}
 
+    def derived(self, key: str, make):
+        """``make(self)``, made once for this model and kept with it as its equations are: what
+        other layers derive from it (the controllers' numeric equations, asked for by every
+        design step of a run). A copy with other values or effects makes its own."""
+        memo = self._derived
+        if key not in memo:
+            memo[key] = make(self)
+        return memo[key]
+
+    @cached_property
+    def _derived(self) -> dict:
+        return {}
+
     def with_params(self, values: dict) -> "PlantModel":
         """A copy with some parameters (bare names) set to new values."""
         unknown = set(values) - set(self.parameter_names())

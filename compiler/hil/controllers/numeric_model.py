@@ -53,7 +53,12 @@ class NumericModel:
 
     @classmethod
     def of(cls, model: PlantModel) -> "NumericModel":
-        """Inline, substitute the parameter values, differentiate and lambdify ``model``'s equations."""
+        """Inline, substitute the parameter values, differentiate and lambdify ``model``'s equations
+        (once per model: the roles, the linearisations and the controllers of a run all ask)."""
+        return model.derived("numeric_model", cls._make)
+
+    @classmethod
+    def _make(cls, model: PlantModel) -> "NumericModel":
         eq = model.equations
         values = {p: sp.Float(v) for p, v in zip(eq.params, model.parameter_vector())}
         rhs = [eq.inline(d).xreplace(values) for d in eq.derivatives]
