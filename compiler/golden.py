@@ -126,7 +126,7 @@ class GoldenModel:
         steps = steps_per_sample(t, self.dt)
         if initial is not None or int(steps.sum()) > LONG_RUN_STEPS:
             return self._from_state(t, u, steps, initial, on_overflow)
-        per_step = np.repeat(self.quantize_input(u[:-1]), steps)
+        per_step = self.input_integers(t, u)
         total = int(steps.sum())
         # record only every gcd(steps)-th step: a minute at 1 us would be 6e7 rows otherwise
         every = int(np.gcd.reduce(steps)) if total else 1

@@ -36,6 +36,7 @@ from pendc.ir.graph import Graph
 from pendc.ir.interpret import FixedInterpreter
 from pendc.ir.nodes import Kind
 from pendc.caching.objcache import objcache_env
+from pendc.hil.plants.rtl_build import VERILATOR_MAKE_VARS as PCH_MAKE_VARS
 
 from graphgen import FuzzCase
 
@@ -46,7 +47,7 @@ GOLDEN_CHUNK = 3         # graphs per compiled kernel: numba's compile time grow
 # the PyPI wheel's verilated.mk lacks the GCC precompiled-header flag (toolchain notes); the
 # C++ of a fuzz batch runs for microseconds, so it is compiled without optimisation; Verilator's
 # runtime keeps its default flags, the HIL harness's (tb/vbinary.py): the objcache compiles it once for both
-VERILATOR_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include OPT_FAST=-O0 OPT_SLOW=-O0"
+VERILATOR_MAKE_VARS = f"{PCH_MAKE_VARS} OPT_FAST=-O0 OPT_SLOW=-O0"
 
 
 @dataclass(frozen=True)
