@@ -312,3 +312,41 @@ def test_end_stops_lower_to_compare_and_mux_and_match_the_simulator():
     res = pendc.Simulator(m, dt=DT)(np.arange(len(u)) * DT, u)
     np.testing.assert_allclose(trace.outputs["x"], res["x"], rtol=0, atol=1e-12)
     assert res["x"].max() > 0.01 and res["dx"][-1] < 0.5 * res["dx"].max()   # the stop holds it back
+
+
+_TANK = """
+[plant]
+name = "tank"
+k = 0.5
+L = 1.0
+[constants]
+k = { unit = "1/s", meaning = "outflow rate", bounds = [0.1, 1.0] }
+L = { unit = "m", meaning = "length", bounds = [0.1, 2.0] }
+[states.h]
+unit = "m"
+meaning = "level"
+derivative = "u - k*sqrt(2*h*L)"
+initial = 0.2
+[inputs.u]
+unit = "m/s"
+meaning = "inflow"
+range = [0.0, 1.0]
+[sensors.level]
+kind = "adc"
+state = "h"
+bits = 10
+range = [0.0, 1.0]
+"""
+
+
+def test_a_constant_irrational_factor_is_folded_into_the_coefficient():
+    """sympy splits sqrt(2*h*L) into sqrt(2)*sqrt(L)*sqrt(h) and keeps sqrt(2) apart from the value
+    of L: it is a number, not a factor to multiply by (it stopped the build: "no dividers")."""
+    model = pendc.parse_model(_TANK, "tank.toml")
+    graph = lower_model(model, dt=DT)
+    verify(graph)
+    u = np.full(2000, 0.3)
+    trace = FloatInterpreter(graph).run({"u": u})
+    res = pendc.Simulator(model, dt=DT, method="euler")(np.arange(len(u)) * DT, u)
+    np.testing.assert_allclose(trace.outputs["h"], res["h"], rtol=0, atol=1e-12)
+    assert res["h"][0] == 0.2

@@ -180,6 +180,9 @@ class ExpressionLowerer(PeriodicTables):
             coeff, factors = term.as_coeff_mul(rational=False)
             table_factors, rest = [], []
             for f in factors:
+                if f.is_number:     # sqrt(2) of sqrt(2*g*h): sympy keeps it apart from the Float
+                    coeff *= f
+                    continue
                 (table_factors if self.smooth_single(f) is not None else rest).append(f)
             for f in rest:
                 if len(f.free_symbols) > 1 and not f.is_polynomial(*f.free_symbols):
