@@ -181,7 +181,35 @@ def register_integers(graph: Graph, registers: dict) -> dict:
         if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
             raise PendcError(f"initial {name} = {value} does not fit its format {node.qformat}")
         out[name] = node.qformat.from_float(float(value))
+    out.update(_turn_integers(graph, registers, out))
     out.update(_read_ahead_integers(graph, registers, out))
+    return out
+
+
+def _turn_integers(graph: Graph, registers: dict, given: dict) -> dict:
+    """The whole-turn registers of the periodic states in ``registers``
+    (:func:`pendc.passes.lower_turns.turn_registers`): a run started at an angle holds its nearest
+    whole turns, as one that had turned there would, so the phase its tables read starts within
+    half a period (reset at zero turns, a start beyond half a period would put the phase outside
+    its format in the first step)."""
+    from .ir.nodes import Kind
+    from .model.interface import graph_interface
+    from .passes.lower_turns import nearest_turns, turn_registers
+
+    iface = graph_interface(graph)
+    out = {}
+    for spec in (iface.periodic if iface is not None else ()):
+        if spec.name not in registers:
+            continue
+        turns = nearest_turns(float(registers[spec.name]), spec.period)
+        for name, value in zip(turn_registers(spec.name), (turns, turns * spec.period)):
+            node = next((n for n in graph.nodes if n.name == name and n.kind is Kind.REGISTER), None)
+            if node is None or name in given:
+                continue
+            if not node.qformat.contains(int(np.floor(np.ldexp(float(value), node.qformat.frac) + 0.5))):
+                raise PendcError(f"initial {spec.name} = {registers[spec.name]} is {turns} whole turns, "
+                                 f"more than its core counts ({spec.turns})")
+            out[name] = node.qformat.from_float(float(value))
     return out
 
 

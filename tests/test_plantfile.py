@@ -113,6 +113,8 @@ def _hostile():
          r"states\.phi\.derivative: unknown symbol 'omega2'"),
         ("rate of an unknown state", m.replace('rate_of = "phi"', 'rate_of = "psi"'),
          r"states\.omega\.rate_of: rate_of names unknown state 'psi'"),
+        ("initial not a constant", m.replace('rate_of = "phi"', 'rate_of = "phi"\ninitial = "2*i"'),
+         r"states\.omega\.initial: unknown name 'i'"),
         ("state equation of the wrong unit", m.replace('derivative = "omega"', 'derivative = "omega*J"'),
          r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s, expected 1/s"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
@@ -212,3 +214,21 @@ def test_a_state_equation_plant_simulates_to_its_steady_state():
     v = model.parameter_values()
     steady = v["k"] * 5.0 / (v["k"] ** 2 + v["R"] * v["b"])
     assert res["omega"][-1] == pytest.approx(steady, rel=1e-4)
+
+
+def test_a_state_equation_plant_starts_where_its_initial_says():
+    """``initial`` (a number or an expression of the constants) is the register's reset, where a
+    float run starts and where the training runs of the range analysis start."""
+    from pendc.passes.lower import lower_model
+    from pendc.sim.simulator import Simulator
+
+    text = (Path(__file__).parent / "plant_dc_motor.toml").read_text(encoding="utf-8")
+    model = parse_model(text.replace('rate_of = "phi"', 'rate_of = "phi"\ninitial = "k*400"')
+                        .replace('derivative = "omega"', 'derivative = "omega"\ninitial = 4.0'), "motor.toml")
+    omega0 = 400 * model.parameter_values()["k"]
+    assert model.interface.state("omega").initial == pytest.approx(omega0)
+    assert model.interface.state("phi").initial == 4.0 and model.interface.state("i").initial == 0.0
+    graph = lower_model(model, dt=1e-6)
+    assert graph["omega"].params.reset == pytest.approx(omega0) and graph["phi"].params.reset == 4.0
+    res = Simulator(model)(np.array([0.0, 1e-3]), np.zeros(2))
+    assert res["omega"][0] == pytest.approx(omega0) and res["phi"][0] == 4.0

@@ -265,6 +265,16 @@ def _state_form(ctx, experiment, drive_out):
     return derivatives, [ctx.symbols[s.name] for s in d.states]
 
 
+def _initial_value(model, state, values: dict) -> float:
+    """A state-equation file's ``initial`` of ``state`` as a number: a number or an expression
+    of the constants (at the model's values)."""
+    where = f"{model.source or model.definition.name}: states.{state.name}.initial"
+    expr = parse_expression(state.initial, {p.name: p for p in values}, where).subs(values)
+    if expr.free_symbols or not expr.is_finite or not expr.is_real:
+        raise PendcError(f"{where}: must be a finite number or an expression of the constants, got {state.initial!r}")
+    return float(expr)
+
+
 def build_interface(model) -> PlantInterface:
     """The :class:`PlantInterface` of ``model``: every position and rate (periodicity declared
     or read off the geometry), lag states (internal), the inputs, the sensors and the named
@@ -277,12 +287,12 @@ def build_interface(model) -> PlantInterface:
     periods = _periods(model)
     states = []
 
-    def position(c, body, quantity, output=True):
+    def position(c, body, quantity, output=True, initial=0.0):
         period = periods.get(c.name)
         budget = c.budget if c.budget is not None else (sensor[c.name].budget if c.name in sensor else None)
         return StateSpec(c.name, c.unit, c.meaning, body, quantity, period=period,
                          turns=(c.turns or DEFAULT_TURNS) if period is not None else None, budget=budget,
-                         output=output)
+                         output=output, initial=initial)
 
     if d.form == "mechanical":
         for c in d.coordinates:
@@ -292,12 +302,13 @@ def build_interface(model) -> PlantInterface:
                                     training_rate=c.training_rate))
     else:
         for s in d.states:
+            initial = _initial_value(model, s, values)
             if s.rate_of:
                 states.append(StateSpec(s.name, s.unit, s.meaning, s.body, s.quantity, derivative_of=s.rate_of,
                                         velocity_bound=bound if bound_on == s.rate_of else None,
-                                        training_rate=s.training_rate, output=s.output))
+                                        training_rate=s.training_rate, output=s.output, initial=initial))
             else:
-                states.append(position(s, s.body, s.quantity, s.output))
+                states.append(position(s, s.body, s.quantity, s.output, initial))
     quantities = d.quantities if d.quantities is not None else _derived_quantities(d, eq)
     meanings = {name: (unit, meaning) for name, unit, meaning in quantities}
     for sym in eq.states[len(states):]:          # lag states: internal, not reported

@@ -45,7 +45,9 @@ class StateSpec:
     count). ``training_rate`` is a value the range analysis also starts this register at (a rate
     beyond what the stimuli reach, e.g. a pendulum spinning at its encoder's limit). ``output``
     says whether the hardware reports the state every step. ``body`` and ``quantity`` word the
-    meanings of derived signals ("pendulum" + "angle").
+    meanings of derived signals ("pendulum" + "angle"). ``initial`` is the value at reset (a
+    state-equation file's ``initial``): the register's reset, where float runs, the range
+    analysis' training runs and the HIL plants start unless told otherwise.
     """
 
     name: str
@@ -60,6 +62,7 @@ class StateSpec:
     budget: float | None = None
     training_rate: float | None = None
     output: bool = True
+    initial: float = 0.0
 
     @property
     def label(self) -> str:

@@ -130,7 +130,7 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
             total = _clamp(low, total, spec, (state.name, inc) if clamp_on_increment else None)
         nxt[state.name] = total
     low.read_ahead({s.name: assigned.get(d, d) for s, d in zip(eq.states, derivatives)}, dt)
-    initial = {s.name: 0.0 for s in eq.states}
+    initial = {s.name: iface.state(s.name).initial for s in eq.states}
     declared = {s.name: s.capacity for s in iface.periodic if s.capacity is not None}
     regs = [make(s.name, Kind.REGISTER, [nxt[s.name]], reset=initial[s.name], meaning=iface.meaning(s.name, s.name),
                  **({"max_abs": declared[s.name]} if s.name in declared else {}))
@@ -146,7 +146,8 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
             outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
         for sensor in iface.sensors:       # the converters' codes after the channels
             if sensor.is_adc:
-                adc_nodes, code = lower_adc(sensor, nxt[sensor.state], iface.state(sensor.state).label)
+                adc_nodes, code = lower_adc(sensor, nxt[sensor.state], iface.state(sensor.state).label,
+                                            initial[sensor.state])
                 nodes += adc_nodes
                 outputs.append((sensor.code_port, code))
     if sum_into_mux:

@@ -30,7 +30,7 @@ from ..ir.compare_ops import CompareOp
 from ..ir.nodes import Kind, make
 
 
-def lower_adc(sensor, value: str, meaning: str) -> tuple[list, str]:
+def lower_adc(sensor, value: str, meaning: str, initial: float = 0.0) -> tuple[list, str]:
     """Nodes of converter ``sensor`` (a :class:`~pendc.model.sensors.SensorSpec` of kind
     ``adc``) reading node ``value`` (the state's next value); returns the node list and the name
     of the code register (the core's ``sensor.code_port`` output)."""
@@ -59,5 +59,5 @@ def lower_adc(sensor, value: str, meaning: str) -> tuple[list, str]:
         code = term if code is None else add(f"{p}_s{k}", Kind.ADD, [code, term], max_abs=float(top))
     code = add(f"{p}_next", Kind.CAST, [code], f"{meaning} converter code after the step", max_abs=float(top))
     reg = add(f"{p}_code", Kind.REGISTER, [code], f"{meaning} converter code ({bits} bits)",
-              reset=float(sensor.code(0.0)), max_abs=float(top))
+              reset=float(sensor.code(initial)), max_abs=float(top))
     return nodes, reg

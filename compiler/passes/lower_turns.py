@@ -46,7 +46,7 @@ class PeriodicTables:
                 var, spec, text, hint, f"{sp.sstr(expr)} by {spec.name}"))
         source = self.value_key(("turns", spec.name), lambda: self.emit(
             Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
-            value=1.0 / spec.period))
+            value=1.0 / spec.period, max_abs=0.5))
         text = sp.sstr(expr.subs(var, sp.nsimplify(spec.period, [sp.pi]) * v))
         key = ("lut", source, text)
         return self.value_key(key, lambda: self.emit(
@@ -71,8 +71,11 @@ class PeriodicTables:
                 whole = self.emit(Kind.GAIN, [counter], f"{name}_whole_turns",
                                   f"{spec.quantity} of the whole turns ({spec.unit})",
                                   value=period, max_abs=period * (spec.turns + 1))
+            # within half a period by construction (a run started anywhere starts its counter at
+            # the nearest whole turns: pendc.golden.register_integers), though training may
+            # never have turned the state that far
             phase = self.emit(Kind.SUB, [state, whole], f"{name}_phase",
-                              f"{spec.label} less its whole turns ({spec.unit})")
+                              f"{spec.label} less its whole turns ({spec.unit})", max_abs=half)
             self._turn_counter(spec, phase, half)
             return phase
         return self.value_key(("phase", name), build)
@@ -85,7 +88,8 @@ class PeriodicTables:
         bound = spec.period * (spec.turns + 1)
         self.nodes.append(make(f"{name}_next", Kind.GAIN, [f"{counter}_next"], value=spec.period, max_abs=bound,
                                meaning=f"{spec.quantity} of the whole turns of the next step ({spec.unit})"))
-        self.nodes.append(make(name, Kind.REGISTER, [f"{name}_next"], reset=0.0, max_abs=bound,
+        start = nearest_turns(spec.initial, spec.period)
+        self.nodes.append(make(name, Kind.REGISTER, [f"{name}_next"], reset=start * spec.period, max_abs=bound,
                                meaning=f"{spec.quantity} of the whole turns ({spec.unit})"))
         self.used_names |= {name, f"{name}_next"}
         return name
@@ -96,10 +100,13 @@ class PeriodicTables:
         over = self.emit(Kind.COMPARE, [phase, self.const(half)], f"{spec.name}_phase_over", op=CompareOp.GE)
         under = self.emit(Kind.COMPARE, [phase, self.const(-half)], f"{spec.name}_phase_under", op=CompareOp.LT)
         down = self.emit(Kind.MUX, [under, self.const(0.0), self.const(-1.0)], f"{counter}_down")
-        step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained")
+        # a turn either way, though training may never turn the state (-1 fits any signed format)
+        step = self.emit(Kind.MUX, [over, down, self.const(1.0)], f"{counter}_step", "whole turns gained",
+                         max_abs=1.0)
         self.turn_steps[spec.name] = step
         self.nodes.append(make(f"{counter}_next", Kind.ADD, [counter, step], max_abs=float(spec.turns + 1)))
-        self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=0.0,
+        start = nearest_turns(spec.initial, spec.period)
+        self.nodes.append(make(counter, Kind.REGISTER, [f"{counter}_next"], reset=float(start),
                                max_abs=float(spec.turns + 1), meaning=f"whole turns of the {spec.body} (counter)"))
         self.used_names |= {counter, f"{counter}_next"}
 
@@ -125,7 +132,7 @@ class PeriodicTables:
             if spec.name not in turns_next:
                 var = next(v for v, s in self.periodic.items() if s is spec)
                 now = self.emit(Kind.GAIN, [self.phase(var)], f"{spec.name}_turns", f"{spec.label} in turns",
-                                value=1.0 / spec.period)
+                                value=1.0 / spec.period, max_abs=0.5)
                 moved = self.value(sp.expand(sp.Float(dt / spec.period) * rates[spec.name]),
                                    f"{spec.name}_turns_inc", f"{spec.label} increment per step in turns")
                 ahead = self.emit(Kind.SUB, [moved, self.turn_steps[spec.name]], f"{spec.name}_turns_ahead",
@@ -134,8 +141,15 @@ class PeriodicTables:
                                                   f"{spec.label} less its whole turns, next step, in turns")
             read = self.emit(Kind.LUT, [turns_next[spec.name]], f"{name}_next", f"{meaning}, next step", expr=text,
                              lo=0.0, hi=1.0, periodic=True, addr_bits=10, interpolate=True)
-            self.nodes.append(make(name, Kind.REGISTER, [read], reset=float(lut_sem.evaluate(text, [0.0])[0]),
+            phase = spec.initial / spec.period - nearest_turns(spec.initial, spec.period)
+            self.nodes.append(make(name, Kind.REGISTER, [read], reset=float(lut_sem.evaluate(text, [phase])[0]),
                                    meaning=f"{meaning} (read a step ahead)"))
+
+
+def nearest_turns(value: float, period: float) -> int:
+    """The whole turns a periodic state's counter holds at ``value``: the nearest, so the phase
+    (``value`` less them) is within half a period (at reset, and in a run started there)."""
+    return math.floor(value / period + 0.5)
 
 
 def is_periodic(expr, var, period: float) -> bool:

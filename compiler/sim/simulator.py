@@ -97,6 +97,12 @@ class Simulator:
                 out[name] += float(p[index])
         return out
 
+    def initial_state(self) -> np.ndarray:
+        """Where a run starts unless told otherwise: each state's ``initial`` (zero in a
+        mechanical file), in the order of ``x0``."""
+        initial = {s.name: s.initial for s in self.model.interface.states}
+        return np.array([initial.get(name, 0.0) for name in self.signals.mechanical], dtype=np.float64)
+
     def true_state(self, measured: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """The true reported state (each position, then its rate) whose sensors read ``measured``
         (inverse of the output map)."""
@@ -148,7 +154,7 @@ class Simulator:
             raise PendcError(f"{(t[-1] - t[0]) / self.dt:.3g} steps of {self.dt:g} s requested; "
                              f"the limit is {MAX_STEPS:.0e} (use a larger dt or a shorter input)")
         names = self.signals.mechanical
-        s0 = np.zeros(len(names)) if x0 is None else np.asarray(x0, dtype=np.float64)
+        s0 = self.initial_state() if x0 is None else np.asarray(x0, dtype=np.float64)
         if s0.shape != (len(names),) or not np.all(np.isfinite(s0)):
             raise PendcError(f"initial state must be {len(names)} finite numbers ({', '.join(names)})")
         out, valid = self.raw(t, u, s0, self.vector(params))
@@ -165,6 +171,19 @@ class Simulator:
         return SimResult(t=t, u=u, states=states, outputs=outputs, signals=self.signals)
 
     run = __call__
+
+
+def sensor_offsets(model: PlantModel) -> dict:
+    """``{position: offset}``: what each position's sensor adds to it (the model's sensor offset
+    effects at its own parameter values; 0 where there is none), without compiling a kernel."""
+    import sympy as sp
+
+    eq = model.equations
+    values = dict(zip(eq.params, model.parameter_vector()))
+    out = dict.fromkeys(signals_of(model).positions, 0.0)
+    for name, expr in eq.sensor_offsets:
+        out[name] += float(sp.sympify(expr).subs(values))
+    return out
 
 
 def _frozen(a) -> np.ndarray:

@@ -87,6 +87,9 @@ class FloatPlant:
             raise PendcError(f"the model has no state(s) {', '.join(missing)} its interface reports")
         self._index = {name: names.index(name) for name in self.ports.states}
         self._n_start = n_start = len(names) - len(eq.initial)    # the mechanical states; lags start from u
+        if initial is None and any(s.initial for s in model.interface.states):
+            # a state-equation file's initial values: where the hardware's registers reset
+            initial = tuple(model.interface.state(name).initial for name in self.ports.states)
         self.initial = check_initial(self.ports, initial)
         start = dict(zip(self.ports.states, self.initial or ()))
         extra = [n for n, v in start.items() if v != 0.0 and names.index(n) >= n_start]
