@@ -616,3 +616,12 @@ def test_writable_and_read_only_inputs_share_one_compile():
     kernel = sim._simulate
     compiled = kernel.signatures if hasattr(kernel, "signatures") else list(kernel._calls)   # numba or C
     assert len(compiled) == 1, compiled
+
+
+def test_sensor_offsets_are_the_models_offset_effects(default_model):
+    """What `pendc simulate --fixed` adds to the core's positions, as the float run's columns do."""
+    from pendc.sim.simulator import sensor_offsets
+
+    assert sensor_offsets(default_model) == {"x": 0.0, "theta": 0.0}
+    shifted = default_model.with_effect("theta_offset", {"theta_off": 0.003})
+    assert sensor_offsets(shifted) == {"x": 0.0, "theta": 0.003}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 
 from ..errors import PendcError
 from .options import MODEL_HELP, positive
@@ -34,7 +35,7 @@ def cmd_simulate(args) -> int:
     from ..sim.measurements import format_csv, read_measurements
     from ..atomic import check_file_output
     from ..sim.signals import TIME
-    from ..sim.simulator import Simulator
+    from ..sim.simulator import Simulator, sensor_offsets
     from .options import build_model, write_output
 
     if args.output not in (None, "-"):
@@ -55,9 +56,14 @@ def cmd_simulate(args) -> int:
         build = build_model(model, args)
         run = GoldenModel(build.graph, build.options.dt)(data.t, data.u, on_overflow=args.on_overflow,
                                                           initial=args.x0)
-        result = run.result
+        # the core computes the motion; what the sensors read adds the model's sensor offsets,
+        # as the float run's columns do
+        off = sensor_offsets(model)
+        outputs = {name: column + off.get(name, 0.0) for name, column in run.result.states.items()}
         if args.quantize:
-            _quantize_measured(result.states, model.interface)
+            _quantize_measured(run.result.states, model.interface)
+            _quantize_measured(outputs, model.interface)
+        result = replace(run.result, outputs=outputs)
         columns = result.columns()
         if args.on_overflow == "mark":
             # every row computed after the sticky flag rose is marked, not just the first
