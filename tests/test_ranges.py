@@ -224,3 +224,17 @@ def test_full_scale_switching_is_zero_or_ten_volts_at_one_to_fifty_ms():
     gaps = np.diff(t[changes])
     assert gaps.min() >= 1e-3 - 1e-12 and gaps.max() <= 50e-3 + 1e-12
     assert len(changes) > 2.0 / 50e-3
+
+
+def test_the_envelope_switches_between_the_inputs_own_range():
+    """Full scale is the plant input's range: the QUBE's amplifier -10 V and +10 V, not the SCT
+    drive's 0 V and 10 V."""
+    from pendc.passes.lower import lower_model
+    from plants import plant_named
+
+    graph = lower_model(plant_named("furuta"))
+    runs = {name: tu for name, _, tu in envelope_runs(graph)}
+    for name in ("envelope:full_scale_switching", "envelope:track_ends"):
+        assert set(np.unique(runs[name][1])) == {-10.0, 10.0}, name
+    t, u = full_scale_switching(2.0, levels=(-6.0, 6.0))
+    assert set(np.unique(u)) == {-6.0, 6.0} and np.array_equal(u > 0, full_scale_switching(2.0)[1] > 0)

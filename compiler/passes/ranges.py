@@ -60,36 +60,41 @@ def _hold_steps(t: np.ndarray, dt: float) -> np.ndarray:
     return np.maximum(1, np.round(np.diff(t) / dt).astype(np.int64))
 
 
-def full_scale_switching(duration: float = 5.0, seed: int = 9, fs: float = 1000.0) -> tuple:
-    """0 V and 10 V in turn, switching after random holds of 1-50 ms: what a wild controller does."""
+def full_scale_switching(duration: float = 5.0, seed: int = 9, fs: float = 1000.0,
+                         levels: tuple = (0.0, 10.0)) -> tuple:
+    """The input's low and high ``levels`` (default the SCT drive's 0 V and 10 V) in turn, switching
+    after random holds of 1-50 ms: what a wild controller does."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(duration * fs)) + 1) / fs
     edges = np.cumsum(rng.integers(1, 51, size=len(t)))          # sample index of each switch
-    level = (rng.integers(0, 2) + np.arange(len(edges) + 1)) % 2 * 10.0
+    high = (rng.integers(0, 2) + np.arange(len(edges) + 1)) % 2
+    level = np.where(high == 1, float(levels[1]), float(levels[0]))
     return t, level[np.searchsorted(edges, np.arange(len(t)), side="right")]
 
 
-def drive_to_both_ends(hold: float = 1.5, fs: float = 1000.0) -> tuple:
-    """Full scale one way for ``hold`` s, then the other way for twice as long: into both track ends."""
+def drive_to_both_ends(hold: float = 1.5, fs: float = 1000.0, levels: tuple = (0.0, 10.0)) -> tuple:
+    """The high level for ``hold`` s, then the low one for twice as long: into both track ends."""
     t = np.arange(int(round(3 * hold * fs)) + 1) / fs
-    return t, np.where(t < hold, 10.0, 0.0)
+    return t, np.where(t < hold, float(levels[1]), float(levels[0]))
 
 
 def envelope_runs(graph: Graph) -> list:
     """Training runs at the corners a controller can reach, beyond the identification stimuli:
     full-scale switching, driving into both track ends, and, for each state whose plant interface
     gives a ``training_rate`` (a pendulum spinning beyond its encoder's limit), a run with that
-    register reset to the rate. (name, graph, (t, u)) triples."""
-    runs = [("envelope:full_scale_switching", graph, full_scale_switching()),
-            ("envelope:track_ends", graph, drive_to_both_ends())]
+    register reset to the rate. Full scale is the plant input's range (0 and 10 V for a graph
+    without a plant interface). (name, graph, (t, u)) triples."""
     iface = graph_interface(graph)
+    levels = (iface.input.lo, iface.input.hi) if iface else (0.0, 10.0)
+    runs = [("envelope:full_scale_switching", graph, full_scale_switching(levels=levels)),
+            ("envelope:track_ends", graph, drive_to_both_ends(levels=levels))]
     spun = [s for s in (iface.states if iface else ()) if s.training_rate is not None
             and s.name in graph.by_name and graph[s.name].kind is Kind.REGISTER]
     for spec in spun:
         spinning = graph.map_nodes(lambda n, s=spec: n.with_params(reset=float(s.training_rate))
                                    if n.name == s.name else n)
         name = "envelope:spin" if len(spun) == 1 else f"envelope:spin:{spec.name}"
-        runs.append((name, spinning, full_scale_switching(3.0, seed=10)))
+        runs.append((name, spinning, full_scale_switching(3.0, seed=10, levels=levels)))
     return runs
 
 
