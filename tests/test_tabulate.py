@@ -92,6 +92,18 @@ def test_function_not_finite_on_its_domain_raises():
             tabulate_luts(untyped_graph([("logv", "log(v)", False)]), ranges_of(0.0, 1.0))
 
 
+def test_a_pole_stays_outside_a_one_signed_inputs_domain():
+    """1/t^2 of a gap seen between 1 mm and 15.8 mm (a magnet's force): the domain widened by the
+    span's margin would reach past t = 0, and the table's format was sized for 1e10 (every force
+    of the plant read 0); it stays on the side of zero the input was seen on."""
+    g = tabulate_luts(untyped_graph([("f", "3.2654e-5/v**2", False)]), ranges_of(0.001, 0.0158))
+    f = g["f"]
+    assert f.param("lo") == pytest.approx(0.001 / 1.125) and f.param("hi") == pytest.approx(0.0158 + 0.125 * 0.0148)
+    assert f.param("fmax") == pytest.approx(3.2654e-5 * 1.125**2 / 0.001**2)
+    g = tabulate_luts(untyped_graph([("f", "1/v", False)]), ranges_of(-0.0158, -0.001))
+    assert g["f"].param("hi") == pytest.approx(-0.001 / 1.125)
+
+
 def test_untabulated_nodes_are_untouched():
     g = untyped_graph([("f", "v", False)])
     out = tabulate_luts(g, ranges_of(-1.0, 1.0))

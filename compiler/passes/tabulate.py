@@ -42,6 +42,12 @@ def tabulate_luts(graph: Graph, ranges: Ranges, margin: float = 0.125, addr_bits
                 # the margin of its span either way, if the function is finite there
                 span = max(seen_hi - seen_lo, 1e-9 * reach)
                 lo, hi = seen_lo - margin * span, seen_hi + margin * span
+                # ... but not across zero from an input seen on one side of it (1/t^2 of a gap
+                # t >= 1 mm: a domain reaching t = 0 sized the table for 1e10 and read 33 N as 0)
+                if seen_lo > 0.0:
+                    lo = max(lo, seen_lo / (1.0 + margin))
+                if seen_hi < 0.0:
+                    hi = min(hi, seen_hi / (1.0 + margin))
         # the grid fitted later to the input's LSBs may reach up to twice the span: the
         # output format must hold the function there too
         reach = hi if p.periodic else lo + 2.0 * (hi - lo)
