@@ -350,3 +350,9 @@ def test_a_constant_irrational_factor_is_folded_into_the_coefficient():
     res = pendc.Simulator(model, dt=DT, method="euler")(np.arange(len(u)) * DT, u)
     np.testing.assert_allclose(trace.outputs["h"], res["h"], rtol=0, atol=1e-12)
     assert res["h"][0] == 0.2
+
+
+def test_a_state_nothing_reads_and_nothing_reports_is_a_one_line_error():
+    text = _TANK + '[states.q]\nunit = "m"\nmeaning = "inflow so far"\nderivative = "u"\noutput = false\n'
+    with pytest.raises(PendcError, match=r"^tank\.toml: states\.q: nothing reads it and it is not reported"):
+        lower_model(pendc.parse_model(text, "tank.toml"), dt=DT)

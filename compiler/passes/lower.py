@@ -150,6 +150,11 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
                                             initial[sensor.state])
                 nodes += adc_nodes
                 outputs.append((sensor.code_port, code))
+    reached = {n.name for n in live_nodes(nodes, outputs)}
+    unread = [s.name for s in eq.states if s.name not in reached]
+    if unread:
+        raise PendcError(f"{model.source or iface.name}: states.{unread[0]}: nothing reads it and it is not "
+                         f"reported (output = false): report it, or leave it out of the file")
     if sum_into_mux:
         nodes = push_sums_into_muxes(nodes)
     if fold_dt or lookahead or sum_into_mux:   # the derivatives' own nodes (``ddx``), the tables' old
