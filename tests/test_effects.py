@@ -177,3 +177,46 @@ def test_new_parameter_values_keep_the_derived_equations():
     assert m2.equations is eq and fresh.equations is not eq
     assert fresh.equations == eq and m2.parameter_vector() == fresh.parameter_vector() != m.parameter_vector()
     assert m2.with_effect("viscous_pendulum").equations != eq       # another structure derives its own
+
+
+def test_an_input_saturation_acts_where_a_state_equation_uses_the_input_itself():
+    """A plant with no drive (a converter's switch in its state equation): the saturation of its
+    input shapes the input where the equations read it (it was listed and silently ignored)."""
+    from pendc.model.modelfile import parse_model
+
+    text = """
+[plant]
+name = "tank"
+k = 0.5
+[constants]
+k = { unit = "1/s", meaning = "outflow rate", bounds = [0.1, 1.0] }
+[states.h]
+unit = "m"
+meaning = "level"
+derivative = "u - k*h"
+[inputs.u]
+unit = "m/s"
+meaning = "inflow"
+range = [0.0, 1.0]
+[sensors.level]
+kind = "adc"
+state = "h"
+bits = 10
+range = [0.0, 2.0]
+[catalogue.pump_limit]
+kind = "saturation"
+on = "u"
+low = "u_lo"
+high = "u_hi"
+params.u_lo = { unit = "m/s", meaning = "least inflow", default = 0.0, bounds = [0.0, 0.5] }
+params.u_hi = { unit = "m/s", meaning = "most inflow", default = 0.6, bounds = [0.5, 1.0] }
+[effects.pump_limit]
+u_lo = 0.0
+u_hi = 0.6
+"""
+    eq = parse_model(text, "tank.toml").equations
+    u, h, k, lo, hi = sp.symbols("u h k u_lo u_hi", real=True)
+    assert eq.input == u
+    d = eq.inline(eq.derivatives[0])
+    assert d.subs({h: 0, k: 0.5, lo: 0.0, hi: 0.6, u: 0.9}) == pytest.approx(0.6)
+    assert d.subs({h: 0, k: 0.5, lo: 0.0, hi: 0.6, u: 0.3}) == pytest.approx(0.3)

@@ -82,13 +82,9 @@ def _drives(ctx):
     the input delay, and the lag states ``(symbol, derivative, initial)``."""
     d = ctx.d
     delay = next((ctx.role(e, "time") for e in _active(ctx, "delay")), None)
-    effective = {}
-    for e in _active(ctx, *SHAPERS):
-        if target_kind(d, e) == INPUT:
-            effective[e.on] = _shape(ctx, e, effective.get(e.on, ctx.symbols[e.on]))
     out, lags = {}, []
     for e in _active(ctx, "drive"):
-        law = ctx.parse(e.role("force"), f"catalogue.{e.name}.force", effective)
+        law = ctx.parse(e.role("force"), f"catalogue.{e.name}.force")
         out[e.name] = sp.piecewise_fold(law) if law.has(sp.Piecewise) else law
     for e in _active(ctx, *SHAPERS):
         if target_kind(d, e) == DRIVE and e.on in out:
@@ -161,6 +157,12 @@ def build_equations(model) -> Equations:
             for text in (b.mass, b.inertia):
                 if text and text in ctx.symbols:
                     zero[ctx.symbols[text]] = 0
+    raw_input = ctx.symbols[d.inputs[0].name]
+    for e in _active(ctx, *SHAPERS):
+        if target_kind(d, e) == INPUT:
+            # every expression reads the input as its dead zones and saturations leave it: a drive's
+            # law, and as well an intermediate or a state equation that uses the input itself
+            ctx.symbols[e.on] = _shape(ctx, e, ctx.symbols[e.on])
     for name, text, _, _ in d.intermediates:
         ctx.bind(name, ctx.parse(text, f"intermediates.{name}").subs(zero))
     drive_out, delay, lags = _drives(ctx)
@@ -176,7 +178,7 @@ def build_equations(model) -> Equations:
         s.state for s in d.sensors if s.state not in held) or tuple(n for n in d.coordinate_names if n not in held)
     equations = Equations(
         states=tuple(states) + tuple(s for s, _, _ in lags),
-        input=ctx.symbols[d.inputs[0].name],
+        input=raw_input,
         params=tuple(ctx.params),
         assignments=tuple(ctx.assignments),
         derivatives=tuple(derivatives) + tuple(dv for _, dv, _ in lags),
