@@ -121,9 +121,11 @@ def add_parsers(sub) -> None:
                                           "output")
     p.add_argument("--dt", type=positive, default=1e-6, help="integration step in s (default 1e-6)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
-    p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the model's order (the "
-                                             "default model: {plant:states}; default: at rest, all 0); "
-                                             "with --fixed the state registers start there")
+    p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the order pendc plant check "
+                                             "lists them (the default model: {plant:states}; the output's columns "
+                                             "put the positions first); default: the file's initial values (at "
+                                             "rest, all 0, for a mechanism); with --fixed the state registers start "
+                                             "there; a negative first number needs --x0=-1,...")
     p.add_argument("--quantize", action="store_true", help="quantise the states the model's encoders read (the "
                                                            "default model: {plant:positions}) to x4 encoder counts")
     p.add_argument("--fixed", action="store_true", help="bit-accurate run of the compiled hardware model")
