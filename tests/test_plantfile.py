@@ -160,7 +160,8 @@ def test_a_malformed_plant_file_gets_one_line(label, text, message, tmp_path):
     path = tmp_path / "plant.toml"
     path.write_text(text, encoding="utf-8")
     with pytest.raises(PendcError) as info:
-        pendc.load_model(path).equations
+        model = pendc.load_model(path)
+        model.equations, model.interface
     line = str(info.value)
     assert "\n" not in line and re.search(message, line), line
     assert line.startswith(str(path)) or "nowhere.toml" in line or "x.toml" in line, line
@@ -230,5 +231,10 @@ def test_a_state_equation_plant_starts_where_its_initial_says():
     assert model.interface.state("phi").initial == 4.0 and model.interface.state("i").initial == 0.0
     graph = lower_model(model, dt=1e-6)
     assert graph["omega"].params.reset == pytest.approx(omega0) and graph["phi"].params.reset == 4.0
-    res = Simulator(model)(np.array([0.0, 1e-3]), np.zeros(2))
+    sim = Simulator(model)
+    res = sim(np.array([0.0, 1e-3]), np.zeros(2))
     assert res["omega"][0] == pytest.approx(omega0) and res["phi"][0] == 4.0
+    # x0 names the reported states (phi, omega); the current, not reported, starts at its initial
+    # (the kernel read the two numbers as i and phi, and omega past the array's end)
+    res = sim(np.array([0.0, 1e-3]), np.zeros(2), x0=(1.0, 2.0))
+    assert (res["i"][0], res["phi"][0], res["omega"][0]) == (0.0, 1.0, 2.0)

@@ -83,6 +83,8 @@ class Simulator:
         self.signals = signals_of(model)
         self._simulate = load_kernel(model.equations, self.signals.clamped())
         eq = model.equations
+        self._start_names = self.state_names[:len(self.state_names) - len(eq.initial)]
+        self._initial = {st.name: st.initial for st in model.interface.states}
         self._offsets = tuple((name, eq.params.index(expr) if expr in eq.params else None, expr)
                               for name, expr in eq.sensor_offsets)
 
@@ -100,8 +102,7 @@ class Simulator:
     def initial_state(self) -> np.ndarray:
         """Where a run starts unless told otherwise: each state's ``initial`` (zero in a
         mechanical file), in the order of ``x0``."""
-        initial = {s.name: s.initial for s in self.model.interface.states}
-        return np.array([initial.get(name, 0.0) for name in self.signals.mechanical], dtype=np.float64)
+        return np.array([self._initial.get(name, 0.0) for name in self.signals.mechanical], dtype=np.float64)
 
     def true_state(self, measured: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """The true reported state (each position, then its rate) whose sensors read ``measured``
@@ -137,9 +138,22 @@ class Simulator:
         number of valid rows (fewer than len(t) if the run diverged). The run starts at
         row ``k0`` from ``s0``; rows before it only give an input delay its history."""
         out = np.empty((len(t), len(self.state_names)))
-        rows = self._simulate(_frozen(t), _frozen(u), _frozen(s0), _frozen(p), self.dt, self.method == "rk4",
-                              int(k0), out)
+        rows = self._simulate(_frozen(t), _frozen(u), _frozen(self._kernel_start(s0)), _frozen(p), self.dt,
+                              self.method == "rk4", int(k0), out)
         return out, rows
+
+    def _kernel_start(self, s0) -> np.ndarray:
+        """The kernel's start vector (every state but the lags, which start from the input) from
+        ``s0``, the reported states (:attr:`PlantSignals.mechanical`): a state the hardware does
+        not report (``output = false``) starts at its ``initial``. The kernel read a shorter
+        vector past its end."""
+        s0 = np.asarray(s0, dtype=np.float64)
+        if s0.size == len(self._start_names):
+            return s0
+        full = np.array([self._initial.get(name, 0.0) for name in self._start_names])
+        for i, name in enumerate(self.signals.mechanical):
+            full[self._start_names.index(name)] = s0[i]
+        return full
 
     def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
         t = np.ascontiguousarray(t, dtype=np.float64)

@@ -95,7 +95,8 @@ class FloatPlant:
         extra = [n for n, v in start.items() if v != 0.0 and names.index(n) >= n_start]
         if extra:
             raise PendcError(f"the float plant starts {', '.join(extra)} from the input, not from an initial value")
-        self._start = np.array([start.get(n, 0.0) for n in names[:n_start]], dtype=float)
+        initial = {st.name: st.initial for st in model.interface.states}    # a state not reported
+        self._start = np.array([start.get(n, initial.get(n, 0.0)) for n in names[:n_start]], dtype=float)
         self._origin = {e.name: start.get(e.state, 0.0) for e in self.ports.encoders}
         clamped = next((st.name for st in model.interface.states if st.velocity_bound is not None), None)
         source = kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
