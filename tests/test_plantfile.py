@@ -238,3 +238,10 @@ def test_a_state_equation_plant_starts_where_its_initial_says():
     # (the kernel read the two numbers as i and phi, and omega past the array's end)
     res = sim(np.array([0.0, 1e-3]), np.zeros(2), x0=(1.0, 2.0))
     assert (res["i"][0], res["phi"][0], res["omega"][0]) == (0.0, 1.0, 2.0)
+
+
+def test_a_converter_on_a_rate_state_gives_it_half_an_lsb_of_budget():
+    text = (Path(__file__).parent / "plant_dc_motor.toml").read_text(encoding="utf-8")
+    model = parse_model(text + '\n[sensors.tacho]\nkind = "adc"\nstate = "omega"\nbits = 12\nrange = [-512.0, 512.0]\n',
+                        "motor.toml")
+    assert model.interface.state("omega").budget == pytest.approx(0.5 * 1024 / 4096)

@@ -306,8 +306,10 @@ def build_interface(model) -> PlantInterface:
         for s in d.states:
             initial = _initial_value(model, s, values)
             if s.rate_of:
+                # a converter may read a rate state (a buck's inductor current): half its LSB, as a position's
+                budget = s.budget if s.budget is not None else (sensor[s.name].budget if s.name in sensor else None)
                 states.append(StateSpec(s.name, s.unit, s.meaning, s.body, s.quantity, derivative_of=s.rate_of,
-                                        velocity_bound=bound if bound_on == s.rate_of else None,
+                                        velocity_bound=bound if bound_on == s.rate_of else None, budget=budget,
                                         training_rate=s.training_rate, output=s.output, initial=initial))
             else:
                 states.append(position(s, s.body, s.quantity, s.output, initial))
