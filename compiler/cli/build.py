@@ -10,6 +10,18 @@ from ..errors import PendcError
 from .options import MODEL_HELP, build_model
 
 
+def _warn_unmet_budget(report) -> None:
+    """One line on standard error when the error budget is not met (the build stands: an open-loop
+    unstable plant's float and fixed runs part by design, docs/error_budget.md)."""
+    if report is None or report.met:
+        return
+    worst = max(((state, err / report.budgets[state]) for run in report.errors.values()
+                 for state, err in run.items() if report.budgets.get(state)), key=lambda kv: kv[1], default=None)
+    detail = f" ({worst[0]} {worst[1]:.3g} times its budget)" if worst else ""
+    print(f"pendc: warning: the error budget is not met{detail}; pendc report qformat shows where "
+          f"(docs/error_budget.md)", file=sys.stderr)
+
+
 def cmd_build(args) -> int:
     from ..backend.hdl import build_hdl, build_request, differences, write_hdl
     from ..model.modelfile import build_source, load_model, model_fingerprint
@@ -35,6 +47,7 @@ def cmd_build(args) -> int:
         print(f"pendc: {args.output} is up to date ({len(files)} files)", file=sys.stderr)
         return 0
     write_hdl(args.output, files)
+    _warn_unmet_budget(build.error)
     if args.json:
         sys.stdout.write(files["report.json"])
     else:
