@@ -3,7 +3,9 @@
 ``<plant>_regs`` holds the register file, the step sequencer (free run at a divided
 clock rate, lockstep bursts of N steps for HiLDE, single steps, soft reset), the input
 latch that only reaches the core at a step start, the LO/HI snapshots and one ×4
-quadrature decoder (``<plant>_qdec``) per encoder. The bus front-ends only translate
+quadrature decoder (``<plant>_qdec``) per encoder. The wrappers hold what the plant has: a
+plant without a quadrature encoder (only sampled converters, or no sensor) gets neither the
+``ENC`` register nor the decoder module (:func:`has_encoders`). The bus front-ends only translate
 their protocol into one-cycle read and write strobes on word addresses:
 
 * ``<plant>_raptor``: the RAPTOR 2000 module's synchronous local bus
@@ -17,8 +19,10 @@ plant interface the core was built from (:class:`pendc.model.interface.PlantInte
 
 The register map (:func:`register_map`) is the single source of the offsets: the
 read multiplexer, the Verilog offset constants, ``report.json`` and
-``docs/register_map.md`` all come from it. As in :mod:`.emit`, Python prepares every
-string and the templates only loop and print.
+``docs/register_map.md`` all come from it. Its layout (:data:`COMMON_REGISTERS` at the same
+offsets on every plant, then the plant's registers in a fixed order) is documented in
+``docs/register_map.md`` and checked by ``tests/test_register_layout.py``. As in
+:mod:`.emit`, Python prepares every string and the templates only loop and print.
 """
 
 from __future__ import annotations
@@ -45,6 +49,13 @@ STATUS_BITS = (("RUNNING", "CONTROL.RUN"),
                         "last step is on the outputs"),
                ("OVERFLOW", "copy of OVERFLOW.STICKY"))
 _PREFIXES = (("", 1.0), ("m", 1e-3), ("\u00b5", 1e-6), ("n", 1e-9))   # SI prefixes (µ: micro)
+
+
+# The registers at the same byte offset on every plant (0x00, 0x04, ...): everything before the
+# plant's own registers. The input's word (``U`` for the default model) is named by the plant;
+# None stands for it here.
+COMMON_REGISTERS = ("ID", "VERSION", "BUILD_ID", "CONFIG", "CONTROL", "STATUS", "STEP_DIV", "N_STEPS",
+                    "STEPS_LEFT", None, "OVERFLOW")
 
 
 def control_bits(input_register: str) -> tuple:
@@ -115,6 +126,12 @@ def _check_ports(ports: dict, interface) -> None:
         code_bits(sensor, ports)
 
 
+def has_encoders(interface) -> bool:
+    """True if the plant has a quadrature encoder: only then do the wrappers hold the ``ENC``
+    register (its lines) and the x4 decoder module ``<plant>_qdec``."""
+    return any(not s.is_adc for s in interface.sensors)
+
+
 def _converters(interface) -> list:
     """The plant's sampled converters (ADC sensors), in sensor order."""
     return [s for s in interface.sensors if s.is_adc]
@@ -145,11 +162,16 @@ def register_map(ports: dict, status_nodes=(), interface=None) -> list[dict]:
 
     ``interface``: the plant interface (default: the default model's), whose
     :meth:`~pendc.model.interface.PlantInterface.register_names` name the input's word, each
-    reported state's LO/HI pair and each encoder's count. Offsets depend on the plant's
-    registers, not on ``ports`` (only widths and descriptions do), so host software sees one
-    map for every build of a plant. A debug build (``status_nodes``: the core's
-    ``overflow_status`` bit order) appends the OVERFLOW_STATUS_k words after the map, one
-    sticky bit per node.
+    reported state's LO/HI pair, each encoder's count and each converter's code.
+
+    Layout: :data:`COMMON_REGISTERS` at offsets 0x00..0x28 on every plant; then the plant's
+    registers, one word after another: ``ENC`` (the encoder lines; only a plant with an
+    encoder has it), one word per sensor in the plant file's order (an encoder's count, a
+    converter's code), ``STEP_COUNT_LO``/``_HI``, each reported state's LO/HI pair. So the
+    offsets depend on the plant's sensors and reported states, not on ``ports`` (only widths
+    and descriptions do): host software sees one map for every build of a plant. A debug build
+    (``status_nodes``: the core's ``overflow_status`` bit order) appends the
+    OVERFLOW_STATUS_k words after the map, one sticky bit per node.
     """
     interface = interface or _default_interface()
     _check_ports(ports, interface)
@@ -176,9 +198,10 @@ def register_map(ports: dict, status_nodes=(), interface=None) -> list[dict]:
                                   "core only when a step starts"),
         ("OVERFLOW", "w1c", 2, "bit 0 STICKY: w1c, set when the core's flag rises; bit 1 CORE: ro, the core's own "
                                "flag, some node left its Q-format range since the last (soft) reset"),
-        ("ENC", "ro", len(channels), "current encoder lines: " +
-         ("; ".join(f"bit {i} {p.upper()}" for i, p in enumerate(channels)) or "none")),
     ]
+    if has_encoders(interface):
+        regs.append(("ENC", "ro", len(channels), "current encoder lines: " +
+                     "; ".join(f"bit {i} {p.upper()}" for i, p in enumerate(channels))))
     for sensor in interface.sensors:
         unit = interface.state(sensor.state).unit
         if sensor.is_adc:
@@ -275,9 +298,10 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
         "STEP_DIV": "step_div", "N_STEPS": "n_steps", "STEPS_LEFT": "steps_left",
         u_reg: "input_ext",
         "OVERFLOW": "{30'd0, core_overflow, ovf_sticky}",
-        "ENC": ("{" + (f"{pad}'d0, " if pad else "") + ", ".join(reversed(channels)) + "}") if channels else "32'd0",
         "STEP_COUNT_LO": "step_count[31:0]", "STEP_COUNT_HI": "step_count_hi",
     }
+    if channels:
+        values["ENC"] = "{" + (f"{pad}'d0, " if pad else "") + ", ".join(reversed(channels)) + "}"
     decoders, codes = [], []
     for sensor in _converters(interface):
         f = ports[sensor.code_port]
@@ -286,7 +310,12 @@ def _regs_context(view, ports: dict, ident: int, registers: list, header: str, s
         wire = sensor.code_port
         pad = 32 - sensor.bits
         values[names[sensor.name][0]] = ("{" + (f"{pad}'d0, " if pad else "") + bits(wire, f["width"], hi, lo) + "}")
-        codes.append({"name": wire, "signed": sign, "range": rng, "port": sensor.code_port})
+        # the port's bits around the code (its sign extension and zero fraction bits) are not read
+        rest = ([(f["width"] - 1, hi + 1)] if hi + 1 < f["width"] else []) + ([(lo - 1, 0)] if lo > 0 else [])
+        unused = [bits(wire, f["width"], a, b) for a, b in rest]
+        codes.append({"name": wire, "signed": sign, "range": rng, "port": sensor.code_port,
+                      "unused": ("{" + ", ".join(unused) + "}") if len(unused) > 1 else "".join(unused),
+                      "unused_range": _decl(sum(a - b + 1 for a, b in rest), False)[1]})
     for sensor in interface.sensors:
         if sensor.is_adc:
             continue
@@ -354,11 +383,10 @@ def render_wrapper(view, ports: dict, build_id: int, bus: str, status_nodes=()) 
     regs = _regs_context(view, ports, build_id, registers, header, status_nodes)
     common = {"header": header, "regs": modules["regs"], "addr_msb": ADDR_WIDTH - 1, "word_msb": WORD_BITS - 1,
               "word_zero": f"{WORD_BITS}'d0", "core": view.module, "encoders": _channels(interface)}
-    files = {
-        f"{modules['regs']}.v": env.get_template(REGS_TEMPLATE).render(**regs),
-        f"{modules['qdec']}.v": env.get_template(QDEC_TEMPLATE).render(header=header, module=modules["qdec"]),
-        f"{top}.v": env.get_template(template).render(module=top, **common),
-    }
+    files = {f"{modules['regs']}.v": env.get_template(REGS_TEMPLATE).render(**regs)}
+    if has_encoders(interface):     # the decoder module only where the register file instantiates it
+        files[f"{modules['qdec']}.v"] = env.get_template(QDEC_TEMPLATE).render(header=header, module=modules["qdec"])
+    files[f"{top}.v"] = env.get_template(template).render(module=top, **common)
     return files, {"module": top, "registers": registers}
 
 
