@@ -11,8 +11,8 @@ import numpy as np
 from pendc.backend.hdl import port_formats
 from resumed_runs import (CHECK_STEPS, compiled_window, interp_window, interp_windows, port_rows, ports_of,
                           reset_integer, reset_word, rtl_state, state_nodes)
-from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, VERSION, WINDOW, WINDOW_POINTS,
-                      WINDOW_STIMULI)
+from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, QUICK_LONG_CHUNKS, VERSION, WINDOW,
+                      WINDOW_POINTS, WINDOW_STIMULI)
 
 
 # ---------------------------------------------------------------- stimuli
@@ -70,6 +70,25 @@ def _decoded(rows: np.ndarray, ports) -> np.ndarray:
 def _decode_errors(rows: np.ndarray, ports) -> int:
     first = len(ports.states)
     return sum(decode_x4(rows[:, first + 2 * i], rows[:, first + 2 * i + 1])[1] for i in range(len(ports.encoders)))
+
+
+def codes_start(rows: np.ndarray, ports, mid: int, chunks: int = QUICK_LONG_CHUNKS) -> int:
+    """Where the quick profile's converter test starts in a long run (``rows``: one per chunk): at
+    ``mid`` when every converter's code takes two values or more in the ``chunks`` chunks from
+    there (the plants this was written for: a ball on a beam), else at the chunk (from 1 on) where
+    the converter whose code changes least changes most, nearest to ``mid`` (a slow plant, a tank's
+    level, moves a code only now and then). ``mid`` when the plant has no converter."""
+    cols = [ports.outputs.index(a.port) for a in ports.adcs]
+    if not cols:
+        return mid
+
+    def changes(k: int) -> int:
+        return min(len(np.unique(rows[k:k + chunks + 1, c])) for c in cols)
+
+    if changes(mid) >= 2:
+        return mid
+    starts = range(1, len(rows) - chunks)
+    return max(starts, key=lambda k: (changes(k), -abs(k - mid)), default=mid)
 
 
 def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int = WINDOW,
@@ -181,14 +200,21 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
             "overflows": dict(tr.overflows), "mid": mid,
             "mid_state": rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
         }
+        at = codes_start(rows[::CHUNK], ports, mid) if name == "chirp" else mid
+        if at != mid:     # the quick profile's converter test starts there (tb/test_core.py converters_code)
+            at_codes = golden.run_steps(ints[:at * CHUNK + 1], every=at * CHUNK, record=tuple(state_names))
+            vec["long"][name].update(codes_at=at, codes_state=rtl_state(
+                graph, {n: int(at_codes.outputs[n][1]) for n in state_names}))
         del tr, rows
     log(f"pendtb: long runs {long_chunks} chunks ({time.time() - t0:.1f} s)")
 
     # -- overflow: the input's full scale held drives the plant beyond its trained range
     if overflow:
         t0 = time.time()
-        vec["overflow"] = _overflow_scenario(golden, graph, iface, ports, state_names, dt)
-        log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s)")
+        vec["overflow"] = o = _overflow_scenario(golden, graph, iface, ports, state_names, dt)
+        what = ("none, the overflow tests will be skipped: " + o["unreachable"] if "unreachable" in o else
+                o.get("error") or o.get("how") or ("from reset" if o["from_reset"] else "from the edge of a format"))
+        log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s): {what}")
 
     # -- bus: runs from reset with a constant U (lockstep bursts, free run)
     for name, level in (BUS_LEVELS.items() if bus else ()):
@@ -207,9 +233,9 @@ def _overflow_scenario(golden, graph, iface, ports, state_names, dt: float) -> d
     chunks = len(ints) // CHUNK
     tr = golden.run_steps(ints, every=CHUNK, record=tuple(state_names))
     if not tr.overflows:
-        # a plant whose full push stays in range (its rates saturate, its angles wrap): start at
-        # the edge of a position register's format instead, moving out
-        return _overflow_from_edge(graph, iface, ports, state_names, int(ints[0]), dt)
+        # a plant whose full push stays in range (its rates saturate, its angles wrap, it is slow):
+        # start at the edge of a reported state's range instead, moving out
+        return _overflow_from_edge(golden, graph, iface, ports, state_names, int(ints[0]), dt)
     k_star = min(tr.overflows.values())
     nodes = sorted(n for n, s in tr.overflows.items() if s == k_star)
     k0 = max(0, (k_star // CHUNK - 1) * CHUNK)
@@ -231,29 +257,36 @@ def _overflow_scenario(golden, graph, iface, ports, state_names, dt: float) -> d
 
 
 EDGE_STEPS = 1500      # steps from the deposited edge state to the overflow (the bus test's second burst)
+EDGE_RUN = EDGE_STEPS + 1000        # steps of the scenario's window from the deposited state
+DRIFT_SLACK = 300      # a drift scenario's first overflow lies in EDGE_STEPS - DRIFT_SLACK .. EDGE_STEPS
 
 
-def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float) -> dict:
+def _overflow_from_edge(golden, graph, iface, ports, state_names, q_full: int, dt: float) -> dict:
     """The overflow scenario from a deposited state: the first reported position that has a rate
     starts EDGE_STEPS steps of travel below the top of its register's format (or of the domain of a
     table it addresses, :func:`_edge_of`), its rate at half
     its format's maximum, the input at full scale. Interpreter and compiled kernel must agree on
-    the first overflow (step and nodes)."""
+    the first overflow (step and nodes). A plant with no such position (states in state-equation
+    form: levels, temperatures, currents), or whose position does not leave that way, gets the
+    drift scenario (:func:`_overflow_from_drift`)."""
     from pendc.golden import GoldenStepper, register_integers
 
     rate_of = {s.derivative_of: s.name for s in iface.states if s.derivative_of}
     pos = next((p for p in ports.states if p in rate_of), None)
     if pos is None:
-        return {"error": "the full push does not overflow and no reported position has a rate to push it out"}
+        return _overflow_from_drift(golden, graph, iface, ports, state_names, q_full,
+                                    "no reported state has a rate state")
     rate = rate_of[pos]
     v0 = 0.5 * graph[rate].qformat.max_value
     start_real = {pos: _edge_of(graph, pos) - v0 * EDGE_STEPS * dt, rate: v0}
     start = {n: reset_integer(graph, n) for n in state_names}
     start.update(register_integers(graph, start_real))
-    u_win = np.full(EDGE_STEPS + 1000, q_full, dtype=np.int64)
+    u_win = np.full(EDGE_RUN, q_full, dtype=np.int64)
     rows, ovf = interp_window(graph, start, u_win)
     if not ovf:
-        return {"error": f"{pos} started at the top of its format does not overflow in {len(u_win)} steps"}
+        return _overflow_from_drift(golden, graph, iface, ports, state_names, q_full,
+                                    f"{pos} started at the top of its format with {rate} = {v0:g} does not overflow "
+                                    f"in {len(u_win)} steps")
     k_star = min(ovf.values())
     nodes = sorted(n for n, s in ovf.items() if s == k_star)
     stepper = GoldenStepper(graph)
@@ -266,6 +299,112 @@ def _overflow_from_edge(graph, iface, ports, state_names, q_full: int, dt: float
                            f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
     return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
             "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
+
+
+def _input_levels(golden, iface, q_full: int) -> list:
+    """The constant inputs a drift scenario tries: the full scale, then the ends of the input's
+    range (as port integers, each once)."""
+    inp = iface.input
+    levels = [q_full]
+    for value in (inp.hi, inp.lo):
+        if value is not None:
+            q = int(golden.quantize_input([float(value)])[0])
+            if q not in levels:
+                levels.append(q)
+    return levels
+
+
+def _first_overflow(stepper, start_real: dict, q: int, n: int):
+    """The first step (from 0) at which a node overflows in ``n`` steps of input ``q`` from the
+    compiled kernel's reset with ``start_real`` deposited, or None."""
+    stepper.reset(start_real)
+    stepper.advance(q, n, every_step=False)
+    return min(stepper.overflows.values()) if stepper.overflows else None
+
+
+def drift_start(stepper, graph, pos: str, edge: float, q: int):
+    """``(value, step)``: where to start ``pos`` (the other states at reset) so that its own drift
+    under the constant input ``q`` takes the plant out of range (a first overflow, of any node) in
+    EDGE_STEPS - DRIFT_SLACK .. EDGE_STEPS steps; ``(None, why)`` when it cannot.
+
+    Found by bisection between ``pos``'s reset value (no overflow within EDGE_STEPS) and
+    ``edge`` (an overflow within EDGE_STEPS): the first overflow step falls as the start nears
+    the edge; the bisection ends one register LSB from the boundary, whose step lies just
+    within EDGE_STEPS unless the overflow jumps there (then None: no gradual drift out)."""
+    node = graph[pos]
+    safe = float(node.param("reset") or 0.0)
+    g_edge = _first_overflow(stepper, {pos: edge}, q, EDGE_STEPS + 1)
+    if g_edge is None:
+        return None, f"from {edge:g} it stays in range for {EDGE_STEPS} steps"
+    if _first_overflow(stepper, {pos: safe}, q, EDGE_STEPS + 1) is not None:
+        return None, f"from its reset value {safe:g} it leaves within {EDGE_STEPS} steps"
+    lo, hi, g_hi = safe, edge, g_edge          # lo: no overflow within EDGE_STEPS; hi: an overflow
+    lsb = node.qformat.lsb
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if abs(hi - lo) <= lsb or mid in (lo, hi):
+            break
+        g = _first_overflow(stepper, {pos: mid}, q, EDGE_STEPS + 1)
+        if g is not None:
+            hi, g_hi = mid, g
+        else:
+            lo = mid
+    if g_hi < EDGE_STEPS - DRIFT_SLACK:
+        return None, f"its first overflow jumps to step {g_hi} (no gradual drift out)"
+    return hi, g_hi
+
+
+def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, before: str) -> dict:
+    """The overflow scenario of a plant without a position whose rate can be set (states in
+    state-equation form) and whose full push stays in range for the 4 s the vectors simulate (a
+    water tank takes many seconds to fill): each reported state in turn, each end of its range
+    (its format, or the domain of a table it addresses: :func:`_edge_of`, :func:`_bottom_of`) and
+    each constant input (full scale, then the ends of the input's range), the state is deposited
+    where its own dynamics carry it out of range in about EDGE_STEPS steps (:func:`drift_start`;
+    the other states at reset). The first that works is the scenario; interpreter and compiled
+    kernel must agree on its first overflow (step and nodes). When none works, the result says
+    so (``"unreachable"``: what was tried) and the overflow tests are skipped with that reason."""
+    from pendc.golden import GoldenStepper, register_integers
+    from pendc.ir.nodes import Kind
+
+    stepper = GoldenStepper(graph)
+    levels = _input_levels(golden, iface, q_full)
+    volts = {q: float(golden.u_format.to_float(q)) for q in levels}
+    unit = iface.input.unit
+    tried = []
+    for pos in ports.states:
+        if graph[pos].kind is not Kind.REGISTER:
+            continue
+        for side, edge in (("top", _edge_of(graph, pos)), ("bottom", _bottom_of(graph, pos))):
+            for q in levels:
+                value, found = drift_start(stepper, graph, pos, edge, q)
+                if value is None:
+                    tried.append(f"{pos} at the {side} of its range ({edge:g}) with {iface.input.name} = "
+                                 f"{volts[q]:g} {unit}: {found}")
+                    continue
+                start_real = {pos: value}
+                start = {n: reset_integer(graph, n) for n in state_names}
+                start.update(register_integers(graph, start_real))
+                u_win = np.full(EDGE_RUN, q, dtype=np.int64)
+                stepper.reset(start_real)
+                stepper.advance(q, len(u_win), every_step=False)
+                compiled = dict(stepper.overflows)
+                rows, ovf = interp_window(graph, start, u_win)
+                k_star = min(ovf.values()) if ovf else None
+                nodes = sorted(n for n, s in ovf.items() if s == k_star)
+                first = min(compiled.values())
+                if (first, sorted(n for n, s in compiled.items() if s == first)) != (k_star, nodes):
+                    raise RuntimeError(
+                        f"golden engines disagree on the first overflow of {pos} drifting out from {value!r}: "
+                        f"interpreter step {k_star} {nodes}, compiled step {first} "
+                        f"{sorted(n for n, s in compiled.items() if s == first)}")
+                return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
+                        "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real,
+                        "how": f"{pos} drifting out of the {side} of its range from {value:.12g} with "
+                               f"{iface.input.name} = {volts[q]:g} {unit} ({before}; the full push stays in range)"}
+    return {"unreachable": f"no overflow can be provoked: the full push ({iface.input.name} = "
+                           f"{volts[q_full]:g} {unit} for 4 s from reset) stays in range, {before}, and no reported "
+                           "state leaves its range by its own drift under a constant input: " + "; ".join(tried)}
 
 
 def _edge_of(graph, pos: str) -> float:
@@ -282,5 +421,21 @@ def _edge_of(graph, pos: str) -> float:
             src = graph[src].inputs[0]
         if src == pos:
             edge = min(edge, float(n.params.hi))
+    return edge
+
+
+def _bottom_of(graph, pos: str) -> float:
+    """As :func:`_edge_of` at the other end: the bottom of ``pos``'s register format, or higher,
+    the bottom of the domain of a (non-periodic) table it addresses."""
+    from pendc.ir.nodes import Kind
+    edge = graph[pos].qformat.min_value
+    for n in graph.nodes:
+        if n.kind is not Kind.LUT or n.params.periodic or n.params.lo is None:
+            continue
+        src = n.inputs[0]
+        while graph[src].kind is Kind.CAST:
+            src = graph[src].inputs[0]
+        if src == pos:
+            edge = max(edge, float(n.params.lo))
     return edge
 

@@ -83,15 +83,18 @@ def main(argv=None) -> int:
     t_sims = time.time() - t0
     total = time.time() - t_all
     failed = sum(r.failed for r in results) + sum(1 for r in results if r.tests == 0 and not args.testcase)
+    skipped = sum(len(r.skipped) for r in results)
+    skips = f", {skipped} skipped (reasons above)" if skipped else ""
     per_sim = {sim: sum(r.build_s + r.test_s for r in results if r.sim == sim) for sim in sims}
     print(f"tb/run.py: preparation {t_prep:.1f} s; simulations {t_sims:.1f} s wall "
           f"({', '.join(f'{sim} {t:.1f} s' for sim, t in per_sim.items())} of build+test); total {total:.1f} s; "
-          f"{'all passed' if not failed else f'{failed} failed'} (work folder {work})")
+          f"{'all passed' if not failed else f'{failed} failed'}{skips} (work folder {work})")
     if args.json:
         Path(args.json).write_text(json.dumps({
             "preparation_s": t_prep, "simulations_s": t_sims, "total_s": total, "per_sim_build_test_s": per_sim,
             "suites": [{"sim": r.sim, "suite": r.suite, "tests": r.tests, "failed": r.failed,
-                        "failures": r.failures, "build_s": r.build_s, "test_s": r.test_s} for r in results],
+                        "failures": r.failures, "skipped": r.skipped, "build_s": r.build_s, "test_s": r.test_s}
+                       for r in results],
         }, indent=2) + "\n")
     return 1 if failed else 0
 

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import os
+import pickle
 import re
 import shutil
 import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from pendc.backend.memory_files import put_memory_files
@@ -118,6 +119,7 @@ class SuiteResult:
     build_s: float
     test_s: float
     log: Path
+    skipped: list = field(default_factory=list)   # names of the tests skipped (they count as run, not failed)
 
 
 SUITES = {
@@ -187,7 +189,8 @@ def run_suite(prep: Prepared, sim: str, suite: str, build_root: Path, profile: s
     if tests and not failed:          # the precompiled headers alone are ~150 MB per Verilator build
         for f in build_dir.glob("*.gch"):
             f.unlink()
-    return SuiteResult(sim, suite, tests, failed, failures, xml, build_s, test_s, log_test)
+    return SuiteResult(sim, suite, tests, failed, failures, xml, build_s, test_s, log_test,
+                       skipped=skipped_tests(xml))
 
 
 def read_results(xml: Path, log: Path) -> tuple[int, int, list]:
@@ -205,6 +208,28 @@ def read_results(xml: Path, log: Path) -> tuple[int, int, list]:
             failed += 1
             failures.append(f"{case.get('name')}: {bad.get('message') or ''}".strip())
     return tests, failed, failures
+
+
+def skipped_tests(xml: Path) -> list:
+    """The names of the tests a results file records as skipped (a cocotb test that called
+    ``pytest.skip``: its reason is in the test log and, for the overflow tests, the vectors)."""
+    if not xml.is_file():
+        return []
+    return [case.get("name") for case in ET.parse(xml).getroot().iter("testcase") if case.find("skipped") is not None]
+
+
+def skip_reason(prep: Prepared, test: str) -> str:
+    """Why ``test`` was skipped: the overflow tests say what the vectors tried (see the test log
+    for any other)."""
+    if "overflow" in test:
+        try:
+            with open(prep.vectors, "rb") as fh:
+                o = pickle.load(fh).get("overflow") or {}
+            if "unreachable" in o:
+                return o["unreachable"]
+        except (OSError, pickle.UnpicklingError, EOFError):
+            pass
+    return "see the test log"
 
 
 def run_suites(prep: Prepared, sims, suites, build_root: Path, profile: str | None = None, jobs: int = 2,
@@ -226,9 +251,12 @@ def run_suites(prep: Prepared, sims, suites, build_root: Path, profile: str | No
         sim, suite = pair
         r = run_suite(prep, sim, suite, build_root, profile=profile, testcase=testcase, waves=waves)
         status = "ok" if r.failed == 0 and r.tests else "FAILED"
-        lines = [f"[{sim}] {suite}: {r.tests - r.failed}/{r.tests} passed, build {r.build_s:.1f} s, "
+        ran = r.tests - len(r.skipped)
+        skips = f", {len(r.skipped)} skipped" if r.skipped else ""
+        lines = [f"[{sim}] {suite}: {ran - r.failed}/{ran} passed{skips}, build {r.build_s:.1f} s, "
                  f"tests {r.test_s:.1f} s  {status}  (log {r.log})"]
         lines += [f"    {f}" for f in r.failures]
+        lines += [f"    skipped {name}: {skip_reason(prep, name)}" for name in r.skipped]
         log("\n".join(lines))
         return r
 

@@ -12,6 +12,7 @@ CHUNK = 1000                        # model steps per sample of the 1 kHz stimul
 WINDOW = 2000                       # steps of every bit-exact, every-step window
 WINDOW_POINTS = (0.3, 0.6, 0.9)     # besides the start: where in each stimulus windows begin
 LONG_CHUNKS = {"chirp": 2000, "random": 1000}   # 2 s of the chirp, 1 s of full-scale random levels
+QUICK_LONG_CHUNKS = 10              # the quick profile's excerpt of a long run (Icarus: ~1.5 k steps/s)
 BUS_LEVELS = {"u_pos": 1.3, "u_neg": -2.0}      # stimulus levels (pendc.sim.stimuli) for the bus tests
 BUS_STEPS = 4000
 TB_TOP = "tb_plant_core"            # the core plus the testbench's own x4 decoders (pendtb.tb_top_source)

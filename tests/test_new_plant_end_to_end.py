@@ -91,6 +91,7 @@ def test_the_cocotb_regression_is_bit_exact(prepared, sim, tmp_path):
         if r.tests != len(tests):
             problems.append(f"{sim}/{suite}: {r.tests} cocotb tests ran, {len(tests)} selected (log {r.log})")
         problems += [f"{sim}/{suite}: {f}" for f in r.failures]
+        problems += [f"{sim}/{suite}: {t} skipped (this plant must reach every check)" for t in r.skipped]
     assert not problems, "cocotb failures:\n" + "\n".join(problems)
 
 

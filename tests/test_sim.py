@@ -90,6 +90,7 @@ def test_cocotb_regression(sim, request, tmp_path):
         if r.tests == 0:
             problems.append(f"{sim}/{r.suite}: no cocotb test ran (log {r.log})")
         problems += [f"{sim}/{r.suite}: {f}" for f in r.failures]
+        problems += [f"{sim}/{r.suite}: {t} skipped (the default model must reach every check)" for t in r.skipped]
     assert [r.suite for r in results] == list(SUITES[sim]), f"not every suite ran on {sim}"
     assert not problems, "cocotb failures:\n" + "\n".join(problems)
 
