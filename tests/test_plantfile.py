@@ -192,7 +192,8 @@ def test_plant_new_writes_a_file_that_checks(tmp_path, capsys):
     assert "d/dt dphi = ddphi" in out and "enc_phi" in out
     assert main(["plant", "new", "rig", "-o", str(target)]) == 2          # never overwrites
     assert main(["plant", "check", str(target), "--latex"]) == 0
-    assert "\\cos" in capsys.readouterr().out
+    latex = capsys.readouterr().out
+    assert "\\cos" in latex and "\\frac{d}{dt} \\dot{\\phi} = \\ddot{\\phi}" in latex and " dphi" not in latex
 
 
 def test_the_hostile_table_is_documented():

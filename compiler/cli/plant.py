@@ -152,6 +152,25 @@ def cmd_plant_new(args) -> int:
     return 0
 
 
+def _latex_printer(eq, iface):
+    """sympy's LaTeX with a position's rate and acceleration written as dots over it
+    (``dtheta`` -> \\dot{\\theta}, ``ddtheta`` -> \\ddot{\\theta})."""
+    import sympy as sp
+
+    symbols = set(eq.states) | {sym for sym, _ in eq.assignments}
+    for expr in (*eq.derivatives, *(e for _, e in eq.assignments)):
+        symbols |= expr.free_symbols
+    by_name = {s.name: s for s in symbols if isinstance(s, sp.Symbol)}
+    names = {}
+    for st in iface.states:
+        if st.derivative_of:
+            base = sp.latex(sp.Symbol(st.derivative_of))
+            for name, dots in ((st.name, r"\dot"), ("d" + st.name, r"\ddot")):
+                if name in by_name:
+                    names[by_name[name]] = f"{dots}{{{base}}}"
+    return lambda expr: sp.latex(expr, symbol_names=names)
+
+
 def cmd_plant_check(args) -> int:
     import sympy as sp
 
@@ -159,13 +178,14 @@ def cmd_plant_check(args) -> int:
 
     model = load_model(args.file)
     d, eq, iface = model.definition, model.equations, model.interface
-    show = sp.latex if args.latex else str
+    show = _latex_printer(eq, iface) if args.latex else str
     out = [f"plant {d.name} ({d.summary}); core {d.core}; {d.form} form; model {model.source}"]
     out.append("states:")
     for s in iface.states:
         extra = [f"period {s.period:g}, {s.turns} turns" if s.period else "",
                  f"|value| <= {s.velocity_bound:g}" if s.velocity_bound else "",
-                 f"budget {s.budget:g}" if s.budget else "", "" if s.output else "internal"]
+                 f"budget {s.budget:g}" if s.budget else "", f"starts at {s.initial:g}" if s.initial else "",
+                 "" if s.output else "internal"]
         out.append(f"  {s.name} [{s.unit}] {s.meaning}" + "".join(f"; {e}" for e in extra if e))
     out.append("inputs:")
     out += [f"  {i.name} [{i.unit}] {i.meaning}; range {i.range.describe()}" for i in iface.inputs]
@@ -178,8 +198,9 @@ def cmd_plant_check(args) -> int:
     out.append("equations:")
     for sym, expr in eq.assignments:
         out.append(f"  {show(sym)} = {show(expr)}")
+    ddt = r"\frac{d}{dt} " if args.latex else "d/dt "
     for state, derivative in zip(eq.states, eq.derivatives):
-        out.append(f"  d/dt {show(state)} = {show(derivative)}")
+        out.append(f"  {ddt}{show(state)} = {show(derivative)}")
     if eq.velocity_bound is not None:
         out.append(f"  after each step: |rate| <= {show(eq.velocity_bound)}")
     sys.stdout.write("\n".join(out) + "\n")
