@@ -56,3 +56,30 @@ def derive_furuta():
 STIMULI = Stimuli(DEFAULT.interface.input)
 chirp, steps, swing_up, multisine, random_levels = (STIMULI.chirp, STIMULI.steps, STIMULI.swing_up,
                                                     STIMULI.multisine, STIMULI.random_levels)
+
+
+# A one-state plant in state-equation form (a tank: inflow in, Torricelli outflow), for the tests
+# of lowering and effects on plants that are not mechanisms
+TANK_FILE = """
+[plant]
+name = "tank"
+k = 0.5
+L = 1.0
+[constants]
+k = { unit = "1/s", meaning = "outflow rate", bounds = [0.1, 1.0] }
+L = { unit = "m", meaning = "length", bounds = [0.1, 2.0] }
+[states.h]
+unit = "m"
+meaning = "level"
+derivative = "u - k*sqrt(2*h*L)"
+initial = 0.2
+[inputs.u]
+unit = "m/s"
+meaning = "inflow"
+range = [0.0, 1.0]
+[sensors.level]
+kind = "adc"
+state = "h"
+bits = 10
+range = [0.0, 1.0]
+"""

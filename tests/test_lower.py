@@ -20,7 +20,7 @@ from plants import CATALOGUE, sct_model
 from pendc.model.plant import PlantModel
 from pendc.passes.lower import lower_model
 from pendc.passes.ranges import per_step
-from plants import swing_up
+from plants import swing_up, TANK_FILE
 
 DT = 1e-6
 STATES = ("x", "dx", "theta", "dtheta")
@@ -314,35 +314,11 @@ def test_end_stops_lower_to_compare_and_mux_and_match_the_simulator():
     assert res["x"].max() > 0.01 and res["dx"][-1] < 0.5 * res["dx"].max()   # the stop holds it back
 
 
-_TANK = """
-[plant]
-name = "tank"
-k = 0.5
-L = 1.0
-[constants]
-k = { unit = "1/s", meaning = "outflow rate", bounds = [0.1, 1.0] }
-L = { unit = "m", meaning = "length", bounds = [0.1, 2.0] }
-[states.h]
-unit = "m"
-meaning = "level"
-derivative = "u - k*sqrt(2*h*L)"
-initial = 0.2
-[inputs.u]
-unit = "m/s"
-meaning = "inflow"
-range = [0.0, 1.0]
-[sensors.level]
-kind = "adc"
-state = "h"
-bits = 10
-range = [0.0, 1.0]
-"""
-
 
 def test_a_constant_irrational_factor_is_folded_into_the_coefficient():
     """sympy splits sqrt(2*h*L) into sqrt(2)*sqrt(L)*sqrt(h) and keeps sqrt(2) apart from the value
     of L: it is a number, not a factor to multiply by (it stopped the build: "no dividers")."""
-    model = pendc.parse_model(_TANK, "tank.toml")
+    model = pendc.parse_model(TANK_FILE, "tank.toml")
     graph = lower_model(model, dt=DT)
     verify(graph)
     u = np.full(2000, 0.3)
@@ -353,6 +329,6 @@ def test_a_constant_irrational_factor_is_folded_into_the_coefficient():
 
 
 def test_a_state_nothing_reads_and_nothing_reports_is_a_one_line_error():
-    text = _TANK + '[states.q]\nunit = "m"\nmeaning = "inflow so far"\nderivative = "u"\noutput = false\n'
+    text = TANK_FILE + '[states.q]\nunit = "m"\nmeaning = "inflow so far"\nderivative = "u"\noutput = false\n'
     with pytest.raises(PendcError, match=r"^tank\.toml: states\.q: nothing reads it and it is not reported"):
         lower_model(pendc.parse_model(text, "tank.toml"), dt=DT)
