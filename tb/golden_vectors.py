@@ -76,19 +76,45 @@ def codes_start(rows: np.ndarray, ports, mid: int, chunks: int = QUICK_LONG_CHUN
     """Where the quick profile's converter test starts in a long run (``rows``: one per chunk): at
     ``mid`` when every converter's code takes two values or more in the ``chunks`` chunks from
     there (the plants this was written for: a ball on a beam), else at the chunk (from 1 on) where
-    the converter whose code changes least changes most, nearest to ``mid`` (a slow plant, a tank's
-    level, moves a code only now and then). ``mid`` when the plant has no converter."""
+    the most converters' codes change, then where the converter whose code changes least changes
+    most, nearest to ``mid`` (a slow plant, a tank's level, moves a code only now and then; a
+    maglev's ball lying on its post holds its gap's code for the whole run). ``mid`` when the
+    plant has no converter."""
     cols = [ports.outputs.index(a.port) for a in ports.adcs]
     if not cols:
         return mid
 
-    def changes(k: int) -> int:
-        return min(len(np.unique(rows[k:k + chunks + 1, c])) for c in cols)
+    def values(k: int) -> list:
+        return [len(np.unique(rows[k:k + chunks + 1, c])) for c in cols]
 
-    if changes(mid) >= 2:
+    if min(values(mid)) >= 2:
         return mid
     starts = range(1, len(rows) - chunks)
-    return max(starts, key=lambda k: (changes(k), -abs(k - mid)), default=mid)
+    return max(starts, key=lambda k: (sum(n >= 2 for n in values(k)), min(values(k)), -abs(k - mid)), default=mid)
+
+
+def codes_static(rows: np.ndarray, ports) -> list:
+    """The converters whose code takes one value only over a whole golden run (``rows``: every
+    row, or one per chunk): a converter test cannot see them change."""
+    return [a.name for a in ports.adcs if len(np.unique(rows[:, ports.outputs.index(a.port)])) < 2]
+
+
+def encoders_start(cnt: np.ndarray, chunks: int = QUICK_LONG_CHUNKS, least: int = 2) -> int:
+    """Where the quick profile's encoder test starts in a long run (``cnt``: the decoded x4 counts,
+    one row per chunk, a column per encoder): at reset (0) when an encoder moves ``least`` counts
+    or more in the ``chunks`` chunks from there, else at the chunk where an encoder moves most
+    (the earliest of those): a slow plant (a pendubot under 1 N m) turns its encoders by a count
+    or so in the first 10 ms. 0 for a plant without encoders."""
+    if cnt.size == 0:
+        return 0
+
+    def moved(k: int) -> int:
+        part = cnt[k:k + chunks + 1]
+        return int((part.max(axis=0) - part.min(axis=0)).max())
+
+    if moved(0) >= least:
+        return 0
+    return max(range(len(cnt) - chunks), key=lambda k: (moved(k), -k))
 
 
 def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int = WINDOW,
@@ -200,11 +226,19 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
             "overflows": dict(tr.overflows), "mid": mid,
             "mid_state": rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
         }
+        if name == "chirp":
+            # the converters whose code the whole chirp leaves on one value (tb/test_core.py converters_code)
+            vec["long"][name]["codes_static"] = codes_static(rows, ports)
         at = codes_start(rows[::CHUNK], ports, mid) if name == "chirp" else mid
         if at != mid:     # the quick profile's converter test starts there (tb/test_core.py converters_code)
             at_codes = golden.run_steps(ints[:at * CHUNK + 1], every=at * CHUNK, record=tuple(state_names))
             vec["long"][name].update(codes_at=at, codes_state=rtl_state(
                 graph, {n: int(at_codes.outputs[n][1]) for n in state_names}))
+        at = encoders_start(cnt[::CHUNK]) if name == "random" else 0
+        if at:            # the quick profile's encoder test starts there (tb/test_core.py encoders_decode)
+            at_enc = golden.run_steps(ints[:at * CHUNK + 1], every=at * CHUNK, record=tuple(state_names))
+            vec["long"][name].update(enc_at=at, enc_state=rtl_state(
+                graph, {n: int(at_enc.outputs[n][1]) for n in state_names}))
         del tr, rows
     log(f"pendtb: long runs {long_chunks} chunks ({time.time() - t0:.1f} s)")
 
@@ -258,47 +292,71 @@ def _overflow_scenario(golden, graph, iface, ports, state_names, dt: float) -> d
 
 EDGE_STEPS = 1500      # steps from the deposited edge state to the overflow (the bus test's second burst)
 EDGE_RUN = EDGE_STEPS + 1000        # steps of the scenario's window from the deposited state
+EDGE_HALVINGS = 8      # a position's rate starts at half its format's maximum, halved up to this many times
 DRIFT_SLACK = 300      # a drift scenario's first overflow lies in EDGE_STEPS - DRIFT_SLACK .. EDGE_STEPS
 
 
 def _overflow_from_edge(golden, graph, iface, ports, state_names, q_full: int, dt: float) -> dict:
-    """The overflow scenario from a deposited state: the first reported position that has a rate
-    starts EDGE_STEPS steps of travel below the top of its register's format (or of the domain of a
-    table it addresses, :func:`_edge_of`), its rate at half
-    its format's maximum, the input at full scale. Interpreter and compiled kernel must agree on
-    the first overflow (step and nodes). A plant with no such position (states in state-equation
-    form: levels, temperatures, currents), or whose position does not leave that way, gets the
-    drift scenario (:func:`_overflow_from_drift`)."""
+    """The overflow scenario from a deposited state: a reported position that has a rate, its rate
+    set to a constant-ish speed out of its range, the input at full scale, the other states at
+    reset. The rate starts at half its format's maximum and halves (up to :data:`EDGE_HALVINGS`
+    times) while no start works, above all while something overflows within EDGE_STEPS steps with
+    the position at its reset value (the rate's own products: a pendubot's dq1^2 is sized for the
+    trained rates, not for the format, and overflows at once at half the format);
+    the position's start is then found by bisection (:func:`drift_start`, the compiled kernel) so
+    that the first overflow lands EDGE_STEPS - DRIFT_SLACK .. EDGE_STEPS steps in, the bus test's
+    second burst (the top of the position's range first, then its bottom moving down; the range
+    is its register's format or the domain of a table it addresses, :func:`_edge_of`, and a
+    periodic position's whole-turn counter, overflowing before the register's top, is found by
+    the same bisection). Interpreter and compiled kernel must agree on the first overflow (step
+    and nodes). A plant with no such position (states in state-equation form: levels,
+    temperatures, currents), or none that leaves its range so, gets the drift scenario
+    (:func:`_overflow_from_drift`)."""
     from pendc.golden import GoldenStepper, register_integers
 
     rate_of = {s.derivative_of: s.name for s in iface.states if s.derivative_of}
-    pos = next((p for p in ports.states if p in rate_of), None)
-    if pos is None:
+    positions = [p for p in ports.states if p in rate_of]
+    if not positions:
         return _overflow_from_drift(golden, graph, iface, ports, state_names, q_full,
                                     "no reported state has a rate state")
-    rate = rate_of[pos]
-    v0 = 0.5 * graph[rate].qformat.max_value
-    start_real = {pos: _edge_of(graph, pos) - v0 * EDGE_STEPS * dt, rate: v0}
-    start = {n: reset_integer(graph, n) for n in state_names}
-    start.update(register_integers(graph, start_real))
-    u_win = np.full(EDGE_RUN, q_full, dtype=np.int64)
-    rows, ovf = interp_window(graph, start, u_win)
-    if not ovf:
-        return _overflow_from_drift(golden, graph, iface, ports, state_names, q_full,
-                                    f"{pos} started at the top of its format with {rate} = {v0:g} does not overflow "
-                                    f"in {len(u_win)} steps")
-    k_star = min(ovf.values())
-    nodes = sorted(n for n, s in ovf.items() if s == k_star)
     stepper = GoldenStepper(graph)
-    stepper.reset(start_real)
-    stepper.advance(q_full, len(u_win), every_step=False)
-    first = min(stepper.overflows.values()) if stepper.overflows else None
-    compiled_nodes = sorted(n for n, s in stepper.overflows.items() if s == first)
-    if (first, compiled_nodes) != (k_star, nodes):
-        raise RuntimeError(f"golden engines disagree on the first overflow from the edge of {pos}: interpreter "
-                           f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
-    return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
-            "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real}
+    tried = []
+    for pos in positions:
+        rate = rate_of[pos]
+        vmax = graph[rate].qformat.max_value
+        for side, edge, sign in (("top", _edge_of(graph, pos), 1.0), ("bottom", _bottom_of(graph, pos), -1.0)):
+            why = None
+            for halving in range(1, EDGE_HALVINGS + 1):
+                v0 = sign * vmax / 2.0 ** halving
+                value, found = drift_start(stepper, graph, pos, edge, q_full, extra={rate: v0})
+                if value is not None:
+                    break
+                why = f"{rate} = {v0:g}: {found}"
+            else:
+                tried.append(f"{pos} toward the {side} of its range ({edge:g}), {rate} from {sign * vmax / 2:g} "
+                             f"halved {EDGE_HALVINGS} times (last: {why})")
+                continue
+            start_real = {pos: value, rate: v0}
+            start = {n: reset_integer(graph, n) for n in state_names}
+            start.update(register_integers(graph, start_real))
+            u_win = np.full(EDGE_RUN, q_full, dtype=np.int64)
+            rows, ovf = interp_window(graph, start, u_win)
+            k_star = min(ovf.values()) if ovf else None
+            nodes = sorted(n for n, s in ovf.items() if s == k_star)
+            stepper.reset(start_real)
+            stepper.advance(q_full, len(u_win), every_step=False)
+            first = min(stepper.overflows.values()) if stepper.overflows else None
+            compiled_nodes = sorted(n for n, s in stepper.overflows.items() if s == first)
+            if (first, compiled_nodes) != (k_star, nodes):
+                raise RuntimeError(f"golden engines disagree on the first overflow from the edge of {pos}: interpreter "
+                                   f"step {k_star} {nodes}, compiled step {first} {compiled_nodes}")
+            return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
+                    "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real,
+                    "how": f"{pos} moving out of the {side} of its range from {value:.12g} with {rate} = {v0:g} "
+                           f"(the full push stays in range)"}
+    return _overflow_from_drift(golden, graph, iface, ports, state_names, q_full,
+                                "no position with its rate set leaves its range in "
+                                f"{EDGE_STEPS - DRIFT_SLACK}..{EDGE_STEPS} steps: " + "; ".join(tried))
 
 
 def _input_levels(golden, iface, q_full: int) -> list:
@@ -322,10 +380,11 @@ def _first_overflow(stepper, start_real: dict, q: int, n: int):
     return min(stepper.overflows.values()) if stepper.overflows else None
 
 
-def drift_start(stepper, graph, pos: str, edge: float, q: int):
-    """``(value, step)``: where to start ``pos`` (the other states at reset) so that its own drift
-    under the constant input ``q`` takes the plant out of range (a first overflow, of any node) in
-    EDGE_STEPS - DRIFT_SLACK .. EDGE_STEPS steps; ``(None, why)`` when it cannot.
+def drift_start(stepper, graph, pos: str, edge: float, q: int, extra: dict | None = None):
+    """``(value, step)``: where to start ``pos`` (the states in ``extra`` at their values, e.g. its
+    rate, the other states at reset) so that its own drift under the constant input ``q`` takes
+    the plant out of range (a first overflow, of any node) in EDGE_STEPS - DRIFT_SLACK ..
+    EDGE_STEPS steps; ``(None, why)`` when it cannot.
 
     Found by bisection between ``pos``'s reset value (no overflow within EDGE_STEPS) and
     ``edge`` (an overflow within EDGE_STEPS): the first overflow step falls as the start nears
@@ -333,10 +392,11 @@ def drift_start(stepper, graph, pos: str, edge: float, q: int):
     within EDGE_STEPS unless the overflow jumps there (then None: no gradual drift out)."""
     node = graph[pos]
     safe = float(node.param("reset") or 0.0)
-    g_edge = _first_overflow(stepper, {pos: edge}, q, EDGE_STEPS + 1)
+    edge = _within_format(node.qformat, edge, safe)
+    g_edge = _first_overflow(stepper, {**(extra or {}), pos: edge}, q, EDGE_STEPS + 1)
     if g_edge is None:
         return None, f"from {edge:g} it stays in range for {EDGE_STEPS} steps"
-    if _first_overflow(stepper, {pos: safe}, q, EDGE_STEPS + 1) is not None:
+    if _first_overflow(stepper, {**(extra or {}), pos: safe}, q, EDGE_STEPS + 1) is not None:
         return None, f"from its reset value {safe:g} it leaves within {EDGE_STEPS} steps"
     lo, hi, g_hi = safe, edge, g_edge          # lo: no overflow within EDGE_STEPS; hi: an overflow
     lsb = node.qformat.lsb
@@ -344,7 +404,7 @@ def drift_start(stepper, graph, pos: str, edge: float, q: int):
         mid = 0.5 * (lo + hi)
         if abs(hi - lo) <= lsb or mid in (lo, hi):
             break
-        g = _first_overflow(stepper, {pos: mid}, q, EDGE_STEPS + 1)
+        g = _first_overflow(stepper, {**(extra or {}), pos: mid}, q, EDGE_STEPS + 1)
         if g is not None:
             hi, g_hi = mid, g
         else:
@@ -352,6 +412,21 @@ def drift_start(stepper, graph, pos: str, edge: float, q: int):
     if g_hi < EDGE_STEPS - DRIFT_SLACK:
         return None, f"its first overflow jumps to step {g_hi} (no gradual drift out)"
     return hi, g_hi
+
+
+def _within_format(fmt, value: float, toward: float) -> float:
+    """``value``, or the nearest float toward ``toward`` whose rounding to ``fmt`` fits it: a
+    format's top in a float rounds up past it when the format is wider than a float (a maglev's
+    gap in FIX56_60 tops out at 2^-5 - 2^-60, which as a float is 2^-5)."""
+    def fits(v):
+        return fmt.contains(int(np.floor(np.ldexp(float(v), fmt.frac) + 0.5)))
+    for _ in range(64):
+        if fits(value):
+            return value
+        value = float(np.nextafter(value, toward))
+    while not fits(value):
+        value = 0.5 * (value + toward)
+    return value
 
 
 def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, before: str) -> dict:

@@ -157,6 +157,23 @@ class CoreBench:
         self.core.overflow_r.value = int(bool(overflow))
         await self.cycles(1)
 
+    async def load_counts(self, counts):
+        """After :meth:`load_state`: the testbench decoders hold the deposited lines as their last
+        sample, ``counts`` (the decoded golden lines' counts at the deposited step) as their count,
+        and no error (the deposit's jump of the lines is no quadrature step)."""
+        cp = self.v["core_ports"]
+        for e, c in zip(cp.encoders, counts):
+            dec = getattr(self.dut, f"dec_{e.name}")
+            dec.a_q.value = int(getattr(self.dut, e.channel_a).value)
+            dec.b_q.value = int(getattr(self.dut, e.channel_b).value)
+            dec.count_q.value = to_bits(int(c), 32)
+            dec.err.value = 0
+        await Timer(1, unit="ns")
+        if tuple(self.counts()) != tuple(int(c) for c in counts) or int(self.dut.enc_err.value):
+            raise StepMismatch(f"decoders not set: counts {self.counts()}, want {tuple(int(c) for c in counts)}, "
+                               f"enc_err {int(self.dut.enc_err.value)}")
+        await Timer(self.period - 1, unit="ns")
+
     async def run_every_step(self, u, rows, k0: int, label: str, ovf_from: int | None = None,
                              ovf_before: bool = False, on_step=None):
         """Run len(u) steps with step held high, comparing every port at every boundary.

@@ -365,3 +365,44 @@ def test_a_plant_nothing_drives_out_says_so_and_its_overflow_tests_skip(tanks_bu
     monkeypatch.setattr(simlib, "_VECTORS", {"overflow": {"error": "engines disagree"}})
     with pytest.raises(AssertionError, match="engines disagree"):
         simlib.overflow_scenario()
+
+
+# ---------------------------------------------------------------- where the quick tests start
+
+def test_the_quick_encoder_test_starts_where_an_encoder_moves(tb_modules):
+    """From reset when an encoder moves 2 counts in the first 10 chunks; else (a slow plant: a
+    pendubot under 1 N m turns its encoders by one count there) where an encoder moves most."""
+    import numpy as np
+    gv = tb_modules.gv
+    chunks = gv.QUICK_LONG_CHUNKS
+    cnt = np.zeros((60, 2), np.int64)
+    cnt[:, 0] = np.minimum(np.arange(60), 2)          # 2 counts in the first chunks: from reset
+    assert gv.encoders_start(cnt) == 0
+    cnt[:, 0] = np.minimum(np.arange(60), 1)          # one count, then still
+    cnt[30:, 1] = 3 * np.arange(30)                   # the second encoder moves from chunk 30 on
+    at = gv.encoders_start(cnt)
+    assert at >= 30 - chunks and at + chunks < 60
+    part = cnt[at:at + chunks + 1]
+    assert (part.max(axis=0) - part.min(axis=0)).max() == 3 * chunks
+    assert gv.encoders_start(np.zeros((60, 0), np.int64)) == 0
+
+
+def test_the_quick_converter_test_starts_where_the_most_codes_change(tb_modules):
+    """A converter that sits on one code for the whole run (a maglev's gap with the ball on its
+    post) does not keep the window from the one where the other converter's code changes; the
+    vectors name it (``codes_static``)."""
+    import numpy as np
+    gv = tb_modules.gv
+    from pendc.hil.plants.core_ports import CorePorts
+    ports = CorePorts.of_interface(TANKS)
+    n = 100
+    rows = np.zeros((n, len(ports.outputs)), np.int64)
+    c1, c2 = (ports.outputs.index(a.port) for a in ports.adcs)
+    rows[:, c1] = 3501                                 # static everywhere
+    rows[70:, c2] = np.arange(30)                      # moves from chunk 70 on only
+    at = gv.codes_start(rows, ports, mid=n // 2)
+    assert len(np.unique(rows[at:at + gv.QUICK_LONG_CHUNKS + 1, c2])) >= 2
+    assert gv.codes_static(rows, ports) == [ports.adcs[0].name]
+    rows[40:, c1] = 3500 + np.arange(n - 40) // 7       # both move from 70 on, only one at mid
+    at = gv.codes_start(rows, ports, mid=n // 2)
+    assert at >= 70 - gv.QUICK_LONG_CHUNKS and gv.codes_static(rows, ports) == []
