@@ -154,7 +154,7 @@ def cmd_plant_new(args) -> int:
 
 def _latex_printer(eq, iface):
     """sympy's LaTeX with a position's rate and acceleration written as dots over it
-    (``dtheta`` -> \\dot{\\theta}, ``ddtheta`` -> \\ddot{\\theta})."""
+    (``dq`` -> \\dot{q}, ``ddq`` -> \\ddot{q})."""
     import sympy as sp
 
     symbols = set(eq.states) | {sym for sym, _ in eq.assignments}
