@@ -35,7 +35,7 @@ def vectors() -> dict:
 
 
 def overflow_scenario() -> dict:
-    """The golden overflow scenario (tb/golden_vectors.py). A plant that no full push, no position
+    """The golden overflow scenario (tb/overflow_runs.py). A plant that no full push, no position
     with a rate and no state's own drift under a constant input takes out of range has none: the
     calling test is skipped (reported as skipped, with what was tried), never passed."""
     o = vectors()["overflow"]

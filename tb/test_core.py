@@ -27,7 +27,7 @@ lines is bit-exact; a failure names the first differing step and port(s).
   sits on one code (a maglev's ball on its post) is named in the log;
 * ``overflow_full_push``: full-scale input held drives the plant off its range (or, a plant
   that stays in range under it, a state deposited near the edge of its range moving out:
-  tb/golden_vectors.py); the sticky flag rises exactly one step after the golden model's
+  tb/overflow_runs.py); the sticky flag rises exactly one step after the golden model's
   first overflow, and the core's per-node overflow terms name the same node(s); reset clears
   it; skipped, saying why, for a plant that nothing drives out of range;
 * ``reset_mid_run``: reset in the middle of a step returns to the reset state, and a

@@ -6,7 +6,7 @@
 * a plant whose sensors are only sampled converters (ADCs) gets no ``ENC`` register, no x4
   decoder module and no encoder pins; its wrappers lint clean and read its code words over the
   bus (a one-cycle stand-in core, Icarus);
-* the testbench's overflow scenario (tb/golden_vectors.py) for such a plant in state-equation
+* the testbench's overflow scenario (tb/overflow_runs.py) for such a plant in state-equation
   form (no rate state), whose full push stays in range: a state deposited near the edge of its
   range drifts out within the bus test's second burst, both golden engines agreeing; a plant
   that nothing drives out of range is reported as such and its overflow tests are skipped.
@@ -234,15 +234,16 @@ def tanks_build(tmp_path_factory):
 def tb_modules():
     sys.path.insert(0, str(REPO / "tb"))
     import golden_vectors
+    import overflow_runs
     import resumed_runs
-    return SimpleNamespace(gv=golden_vectors, rr=resumed_runs)
+    return SimpleNamespace(gv=golden_vectors, ov=overflow_runs, rr=resumed_runs)
 
 
 def _scenario(build, tb):
     from pendc.golden import GoldenModel
     from pendc.model.interface import require_interface
     graph = build.graph
-    return tb.gv._overflow_scenario(GoldenModel(graph, build.options.dt), graph, require_interface(graph),
+    return tb.ov.golden_overflow(GoldenModel(graph, build.options.dt), graph, require_interface(graph),
                                     tb.rr.ports_of(graph), [n.name for n in tb.rr.state_nodes(graph)],
                                     build.options.dt)
 
@@ -280,12 +281,12 @@ def test_a_state_form_plant_without_rates_drifts_out_of_range(tanks_build, tb_mo
     assert not any(s.derivative_of for s in iface.states)
     o = _scenario(tanks_build, tb_modules)
     assert "unreachable" not in o and "error" not in o, o
-    gv = tb_modules.gv
+    ov = tb_modules.ov
     assert not o["from_reset"] and o["k0"] == 0
-    assert gv.EDGE_STEPS - gv.DRIFT_SLACK <= o["k_star"] <= gv.EDGE_STEPS and 1000 < o["k_star"] < 2000
+    assert ov.EDGE_STEPS - ov.DRIFT_SLACK <= o["k_star"] <= ov.EDGE_STEPS and 1000 < o["k_star"] < 2000
     assert o["nodes"] and set(o["start"]) <= set(iface.outputs)
     u = o["u_win"]
-    assert len(u) == gv.EDGE_RUN and (u == u[0]).all() and len(o["rows"]) == len(u) + 1
+    assert len(u) == ov.EDGE_RUN and (u == u[0]).all() and len(o["rows"]) == len(u) + 1
     # the deposit is the golden state: the rows start there and the state moves out, toward the edge
     (pos, value), = o["start"].items()
     col = list(tb_modules.rr.ports_of(tanks_build.graph).outputs).index(pos)
@@ -298,8 +299,8 @@ def test_a_state_form_plant_without_rates_drifts_out_of_range(tanks_build, tb_mo
 def test_a_plant_nothing_drives_out_says_so_and_its_overflow_tests_skip(tanks_build, tb_modules, monkeypatch):
     """When no state drifts out under any constant input, the scenario names what was tried and
     the cocotb overflow tests skip with that reason (never pass)."""
-    gv = tb_modules.gv
-    monkeypatch.setattr(gv, "drift_start", lambda *a, **k: (None, "stays in range (stand-in)"))
+    ov = tb_modules.ov
+    monkeypatch.setattr(ov, "drift_start", lambda *a, **k: (None, "stays in range (stand-in)"))
     o = _scenario(tanks_build, tb_modules)
     assert set(o) == {"unreachable"}
     text = o["unreachable"]
