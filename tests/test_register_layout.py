@@ -30,7 +30,8 @@ from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import ADC, SensorSpec
 
 from stand_in_core import RAPTOR_SIGNALS, RAPTOR_TASKS, stand_in_core
-from test_wrapper import ENCODERS, EXPECTED_PORTS, TOPS, run, tool, write
+from test_wrapper import EXPECTED_PORTS
+from wrapper_bench import ENCODERS, TOPS, run, tool, write
 
 REPO = Path(__file__).resolve().parents[1]
 
