@@ -158,6 +158,36 @@ def test_widening_is_capped(build, tabulated):
     assert g["x"].qformat.width == MAX_WIDTH
 
 
+def test_a_tiny_increment_of_a_large_state_is_cut_to_what_the_aligned_sum_holds():
+    """A thermal mass at 296 K whose training run moved it 1e-9 K a step: the increment's own
+    range types it FIX32_60, and aligned to the state's 10 integer bits the sum would need 71
+    bits (an internal compiler error before). A CAST drops the increment's bits below 2^-53
+    (64 - 1 carry - 10 bits of the state), all beneath the state's LSB; the compiled kernel and
+    the interpreter agree bit for bit."""
+    import numpy as np
+    from pendc.ir.compiled import CompiledGraph
+    from pendc.ir.interpret import FixedInterpreter
+    nodes = [make("u", Kind.INPUT, port="u"), make("inc", Kind.GAIN, ["u"], value=1e-9),
+             make("T", Kind.REGISTER, ["T_sum"], reset=296.15), make("T_sum", Kind.ADD, ["T", "inc"]),
+             make("hot", Kind.COMPARE, ["T", "inc"], op="lt")]
+    g = Graph.build("oven", nodes, [("T", "T"), ("hot", "hot")])
+    ranges = Ranges(max_abs={"u": 1.0, "inc": 1e-9, "T": 296.2, "T_sum": 296.2, "hot": 1.0},
+                    lo={}, hi={}, sources=("hand",))
+    t = assign_qformats(g, ranges, width=32, widen={"T": 22})
+    verify(t, typed=True)
+    assert t["inc"].qformat == Q("FIX32_60") and t["T"].qformat == Q("FIX54_44")
+    assert t["T_sum"].inputs == ("T", "inc_f53") and t["hot"].inputs == ("T", "inc_f53")
+    assert t["inc_f53"].qformat == Q("FIX25_53") and t["inc_f53"].kind is Kind.CAST
+    plain = assign_qformats(g, ranges, width=32)                         # a 32-bit state: it fits
+    assert plain["T_sum"].inputs == ("T", "inc_f53") and plain["T"].qformat == Q("FIX32_22")
+    u = np.full(50, t["u"].qformat.from_float(0.75), dtype=np.int64)
+    compiled = CompiledGraph(t, "fixed").run({"u": u})
+    ref = FixedInterpreter(t).run({"u": u})
+    assert np.array_equal(compiled.outputs["T"], ref.outputs["T"]) and not compiled.overflows
+    moved = (int(ref.outputs["T"][-1]) - int(ref.outputs["T"][0])) * t["T"].qformat.lsb
+    assert moved == pytest.approx(49 * 0.75e-9, rel=1e-3)
+
+
 def test_hand_graph_mul_cast_and_flags():
     nodes = [make("a", Kind.INPUT, port="u"), make("b", Kind.INPUT, port="w"),
              make("p", Kind.MUL, ["a", "b"]), make("c", Kind.COMPARE, ["a", "b"], op="lt"),

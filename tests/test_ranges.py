@@ -240,3 +240,65 @@ def test_the_envelope_switches_between_the_inputs_own_range():
         assert set(np.unique(runs[name][1])) == {-10.0, 10.0}, name
     t, u = full_scale_switching(2.0, levels=(-6.0, 6.0))
     assert set(np.unique(u)) == {-6.0, 6.0} and np.array_equal(u > 0, full_scale_switching(2.0)[1] > 0)
+
+
+# -- a slow plant's working range ----------------------------------------------------------------
+
+SLOW_PLANT = """
+[plant]
+name = "oven"
+k = 0.012
+ks = 0.002
+C = 2.0
+Ta = 296.15
+alpha = 0.01
+
+[constants]
+k = { unit = "W/K", meaning = "conductance to ambient" }
+ks = { unit = "W/K", meaning = "conductance between the nodes" }
+C = { unit = "J/K", meaning = "heat capacity" }
+Ta = { unit = "K", meaning = "ambient temperature" }
+alpha = { unit = "W", meaning = "heater power per unit input" }
+
+[states.T1]
+unit = "K"
+meaning = "heated node temperature"
+derivative = "(k*(Ta - T1) + ks*(T2 - T1) + alpha*Q)/C"
+initial = "Ta"
+
+[states.T2]
+unit = "K"
+meaning = "second node temperature"
+derivative = "(k*(Ta - T2) + ks*(T1 - T2))/C"
+initial = "Ta"
+RANGE
+
+[inputs.Q]
+unit = "1"
+meaning = "heater input"
+range = [0.0, 100.0]
+"""
+
+
+def test_a_slow_states_working_range_starts_training_runs_at_both_ends():
+    """A second thermal node (time constant ~170 s) barely moves in seconds of training: its
+    increment was sized 1e-9 K per step, which a minute of heating overflows 30 times over.
+    Its declared range starts two envelope runs, at each end, so the register holds the range
+    and the derivative the cooling rate from its top (k + ks) (553 - 296 K) / C = 1.8 K/s."""
+    plain = lower_model(pendc.parse_model(SLOW_PLANT.replace("RANGE", "")), dt=DT)
+    ranged = lower_model(pendc.parse_model(SLOW_PLANT.replace("RANGE", "range = [223.15, 553.15]")), dt=DT)
+    assert pendc.parse_model(SLOW_PLANT.replace("RANGE", "range = [223.15, 553.15]")).interface.state(
+        "T2").working_range == (223.15, 553.15)
+    names = [name for name, _, _ in envelope_runs(ranged)]
+    assert names[-2:] == ["envelope:T2_low", "envelope:T2_high"]
+    assert not any(name.startswith("envelope:T2") for name, _, _ in envelope_runs(plain))
+    starts = {name: g["T2"].params.reset for name, g, _ in envelope_runs(ranged)}
+    assert starts["envelope:T2_low"] == 223.15 and starts["envelope:T2_high"] == 553.15
+    assert starts["envelope:full_scale_switching"] == pytest.approx(296.15)
+    stimulus = {"steps": step_stimulus(duration=0.05)}
+    without = analyze_ranges(plain, stimulus, DT)
+    with_range = analyze_ranges(ranged, stimulus, DT)
+    assert without["T2_inc"] < 1e-8 and without["T2"] < 300
+    assert with_range["T2"] == pytest.approx(553.15, rel=1e-6)
+    assert with_range["d_T2"] == pytest.approx((0.012 + 0.002) * (553.15 - 296.15) / 2.0, rel=1e-3)
+    assert with_range["T2_inc"] == pytest.approx(with_range["d_T2"] * DT, rel=1e-9)

@@ -185,6 +185,7 @@ def cmd_plant_check(args) -> int:
         extra = [f"period {s.period:g}, {s.turns} turns" if s.period else "",
                  f"|value| <= {s.velocity_bound:g}" if s.velocity_bound else "",
                  f"budget {s.budget:g}" if s.budget else "", f"starts at {s.initial:g}" if s.initial else "",
+                 f"works in [{s.working_range[0]:g}, {s.working_range[1]:g}]" if s.working_range else "",
                  "" if s.output else "internal"]
         out.append(f"  {s.name} [{s.unit}] {s.meaning}" + "".join(f"; {e}" for e in extra if e))
     out.append("inputs:")

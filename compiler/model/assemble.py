@@ -277,6 +277,14 @@ def _initial_value(model, state, values: dict) -> float:
     return float(expr)
 
 
+def _working_range(model, decl, period) -> tuple | None:
+    """A position's declared ``range``; a periodic one has none (its table is addressed by phase)."""
+    if decl.working_range is not None and period is not None:
+        where = f"{model.source or model.definition.name}: {decl.name}.range"
+        raise PendcError(f"{where}: a periodic position (period {period:g}) takes no range; it holds whole turns")
+    return decl.working_range
+
+
 def build_interface(model) -> PlantInterface:
     """The :class:`PlantInterface` of ``model``: every position and rate (periodicity declared
     or read off the geometry), lag states (internal), the inputs, the sensors and the named
@@ -294,7 +302,7 @@ def build_interface(model) -> PlantInterface:
         budget = c.budget if c.budget is not None else (sensor[c.name].budget if c.name in sensor else None)
         return StateSpec(c.name, c.unit, c.meaning, body, quantity, period=period,
                          turns=(c.turns or DEFAULT_TURNS) if period is not None else None, budget=budget,
-                         output=output, initial=initial)
+                         output=output, initial=initial, working_range=_working_range(model, c, period))
 
     if d.form == "mechanical":
         for c in d.coordinates:
@@ -310,7 +318,8 @@ def build_interface(model) -> PlantInterface:
                 budget = s.budget if s.budget is not None else (sensor[s.name].budget if s.name in sensor else None)
                 states.append(StateSpec(s.name, s.unit, s.meaning, s.body, s.quantity, derivative_of=s.rate_of,
                                         velocity_bound=bound if bound_on == s.rate_of else None, budget=budget,
-                                        training_rate=s.training_rate, output=s.output, initial=initial))
+                                        training_rate=s.training_rate, output=s.output, initial=initial,
+                                        working_range=s.working_range))
             else:
                 states.append(position(s, s.body, s.quantity, s.output, initial))
     quantities = d.quantities if d.quantities is not None else _derived_quantities(d, eq)

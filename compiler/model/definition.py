@@ -63,7 +63,8 @@ class PositionDecl:
     dry friction when bound on its own (``friction``), and how the hardware holds it: ``period``
     (declared; a mechanism's is read off its geometry), ``turns`` (whole periods either way a
     periodic register holds), ``budget`` (the error budget; default half a count of its
-    sensor), ``training_rate`` (a rate range analysis also starts from)."""
+    sensor), ``training_rate`` (a rate range analysis also starts from), ``working_range`` (the
+    file's ``range``: where the state works, range analysis also starting there)."""
 
     name: str
     unit: str
@@ -76,6 +77,7 @@ class PositionDecl:
     turns: int | None = None
     budget: float | None = None
     training_rate: float | None = None
+    working_range: tuple | None = None
 
 
 @dataclass(frozen=True)

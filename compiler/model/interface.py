@@ -43,7 +43,9 @@ class StateSpec:
     |value| after every integration step. ``budget`` is the largest |fixed - float| the error
     budget allows this state over the check horizon (positions that a sensor measures: half a
     count). ``training_rate`` is a value the range analysis also starts this register at (a rate
-    beyond what the stimuli reach, e.g. a pendulum spinning at its encoder's limit). ``output``
+    beyond what the stimuli reach, e.g. a pendulum spinning at its encoder's limit);
+    ``working_range`` ``(low, high)`` where the state works, at both ends of which the range
+    analysis also starts it (a slow plant the seconds of training never carry there). ``output``
     says whether the hardware reports the state every step. ``body`` and ``quantity`` word the
     meanings of derived signals ("pendulum" + "angle"). ``initial`` is the value at reset (a
     state-equation file's ``initial``): the register's reset, where float runs, the range
@@ -63,6 +65,7 @@ class StateSpec:
     training_rate: float | None = None
     output: bool = True
     initial: float = 0.0
+    working_range: tuple | None = None
 
     @property
     def label(self) -> str:

@@ -104,7 +104,7 @@ def _inputs(top: TableReader) -> tuple:
 
 
 _POSITION_KEYS = ("unit", "meaning", "body", "quantity", "force", "force_unit", "friction", "period", "turns",
-                  "budget", "rate")
+                  "budget", "rate", "range")
 
 
 def _entries(top: TableReader, key: str, what: str):
@@ -122,7 +122,7 @@ def _position(e: TableReader, name: str, body: str, quantity: str, force: str) -
     return dict(name=name, unit=e.string("unit", required=True), meaning=e.string("meaning", required=True),
                 body=e.string("body", body), quantity=e.string("quantity", quantity),
                 force=e.string("force", force), friction=e.string("friction", ""), period=read_period(e),
-                turns=e.integer("turns"), budget=e.number("budget", positive=True))
+                turns=e.integer("turns"), budget=e.number("budget", positive=True), working_range=e.pair("range"))
 
 
 def _coordinates(top: TableReader) -> tuple:
@@ -144,12 +144,15 @@ def _states(top: TableReader) -> tuple:
     out = []
     for name, s in _entries(top, "states", "state"):
         s.only(("unit", "meaning", "derivative", "initial", "body", "quantity", "rate_of", "force", "friction",
-                "period", "turns", "budget", "training_rate", "output"))
+                "period", "turns", "budget", "training_rate", "output", "range"))
         output = s.table.get("output", True)
         if not isinstance(output, bool):
             s.fail("must be true or false", "output")
         fields = _position(s, name, "", "", "")
         fields["period"] = None if fields["period"] == "none" else fields["period"]
+        if "training_rate" in s.table and not s.table.get("rate_of"):
+            s.fail("is for a rate state (one with rate_of); where a position works is its range = [low, high]",
+                   "training_rate")
         out.append(StateDecl(
             **fields, training_rate=s.number("training_rate", positive=True),
             derivative=s.text("derivative", required=True), initial=s.text("initial", "0"),

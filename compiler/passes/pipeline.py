@@ -259,5 +259,10 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
 def _require_nodes(graph: Graph, table: dict, what: str) -> None:
     unknown = sorted(set(table) - set(graph.by_name))
     if unknown:
-        raise PendcError(f"[hardware] {what} override names unknown node(s) {', '.join(unknown)}; "
-                         f"see 'pendc report qformat' for the node names")
+        import difflib
+        named = [n.name for n in graph.nodes]
+        near = sorted({m for u in unknown for m in difflib.get_close_matches(u, named, 3, 0.6)})
+        hint = f" (nearest: {', '.join(near)})" if near else ""
+        raise PendcError(f"[hardware] {what} override names unknown node(s) {', '.join(unknown)}{hint}; a state X "
+                         f"is node X, its increment per step X_inc (and its derivative d_X unless the file names "
+                         f"it); 'pendc report qformat' lists every node")

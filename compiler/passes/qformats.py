@@ -9,7 +9,8 @@ Rules (thesis section 4.2, spec §5):
 * a register has exactly the format of the value it stores.
 Per-node overrides (``qformat`` from the model file) win over the rules, and
 ``widen`` (node -> extra fraction bits) is how :mod:`error_budget` buys precision for
-accumulators. Multiplier operands wider than 32 bits get a CAST to 32 bits in front.
+accumulators. Multiplier operands wider than 32 bits get a CAST to 32 bits in front, and an
+operand of a sum whose fraction would take the aligned sum past 64 bits a CAST that drops it.
 
 Fitting the multipliers (``shape``, the target's signed DSP operand widths, e.g. 18x18 on
 ECP5): a product at *level* 0 gets operands (and a GAIN its coefficient) of exactly one
@@ -26,7 +27,7 @@ from dataclasses import replace
 
 from ..ir.fsm import output_width
 from ..ir.graph import Graph
-from ..ir.limits import MULT_OPERAND_BITS
+from ..ir.limits import EXACT_BITS, MULT_OPERAND_BITS
 from ..ir.nodes import Kind, make
 from ..ir.qformat import QFormat, bits_for
 from ..ir.visitor import NodeVisitor
@@ -145,7 +146,7 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
             n = n.with_params(cfmt=thesis_format(abs(n.params.value), min(CONST_BITS, limits(n)[1])))
         return n
 
-    return _narrow_multiplier_operands(graph.map_nodes(typed), limits)
+    return _fit_aligned_sums(_narrow_multiplier_operands(graph.map_nodes(typed), limits))
 
 
 def accumulator_chain(graph: Graph, register: str) -> list:
@@ -212,6 +213,39 @@ def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
     if not casts:
         return graph
     return graph.with_nodes(nodes + feedback + list(casts.values()))
+
+
+def _fit_aligned_sums(graph: Graph) -> Graph:
+    """Insert a CAST that drops fraction bits in front of a sum's (or comparison's) operand whose
+    fraction would take the aligned sum past ``EXACT_BITS``: a slow state far from zero (a
+    thermal mass at 296 K, whose per-step increment is 1e-9 K) has an increment typed 2^-60 by
+    its own range, 71 bits when aligned to the 11 integer bits of the state. The bits dropped
+    lie below the sum's own LSB (its width is at most MAX_WIDTH), so the sum loses nothing it
+    could hold, bar the rounding of its last bit."""
+    casts, nodes = {}, []
+
+    def fitted(i: str, frac: int) -> str:
+        fmt = graph[i].qformat
+        if fmt.frac <= frac:
+            return i
+        key = (i, frac)
+        if key not in casts:
+            narrow = QFormat(fmt.signed, max(2, fmt.width - (fmt.frac - frac)), frac)
+            casts[key] = make(f"{i}_f{frac}", Kind.CAST, [i], qformat=narrow,
+                              meaning=f"{i} to 2^-{frac}: the sums it enters fit {EXACT_BITS} bits")
+        return casts[key].name
+
+    for node in graph.nodes:
+        if node.kind in (Kind.ADD, Kind.SUB, Kind.COMPARE):
+            fin = [graph[i].qformat for i in node.inputs]
+            whole = max(f.width + (0 if f.signed else 1) - f.frac for f in fin)
+            frac = EXACT_BITS - 1 - whole           # one bit for the carry
+            if max(f.frac for f in fin) > frac:
+                node = replace(node, inputs=tuple(fitted(i, frac) for i in node.inputs))
+        nodes.append(node)
+    if not casts:
+        return graph
+    return graph.with_nodes(nodes + list(casts.values()))
 
 
 def _error_feedback(source: str, cast: str, fmt: QFormat, narrow: QFormat, out: list) -> str:
