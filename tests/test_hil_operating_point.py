@@ -113,6 +113,57 @@ def test_golden_ball_beam_from_the_command_line(tmp_path, capsys):
     assert abs(record.x[0] - 0.01) < 2e-4 and abs(record.x[-1]) < 3e-3
 
 
+OVEN = """[plant]
+name = "oven"
+k = 0.012
+C = 2.0
+Ta = 296.15
+alpha = 0.01
+
+[constants]
+k = { unit = "W/K", meaning = "conductance to ambient" }
+C = { unit = "J/K", meaning = "heat capacity" }
+Ta = { unit = "K", meaning = "ambient temperature" }
+alpha = { unit = "W", meaning = "heater power per unit input" }
+
+[states.T]
+unit = "K"
+meaning = "heater temperature"
+derivative = "(k*(Ta - T) + alpha*Q)/C"
+initial = "Ta"
+
+[inputs.Q]
+unit = "1"
+meaning = "heater input"
+range = [0.0, 100.0]
+
+[sensors.adc_T]
+kind = "adc"
+state = "T"
+bits = 10
+range = [200.0, 1000.0]
+
+[operating_points]
+warm = { T = "323.15" }
+glowing = { T = "900" }
+"""
+
+
+def test_a_stopped_run_gets_no_hold_verdict(tmp_path, capsys):
+    """A golden plant started far beyond what its core was trained on (an oven at 900 K, trained
+    near 296 K) stops at t = 0 on the overflow: one error line, and no 'over the last 1 s'
+    verdict drawn from the one row there is. The core ports carry the input's unit (run.png's axis)."""
+    path = tmp_path / "oven.toml"
+    path.write_text(OVEN)
+    out = tmp_path / "run"
+    rc, printed, err = run_cli(capsys, "hil", "--model", path, "--plant", "golden", "--controller", "lqr",
+                               "--start", "glowing", "--seconds", "1", "--out", out)
+    assert rc == 2 and err.startswith("pendc: error: the run stopped at t = 0 s: node ") and "overflowed" in err
+    assert "no verdict on holding operating point" in printed and "over the last 1 s" not in printed
+    ports = CorePorts.of_interface(load_model(str(path)).interface)
+    assert ports.input == "Q" and ports.input_unit == "1"
+
+
 def test_rtl_plants_refuse_converters(ball_beam):
     with pytest.raises(PendcError, match="does not read converter codes yet"):
         make_plant("icarus", ball_beam)

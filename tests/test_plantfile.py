@@ -143,6 +143,12 @@ def _hostile():
         ("unknown role", t.replace('coefficient = "b"', 'coefficient = "b"\nstiffness = "b"'), "unknown key 'stiffness'"),
         ("effect parameter without meaning", t.replace(', meaning = "pivot damping"', ""), r"params\.b\.meaning: is missing"),
         ("active effect not in the catalogue", t + "\n[effects.spring]\nk = 1.0\n", "unknown effect 'spring'"),
+        ("effect parameter named like a force", t.replace('coefficient = "b"', 'coefficient = "tau_theta"').replace(
+            "params.b = {", "params.tau_theta = {").replace("b = 2e-3", "tau_theta = 2e-3"),
+         r"catalogue\.damping\.params\.tau_theta: the name tau_theta is already coordinates\.theta\.force"),
+        ("effect parameter named like a constant", t.replace('coefficient = "b"', 'coefficient = "L"').replace(
+            "params.b = {", "params.L = {").replace("b = 2e-3", "L = 2e-3"),
+         r"catalogue\.damping\.params\.L: the name L is already constants\.L"),
         ("effect value out of range", t.replace("b = 2e-3", "b = 5.0"), r"damping\.b = 5\.0 is outside its physical range"),
         ("experiment holds an unknown coordinate", t + '\n[experiments.held]\nmeaning = "m"\nheld = ["y"]\n',
          "names unknown coordinate 'y'"),

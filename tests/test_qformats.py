@@ -59,8 +59,14 @@ def test_constants_have_at_least_32_bits(typed):
 
 
 def test_variables_follow_the_thesis_rule(build, tabulated, typed):
+    """The thesis' rule, plus the guard bits of a state that cannot resolve its own increment (the
+    default model's theta in FIX32_19 against a 3.3e-5 rad step: 4 bits) on its accumulation path."""
+    from pendc.passes.qformats import accumulator_chain, increment_guard_bits
     r = build.ranges
     stored_by = {n.inputs[0]: n.name for n in typed.of_kind(Kind.REGISTER)}
+    guards = increment_guard_bits(tabulated, r, OPTIONS.width, OPTIONS.margin_bits)
+    assert guards.get("theta") == 4
+    guarded = {name: extra for reg, extra in guards.items() for name in (reg, *accumulator_chain(tabulated, reg))}
     checked = 0
     for n in tabulated.nodes:
         if n.kind in (Kind.CONST, Kind.COMPARE, Kind.SLICE, Kind.FSM, Kind.REGISTER):
@@ -72,7 +78,9 @@ def test_variables_follow_the_thesis_rule(build, tabulated, typed):
             m = max(m, n.param("max_abs"))
         if n.name in stored_by:
             m = max(m, r[stored_by[n.name]])
-        assert typed[n.name].qformat == thesis_format(m, OPTIONS.width, OPTIONS.margin_bits), n.name
+        want = thesis_format(m, OPTIONS.width, OPTIONS.margin_bits)
+        extra = guarded.get(n.name, 0)
+        assert typed[n.name].qformat == Q(f"FIX{want.width + extra}_{want.frac + extra}"), n.name
         checked += 1
     assert checked > 30
     assert typed["u"].qformat == thesis_format(10.0, 32, OPTIONS.margin_bits)     # the port's declared range
@@ -123,10 +131,15 @@ def test_margin_bits(build, tabulated, typed):
 
 
 def test_widen_adds_fraction_bits_to_accumulators(build, tabulated, typed):
+    """``widen`` counts from the rule's format; a state's own guard bits (theta's 4) are a floor
+    under it, not added to it."""
+    from pendc.passes.qformats import increment_guard_bits
     g = assign(build, tabulated, widen={s: 8 for s in STATES})
+    guards = increment_guard_bits(tabulated, build.ranges, OPTIONS.width, OPTIONS.margin_bits)
     for s in STATES:
         base = typed[s].qformat
-        assert g[s].qformat == QFormat(True, base.width + 8, base.frac + 8), s
+        floor = guards.get(s, 0)
+        assert g[s].qformat == QFormat(True, base.width + 8 - floor, base.frac + 8 - floor), s
         assert g[s].qformat == g[g[s].inputs[0]].qformat                 # the stored sum widens too
     assert g["ddx"].qformat == typed["ddx"].qformat                       # not an accumulator
 
@@ -178,14 +191,37 @@ def test_a_tiny_increment_of_a_large_state_is_cut_to_what_the_aligned_sum_holds(
     assert t["inc"].qformat == Q("FIX32_60") and t["T"].qformat == Q("FIX54_44")
     assert t["T_sum"].inputs == ("T", "inc_f53") and t["hot"].inputs == ("T", "inc_f53")
     assert t["inc_f53"].qformat == Q("FIX25_53") and t["inc_f53"].kind is Kind.CAST
-    plain = assign_qformats(g, ranges, width=32)                         # a 32-bit state: it fits
-    assert plain["T_sum"].inputs == ("T", "inc_f53") and plain["T"].qformat == Q("FIX32_22")
+    plain = assign_qformats(g, ranges, width=32)          # the guard bits alone: 2^-38 <= 1e-9 / 256
+    assert plain["T_sum"].inputs == ("T", "inc_f53") and plain["T"].qformat == Q("FIX48_38")
     u = np.full(50, t["u"].qformat.from_float(0.75), dtype=np.int64)
     compiled = CompiledGraph(t, "fixed").run({"u": u})
     ref = FixedInterpreter(t).run({"u": u})
     assert np.array_equal(compiled.outputs["T"], ref.outputs["T"]) and not compiled.overflows
     moved = (int(ref.outputs["T"][-1]) - int(ref.outputs["T"][0])) * t["T"].qformat.lsb
     assert moved == pytest.approx(49 * 0.75e-9, rel=1e-3)
+
+
+def test_a_state_gets_guard_bits_below_its_own_increment():
+    """A thermal mass at 300 K heated at most 5e-7 K a step: its rule's format FIX32_22 (LSB
+    2.4e-7 K) rounds each increment to 0 or 1 LSB; 7 guard bits put 256 LSBs under the largest
+    increment, on the register, its accumulating sum and the clamp between them. A wider budget
+    widening wins; a state whose format already resolves its increment is left alone."""
+    from pendc.passes.qformats import INCREMENT_GUARD_BITS, increment_guard_bits
+    nodes = [make("u", Kind.INPUT, port="u"), make("inc", Kind.GAIN, ["u"], value=5e-7),
+             make("T", Kind.REGISTER, ["T_clamped"], reset=296.0), make("T_sum", Kind.ADD, ["T", "inc"]),
+             make("hot", Kind.COMPARE, ["T_sum", "top"], op="gt"), make("top", Kind.CONST, value=400.0),
+             make("T_clamped", Kind.MUX, ["hot", "T_sum", "top"]),
+             make("n", Kind.REGISTER, ["n_sum"], reset=0.0), make("n_sum", Kind.ADD, ["n", "inc"])]
+    g = Graph.build("oven", nodes, [("T", "T"), ("n", "n")])
+    ranges = Ranges(max_abs={"u": 1.0, "inc": 5e-7, "T": 300.0, "T_sum": 300.0, "hot": 1.0, "top": 400.0,
+                             "T_clamped": 300.0, "n": 1e-4, "n_sum": 1e-4}, lo={}, hi={}, sources=("hand",))
+    assert INCREMENT_GUARD_BITS == 8 and increment_guard_bits(g, ranges) == {"T": 7}
+    t = assign_qformats(g, ranges, width=32)
+    verify(t, typed=True)
+    assert t["T"].qformat == t["T_sum"].qformat == t["T_clamped"].qformat == Q("FIX39_29")
+    assert t["T"].qformat.lsb <= 5e-7 / 256 < 2 * t["T"].qformat.lsb
+    assert t["n"].qformat == Q("FIX32_44")                  # 1e-4 in 32 bits: LSB 5.7e-14, resolved already
+    assert assign_qformats(g, ranges, width=32, widen={"T": 12})["T"].qformat == Q("FIX44_34")
 
 
 def test_hand_graph_mul_cast_and_flags():

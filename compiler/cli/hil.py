@@ -93,14 +93,16 @@ def cmd_hil(args) -> int:
         up = summary["upright_at_s"]
         print(f"plant {summary['plant']}, {summary['rows']} periods in {summary['wall_s']:.2f} s wall")
         held = summary.get("operating_point")
-        if run.angle is not None and held is None:
+        if run.angle is not None and held is None and run.stopped is None:
             print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
                   else "not upright at the end of the run")
         units = dict(run.units)
         spans = [f"max |{state}| = {float(abs(column).max()):.4f} {units.get(state, '')}".rstrip()
                  for state, column in run.positions if (state != run.angle or held is not None) and column.size]
         print(", ".join(spans + [f"{summary['switches']} controller switches"]))
-        if held is not None:
+        if held is not None and run.stopped is not None:
+            print(f"no verdict on holding operating point {held}: the run stopped")
+        elif held is not None:
             print(f"over the last 1 s, from operating point {held}: " + ", ".join(
                 f"max |{c.position} - {c.target:.4g}| = {summary[k]:.4g} {c.unit}".rstrip()
                 for c, k in zip(controller.coords, hold_keys(controller)) if summary.get(k) is not None))

@@ -175,7 +175,8 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
                   mode=tuple(modes), plant=plant_name, wall_s=time.perf_counter() - start,
                   seconds=float(seconds), stopped=stopped,
                   extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {},
-                  input_name=ports.input, units=tuple((name, sensor_unit(ports, name)) for name in measured),
+                  input_name=ports.input, units=tuple((name, sensor_unit(ports, name)) for name in measured)
+                  + ((ports.input, ports.input_unit),),
                   angle=upright_angle(ports))
 
 

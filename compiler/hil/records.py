@@ -107,7 +107,7 @@ def plot_png(run: HilRun, title: str = "") -> bytes:
             if upright.any():
                 ax.plot(t[upright], column[upright], ".", ms=1, color="tab:orange")
     axes[-1].plot(t, run.u, lw=0.5, color="tab:green")
-    axes[-1].set_ylabel(f"{run.input_name} (V)")
+    axes[-1].set_ylabel(f"{run.input_name} ({units.get(run.input_name) or 'V'})")
     axes[-1].set_xlabel("t (s)")
     balancing = np.array([m == "balance" for m in mode])
     if balancing.any():

@@ -44,8 +44,45 @@ def _cycle_from(start: str, uses: dict) -> list:
     return []
 
 
+def _check_unique(d: PlantDefinition, source: str) -> None:
+    """A name means one thing: a constant, input, intermediate, coordinate (and its rate), state,
+    generalized force or effect parameter declared twice under different roles is one line
+    naming both places (an effect's Coulomb level named like the coordinate's force made the
+    force's equation refer to itself). Effects may share a parameter (one name, one value), and
+    coordinates or states a generalized force."""
+    seen = {}
+
+    def declare(name, where, shared=None):
+        if not name:
+            return
+        first = seen.get(name)
+        if first is None:
+            seen[name] = (where, shared)
+        elif shared is None or shared != first[1]:
+            raise PendcError(f"{source}: {where}: the name {name} is already {first[0]}")
+
+    for n in d.constants:
+        declare(n, f"constants.{n}")
+    for i in d.inputs:
+        declare(i.name, f"inputs.{i.name}")
+    for n, *_ in d.intermediates:
+        declare(n, f"intermediates.{n}")
+    for c in d.coordinates:
+        declare(c.name, f"coordinates.{c.name}")
+        declare(f"d{c.name}", f"coordinates.{c.name} (its rate)")
+        declare(c.force, f"coordinates.{c.name}.force", shared="force")
+    for s in d.states:
+        declare(s.name, f"states.{s.name}")
+        declare(s.force, f"states.{s.name}.force", shared="force")
+    for e in d.catalogue.values():
+        for p in e.params:
+            declare(p.name, f"catalogue.{e.name}.params.{p.name}", shared="parameter")
+
+
 def check_names(d: PlantDefinition, source: str) -> None:
-    """Every expression uses only names the file declares (one line naming the first stray)."""
+    """Every expression uses only names the file declares (one line naming the first stray), and
+    each name is declared once (:func:`_check_unique`)."""
+    _check_unique(d, source)
     known = set(d.constants) | {i.name for i in d.inputs} | {n for n, *_ in d.intermediates}
     for c in d.coordinates:
         known |= {c.name, f"d{c.name}", c.force}

@@ -9,7 +9,8 @@ Rules (thesis section 4.2, spec §5):
 * a register has exactly the format of the value it stores.
 Per-node overrides (``qformat`` from the model file) win over the rules, and
 ``widen`` (node -> extra fraction bits) is how :mod:`error_budget` buys precision for
-accumulators. Multiplier operands wider than 32 bits get a CAST to 32 bits in front, and an
+accumulators; a state whose format cannot resolve its own increment gets guard bits first
+(:func:`increment_guard_bits`). Multiplier operands wider than 32 bits get a CAST to 32 bits in front, and an
 operand of a sum whose fraction would take the aligned sum past 64 bits a CAST that drops it.
 
 Fitting the multipliers (``shape``, the target's signed DSP operand widths, e.g. 18x18 on
@@ -33,8 +34,9 @@ from ..ir.qformat import QFormat, bits_for
 from ..ir.visitor import NodeVisitor
 from .ranges import Ranges
 
-__all__ = ["CONST_BITS", "MAX_LEVEL", "MAX_WIDTH", "MULT_OPERAND_BITS", "MULT_SHAPES", "accumulator_chain",
-           "assign_qformats", "operand_bits", "product_kinds", "thesis_format"]
+__all__ = ["CONST_BITS", "INCREMENT_GUARD_BITS", "MAX_LEVEL", "MAX_WIDTH", "MULT_OPERAND_BITS", "MULT_SHAPES",
+           "accumulator_chain", "assign_qformats", "increment_guard_bits", "operand_bits", "product_kinds",
+           "thesis_format"]
 
 CONST_BITS = 32  # the thesis' rule: every constant has at least 32 bits
 MAX_WIDTH = 60   # an aligned sum of two such values still fits the 64-bit golden model
@@ -112,6 +114,9 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
         for name in accumulator_chain(graph, reg.name):
             if reg.name in widen and name not in widen:
                 widen[name] = widen[reg.name]
+    for reg, extra in increment_guard_bits(graph, ranges, width, margin_bits).items():
+        for name in (reg, *accumulator_chain(graph, reg)):
+            widen[name] = max(widen.get(name, 0), extra)
 
     def magnitude(node) -> float:
         m = ranges.max_abs.get(node.name, 0.0)
@@ -147,6 +152,33 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
         return n
 
     return _fit_aligned_sums(_narrow_multiplier_operands(graph.map_nodes(typed), limits))
+
+
+INCREMENT_GUARD_BITS = 8
+
+
+def increment_guard_bits(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0) -> dict:
+    """Register -> fraction bits to add so that its LSB is at most 2^-INCREMENT_GUARD_BITS of the
+    largest increment its accumulating sum adds (the increment's range): a state whose increment
+    per step is about one LSB of its rule's format (a thermal mass at 296 K in FIX32_22, LSB
+    2.4e-7 K, heated 5e-7 K a step) rounds every increment to 0 or 1 LSB, a bias that the two
+    seconds of the error budget's check runs hide and a minute of heating turns into 4 K. With
+    256 LSBs to the largest increment the rounding is at most 0.2 % of the state's motion per
+    step at full rate. The shipped plants' states hold their increments in 671 LSBs or more."""
+    import math
+    out = {}
+    for reg in graph.of_kind(Kind.REGISTER):
+        chain = set(accumulator_chain(graph, reg.name))
+        increments = [i for n in chain if graph[n].kind in (Kind.ADD, Kind.SUB) and reg.name in graph[n].inputs
+                      for i in graph[n].inputs if i != reg.name]
+        step = max((ranges.max_abs.get(i, 0.0) for i in increments), default=0.0)
+        if step <= 0.0 or not math.isfinite(step):
+            continue
+        rule = thesis_format(ranges.max_abs.get(reg.name, 0.0), width, margin_bits)
+        need = math.ceil(INCREMENT_GUARD_BITS - math.log2(step))
+        if need > rule.frac:
+            out[reg.name] = min(need - rule.frac, MAX_WIDTH - rule.width)
+    return out
 
 
 def accumulator_chain(graph: Graph, register: str) -> list:

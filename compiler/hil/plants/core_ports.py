@@ -77,6 +77,7 @@ class CorePorts:
     encoders: tuple
     adcs: tuple = ()
     input_range: tuple = ()           # (low, high) the input's actuator takes, from the interface
+    input_unit: str = ""
 
     @classmethod
     def of_interface(cls, iface) -> "CorePorts":
@@ -86,7 +87,7 @@ class CorePorts:
         adcs = tuple(AdcPorts(s.name, s.state, s.code_port, s.bits, s.lo, s.hi, iface.state(s.state).unit)
                      for s in iface.sensors if s.is_adc)
         return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders,
-                   adcs=adcs, input_range=(iface.input.lo, iface.input.hi))
+                   adcs=adcs, input_range=(iface.input.lo, iface.input.hi), input_unit=iface.input.unit)
 
     @classmethod
     def of_graph(cls, graph) -> "CorePorts":
