@@ -164,6 +164,60 @@ def test_a_stopped_run_gets_no_hold_verdict(tmp_path, capsys):
     assert ports.input == "Q" and ports.input_unit == "1"
 
 
+BUCK = """
+[plant]
+name = "buck"
+Vs = 50.0
+L = 400e-6
+C = 100e-6
+R = 20.0
+
+[constants]
+Vs = { unit = "V", meaning = "input voltage" }
+L = { unit = "H", meaning = "inductance" }
+C = { unit = "F", meaning = "output capacitance" }
+R = { unit = "ohm", meaning = "load resistance" }
+
+[states.iL]
+unit = "A"
+meaning = "inductor current"
+derivative = "(d*Vs - vC)/L"
+
+[states.vC]
+unit = "V"
+meaning = "output voltage"
+derivative = "(iL - vC/R)/C"
+
+[inputs.d]
+unit = "1"
+meaning = "duty cycle"
+range = [0.0, 1.0]
+
+[sensors.adc_v]
+kind = "adc"
+state = "vC"
+bits = 12
+range = [0.0, 51.2]
+
+[operating_points]
+nominal = { iL = "Vs*0.4/R", vC = "Vs*0.4" }
+"""
+
+
+def test_an_exact_equilibrium_in_expressions_is_held(tmp_path):
+    """Hart's buck (Power Electronics, Example 6-1) at D = 0.4: the point written as expressions of
+    the constants leaves dvC/dt = (iL - vC/R)/C at a rounding's 1e-12 V/s, which the scale of the
+    terms the states contribute (iL/C = 1e4 V/s) holds; the hold input is the duty 0.4."""
+    from pendc.hil.controllers.numeric_model import NumericModel
+    from pendc.hil.controllers.operating_point_lqr import linearise_at
+    from pendc.model.modelfile import parse_model
+    model = parse_model(BUCK)
+    left = NumericModel.of(model).derivatives(np.array([1.0, 20.0]), 0.4)
+    assert abs(left[1]) > 1e-12             # the rounding the old absolute floor (1e-12) refused
+    lin = linearise_at(model)
+    assert lin.u0 == pytest.approx(0.4, rel=1e-9) and list(lin.s0) == pytest.approx([1.0, 20.0])
+
+
 def test_rtl_plants_refuse_converters(ball_beam):
     with pytest.raises(PendcError, match="does not read converter codes yet"):
         make_plant("icarus", ball_beam)

@@ -103,7 +103,8 @@ def cmd_hil(args) -> int:
         if held is not None and run.stopped is not None:
             print(f"no verdict on holding operating point {held}: the run stopped")
         elif held is not None:
-            print(f"over the last 1 s, from operating point {held}: " + ", ".join(
+            window = "the last 1 s" if summary["seconds"] >= 1.0 else f"the whole {summary['seconds']:g} s"
+            print(f"over {window}, from operating point {held}: " + ", ".join(
                 f"max |{c.position} - {c.target:.4g}| = {summary[k]:.4g} {c.unit}".rstrip()
                 for c, k in zip(controller.coords, hold_keys(controller)) if summary.get(k) is not None))
         if args.out:

@@ -50,8 +50,13 @@ def check_dimensions(model, equations) -> None:
     for state, _ in lags:          # a lag state has the unit of what it lags: declared, or its drive's
         if state.name in expected:
             dims[state.name] = expected[state.name][0]
+    keys = {n: f"intermediates.{n}" for n, *_ in d.intermediates}
+    keys.update({text: f"catalogue.{e.name}.force ({text})" for e in d.catalogue.values()
+                 for role, text in e.roles if role == "name"})
+    keys.update({c.force: f"{c.force} (the generalized force on {c.name}, the sum of the forces acting on it)"
+                 for c in d.coordinates})
     for sym, expr in equations.assignments:
-        where = f"{src}: {sym.name}"
+        where = f"{src}: {keys.get(sym.name, sym.name)}"
         dims[sym.name] = dimension_of(expr, dims, where)
         if sym.name in expected:
             want, what = expected[sym.name]

@@ -77,6 +77,10 @@ def _check_unique(d: PlantDefinition, source: str) -> None:
     for e in d.catalogue.values():
         for p in e.params:
             declare(p.name, f"catalogue.{e.name}.params.{p.name}", shared="parameter")
+    for e in d.catalogue.values():          # what an effect defines: a drive's force, a lag's state
+        for role, text in e.roles:
+            if role in ("name", "state"):
+                declare(text, f"catalogue.{e.name}.{role}")
 
 
 def check_names(d: PlantDefinition, source: str) -> None:

@@ -198,7 +198,9 @@ def _mechanics(top: TableReader):
         m.fail("give either [bodies] or the energies kinetic/potential, not both")
     dims = {len(v) for b in bodies for v in (b.position, b.start, b.end) if v}
     if len(dims) > 1 or (gravity and dims and len(gravity) not in dims):
-        top.fail("bodies and gravity must be all 2-D or all 3-D vectors")
+        sizes = ", ".join(f"bodies.{b.name} {len(v)}-D" for b in bodies for v in (b.position or b.start,) if v)
+        given = f"gravity is {len(gravity)}-D; " if gravity else ""
+        m.fail(f"bodies and gravity must be all 2-D or all 3-D vectors ({given}{sizes})", "gravity")
     if bodies and any(b.mass for b in bodies) and not gravity:
         m.fail("is missing: gravity = [0, \"-g\"] (or [0, 0, 0] for none)", "gravity")
     return tuple(bodies), gravity, kinetic, potential, determinant
@@ -347,7 +349,10 @@ def _drawing(top: TableReader) -> dict:
     for name in points.table:
         pts[name] = read_vector(points, name, True)
     lines = r.table.get("lines", [])
-    if not isinstance(lines, list) or not all(isinstance(line, list) and len(line) == 2 and all(p in pts for p in line)
-                                              for line in lines):
+    if not isinstance(lines, list) or not all(isinstance(line, list) and len(line) == 2 for line in lines):
         r.fail("must be a list of [point, point] pairs naming drawing points", "lines")
+    for line in lines:
+        stray = next((p for p in line if p not in pts), None)
+        if stray is not None:
+            r.fail(f"{line!r} names unknown point {stray!r} (points: {', '.join(pts)})", "lines")
     return {"points": pts, "lines": tuple(tuple(line) for line in lines)}
