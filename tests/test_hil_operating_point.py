@@ -209,10 +209,12 @@ def test_an_exact_equilibrium_in_expressions_is_held(tmp_path):
     the constants leaves dvC/dt = (iL - vC/R)/C at a rounding's 1e-12 V/s, which the scale of the
     terms the states contribute (iL/C = 1e4 V/s) holds; the hold input is the duty 0.4."""
     from pendc.hil.controllers.numeric_model import NumericModel
-    from pendc.hil.controllers.operating_point_lqr import linearise_at
+    from pendc.hil.controllers.operating_point_lqr import linearise_at, operating_state
     from pendc.model.modelfile import parse_model
     model = parse_model(BUCK)
-    left = NumericModel.of(model).derivatives(np.array([1.0, 20.0]), 0.4)
+    numeric = NumericModel.of(model)
+    _, point = operating_state(model, None)
+    left = numeric.derivatives(np.array([point[s] for s in numeric.names]), 0.4)
     assert abs(left[1]) > 1e-12             # the rounding the old absolute floor (1e-12) refused
     lin = linearise_at(model)
     assert lin.u0 == pytest.approx(0.4, rel=1e-9) and list(lin.s0) == pytest.approx([1.0, 20.0])
