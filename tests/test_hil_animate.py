@@ -173,3 +173,33 @@ def test_bad_outputs(tmp_path, capsys):
         assert capsys.readouterr().err.strip() == ("pendc: error: writing .mp4 needs ffmpeg on PATH; "
                                                    "write .html or .gif instead")
     assert read_run(src).mode[0] == "swing"
+
+
+def test_a_run_animates_from_any_folder_with_its_own_model(tmp_path, capsys, monkeypatch):
+    """`pendc hil --model my_cart.toml --out run1` in the model's folder, then `pendc animate` from
+    elsewhere: the header names the model by its absolute path; an older header's relative name is
+    found beside the run or one folder up; a model that is nowhere is one line, never the default
+    plant drawn instead (which then missed the run's columns)."""
+    home = tmp_path / "lab"
+    home.mkdir()
+    (home / "my_cart.toml").write_text(example(), encoding="utf-8")
+    monkeypatch.chdir(home)
+    assert main(["hil", "--model", "my_cart.toml", "--controller", "lqr", "--seconds", "0.3",
+                 "--out", "run1"]) == 0
+    header = (home / "run1" / "run.csv").read_text(encoding="utf-8")
+    assert f"# model: {home / 'my_cart.toml'}" in header
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    capsys.readouterr()
+    assert main(["animate", str(home / "run1" / "run.csv"), "-o", "a.gif"]) == 0
+    older = home / "run1" / "older.csv"
+    older.write_text(header.replace(str(home / "my_cart.toml"), "my_cart.toml"), encoding="utf-8")
+    assert read_run(older).meta["model"] == str(home / "my_cart.toml")
+    lost = home / "run1" / "lost.csv"
+    lost.write_text(header.replace(str(home / "my_cart.toml"), "gone.toml"), encoding="utf-8")
+    capsys.readouterr()
+    assert main(["animate", str(lost), "-o", "b.gif"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"pendc: error: {lost}: the run's model 'gone.toml' (its header) is not found; give --model"]
+    assert main(["animate", str(lost), "--model", str(home / "my_cart.toml"), "-o", "c.gif"]) == 0

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 from .options import MODEL_HELP, positive
 from ..errors import PendcError
@@ -63,7 +64,8 @@ def cmd_hil(args) -> int:
     if args.out is not None:
         _check_out_folder(args.out)
     model = load_model(args.model)
-    meta = {"model": model.source,
+    # the absolute path: pendc animate reads the run from any folder
+    meta = {"model": str(Path(model.source).resolve()) if Path(model.source).is_file() else model.source,
             "controller": "socket client" if args.serve else args.controller,
             "period_s": f"{args.period:g}"}
     address = _address(args.serve) if args.serve else None   # bad address: fail before any work

@@ -93,13 +93,15 @@ def _unit_of(iface, state: str) -> str:
 
 def model_of_run(record: RunRecord, model_path=None):
     """The model to draw ``record`` with: ``model_path`` if given, else the model the run's header
-    names (when that file exists), else the default model."""
+    names (:func:`~pendc.hil.records.run_model`: not found is an error), else the default model."""
     from ..model.modelfile import load_model
 
     if model_path is not None:
         return load_model(model_path)
     named = record.meta.get("model")
-    return load_model(named if named and Path(named).is_file() else None)
+    if named and not Path(named).is_file():
+        raise PendcError(f"the run's model '{named}' (its header) is not found; give --model")
+    return load_model(named or None)
 
 
 def animate_run(record: RunRecord, output, fps: int = 25, model=None) -> None:

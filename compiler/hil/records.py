@@ -147,11 +147,27 @@ class RunRecord:
         return dict(self.positions)[state]
 
 
+def run_model(meta: dict, run_path) -> str | None:
+    """The model file a run's header names (``# model: PATH``), found: as written (absolute, or
+    relative to the current folder), else relative to the run file's folder or the one above it
+    (``pendc hil --out DIR`` run where the model was); None when the header names none. A named
+    model that is nowhere is a one-line error, never the default model drawn in its place."""
+    named = meta.get("model")
+    if not named:
+        return None
+    here = Path(run_path).resolve().parent
+    for candidate in (Path(named), here / named, here.parent / named):
+        if candidate.is_file():
+            return str(candidate.resolve())
+    raise PendcError(f"{run_path}: the run's model '{named}' (its header) is not found; give --model")
+
+
 def read_run(path, ports=None) -> RunRecord:
     """Read a run.csv (or any CSV with t and the measured positions; the input and mode optional).
     ``ports`` (:class:`~pendc.hil.plants.core_ports.CorePorts`) names the input and the positions
     (default: the plant interface of the model the header names, ``# model: PATH`` as ``pendc
-    hil`` writes it, when that file exists; else the default model's)."""
+    hil`` writes it (found by :func:`run_model`, and the header's entry then the absolute path);
+    the default model's when the header names none)."""
     path = Path(path)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -165,11 +181,16 @@ def read_run(path, ports=None) -> RunRecord:
         k += 1
     if k == len(lines):
         raise PendcError(f"{path}: no header row")
+    if meta.get("model"):
+        try:
+            meta["model"] = run_model(meta, path)
+        except PendcError:
+            if ports is None:           # the caller's ports (--model) make the header's model moot
+                raise
     if ports is None:
         from ..model.modelfile import load_model
         from .plants.core_ports import CorePorts
-        named = meta.get("model")
-        ports = CorePorts.of_interface(load_model(named if named and Path(named).is_file() else None).interface)
+        ports = CorePorts.of_interface(load_model(meta.get("model")).interface)
     measured = list(ports.measured)
     names = [n.strip() for n in lines[k].split(",")]
     for need in (TIME, *measured):
