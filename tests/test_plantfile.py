@@ -96,6 +96,9 @@ def _hostile():
         ("mass without position", t.replace('position = ["x", 0]\n', ""), r"bodies\.cart\.position: a mass needs"),
         ("inertia without rotation", t.replace('mass = "M"', 'mass = "M"\ninertia = "m"'), "rotation"),
         ("unknown body kind", t.replace("[bodies.bob]\n", '[bodies.bob]\nkind = "blob"\n'), "unknown body kind 'blob'"),
+        ("gravity beside the energies", t.split("[bodies.cart]")[0].replace(
+            '[mechanics]', '[mechanics]\nkinetic = "M*dx**2/2"\npotential = "0"') + "[inputs.F]" + t.split("[inputs.F]")[1],
+         r"mechanics\.gravity: acts on \[bodies\]; with the energies given"),
         ("no gravity", _without(t, 'gravity = [0, "-g"]                # the last component points up\n'),
          r"mechanics\.gravity: is missing"),
         ("singular mass matrix", t.replace('mass = "m"\n', 'mass = "0*m"\n'), "mass matrix is singular"),

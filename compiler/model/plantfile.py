@@ -196,6 +196,8 @@ def _mechanics(top: TableReader):
         top.fail("a mechanical plant needs [bodies] or [mechanics] kinetic = \"...\" (its kinetic energy)")
     if bodies and (kinetic or potential):
         m.fail("give either [bodies] or the energies kinetic/potential, not both")
+    if gravity and not bodies:
+        m.fail("acts on [bodies]; with the energies given, write gravity's part into potential", "gravity")
     dims = {len(v) for b in bodies for v in (b.position, b.start, b.end) if v}
     if len(dims) > 1 or (gravity and dims and len(gravity) not in dims):
         sizes = ", ".join(f"bodies.{b.name} {len(v)}-D" for b in bodies for v in (b.position or b.start,) if v)
@@ -289,7 +291,7 @@ def _sensors(top: TableReader, states, rates=()) -> tuple:
         state = s.string("state", required=True)
         if kind == ADC:
             if state not in states + rates:
-                s.fail(f"names unknown state '{state}' (known: {', '.join(states + rates)})", "state")
+                s.fail(f"names unknown state '{state}' (known: {', '.join(dict.fromkeys(states + rates))})", "state")
             bits = s.integer("bits", required=True)
             if bits > MAX_ADC_BITS:
                 s.fail(f"must be at most {MAX_ADC_BITS}, got {bits}", "bits")
