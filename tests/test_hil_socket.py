@@ -72,8 +72,8 @@ class ScriptedClient(threading.Thread):
             self.lines.append(f.readline())   # the END line (or nothing)
 
 
-def serve_with(client_good, client_last, timeout=5.0):
-    plant = make_plant("float")
+def serve_with(client_good, client_last, timeout=5.0, plant=None):
+    plant = plant or make_plant("float")
     port_box = []
     ready = threading.Event()
 
@@ -97,6 +97,19 @@ def test_greeting_and_measurement_lines():
     run, lines = serve_with(3, "bogus\n")
     assert lines[0].startswith("PENDC-HIL 1 period=0.001 periods=1001 x_count=2.5e-06 theta_count=0.000314159")
     assert lines[1] == "S 0 0.000000 0 0\n" and lines[2].startswith("S 1 0.001000 ")
+
+
+def test_converter_codes_follow_the_encoder_counts():
+    """The ball and beam: the servo's encoder count, then the ball's 12-bit converter code, whose
+    LSB and range bottom the greeting gives (a converter-read state was not sent at all)."""
+    from pendc.model.modelfile import load_model
+    model = load_model(str(ROOT / "models" / "ball_beam.toml"))
+    adc = model.interface.sensors[-1]
+    _, lines = serve_with(2, "bogus\n", plant=make_plant("float", model))
+    assert lines[0].startswith("PENDC-HIL 1 period=0.001 periods=1001 theta_count=0.00153398")
+    assert lines[0].rstrip().endswith(f"x_code={(adc.hi - adc.lo) / 4096!r} x_lo={adc.lo!r}")
+    k, t, count, code = lines[1].split()[1:]
+    assert (k, t, count) == ("0", "0.000000", "0") and int(code) == adc.code(0.0) == 2048
 
 
 def test_malformed_answer_ends_the_run_with_a_partial_record():

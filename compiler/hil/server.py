@@ -5,9 +5,12 @@ Protocol (ASCII lines ending in ``\\n``; see docs/hil.md):
     server: PENDC-HIL 1 period=0.001 periods=12001 <state>_count=<resolution> ...
                                                 one <state>_count per encoder, in the plant
                                                 interface's order (cart-pendulum: x_count=2.5e-06
-                                                theta_count=0.000314159...)
-    server: S <k> <t> <count> ...               one line per control period, k = 0, 1, ...:
-                                                every encoder's count, in the same order
+                                                theta_count=0.000314159...), then per sampled
+                                                converter <state>_code=<lsb> <state>_lo=<low>
+    server: S <k> <t> <count> ... <code> ...    one line per control period, k = 0, 1, ...:
+                                                every encoder's count, in the same order, then
+                                                every converter's code (the state reads
+                                                low + (code + 1/2) lsb)
     client: <volts>                             one decimal number per S line
     server: END complete                        after the last period, then the server closes
             END stopped <reason>                on a timeout, a malformed answer or a plant error
@@ -72,7 +75,7 @@ class ClientLink:
 
     def answer(self, meas) -> float:
         """The volts the client answers to this period's measurement."""
-        self.send(f"S {self.k} {meas.t:.6f} " + " ".join(str(c) for _, c in meas.counts))
+        self.send(f"S {self.k} {meas.t:.6f} " + " ".join(str(c) for _, c in (*meas.counts, *meas.codes)))
         self.k += 1
         try:
             raw = self.reader.readline(MAX_LINE + 1)
@@ -135,7 +138,8 @@ def serve_loop(plant, address: tuple[str, int], seconds: float, period: float = 
     link = ClientLink(conn, timeout)
     n_rows = int(round(seconds / period)) + 1
     link.send(f"PENDC-HIL {PROTOCOL_VERSION} period={period:g} periods={n_rows} "
-              + " ".join(f"{e.state}_count={e.resolution!r}" for e in plant.ports.encoders))
+              + " ".join([f"{e.state}_count={e.resolution!r}" for e in plant.ports.encoders]
+                         + [f"{a.state}_code={a.resolution!r} {a.state}_lo={a.lo!r}" for a in plant.ports.adcs]))
     run = run_closed_loop(plant, None, seconds, period=period, plant_name=plant_name, progress=progress,
                           answer=link.answer, count_origin=count_origin)
     link.close(run)
