@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pendc.model.interface import with_unit
 from resumed_runs import interp_window, port_rows, reset_integer, rtl_state
 from tbconfig import CHUNK
 
@@ -215,7 +216,7 @@ def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, 
                 value, found = drift_start(stepper, graph, pos, edge, q)
                 if value is None:
                     tried.append(f"{pos} at the {side} of its range ({edge:g}) with {iface.input.name} = "
-                                 f"{volts[q]:g} {unit}: {found}")
+                                 f"{with_unit(f'{volts[q]:g}', unit)}: {found}")
                     continue
                 start_real = {pos: value}
                 start = {n: reset_integer(graph, n) for n in state_names}
@@ -236,10 +237,12 @@ def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, 
                 return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
                         "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real,
                         "how": f"{pos} drifting out of the {side} of its range from {value:.12g} with "
-                               f"{iface.input.name} = {volts[q]:g} {unit} ({before}; the full push stays in range)"}
+                               f"{iface.input.name} = {with_unit(f'{volts[q]:g}', unit)} ({before}; the full push "
+                               "stays in range)"}
     return {"unreachable": f"no overflow can be provoked: the full push ({iface.input.name} = "
-                           f"{volts[q_full]:g} {unit} for 4 s from reset) stays in range, {before}, and no reported "
-                           "state leaves its range by its own drift under a constant input: " + "; ".join(tried)}
+                           f"{with_unit(f'{volts[q_full]:g}', unit)} for 4 s from reset) stays in range, "
+                           f"{before}, and no reported state leaves its range by its own drift under a constant "
+                           "input: " + "; ".join(tried)}
 
 
 def _edge_of(graph, pos: str) -> float:

@@ -118,8 +118,8 @@ class InputRange:
     def describe(self) -> str:
         """``0-10 V``, or ``±10 V`` for a range symmetric about zero."""
         if self.lo == -self.hi:
-            return f"±{self.hi:g} {self.unit}"
-        return f"{self.lo:g}-{self.hi:g} {self.unit}"
+            return with_unit(f"±{self.hi:g}", self.unit)
+        return with_unit(f"{self.lo:g}-{self.hi:g}", self.unit)
 
 
 @dataclass(frozen=True)
@@ -266,6 +266,11 @@ class PlantInterface:
             if spec.name == name:
                 return spec.meaning
         return default
+
+
+def with_unit(value: str, unit: str) -> str:
+    """``value`` followed by ``unit``, or alone for a dimensionless one ("1"): "0.4", not "0.4 1"."""
+    return value if unit in ("", "1") else f"{value} {unit}"
 
 
 def graph_interface(graph) -> PlantInterface | None:

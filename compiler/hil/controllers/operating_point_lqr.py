@@ -34,6 +34,7 @@ import scipy.linalg
 import sympy as sp
 
 from ...errors import PendcError
+from ...model.interface import with_unit
 from ...model.plant import PlantModel
 from .measurement import FilteredDifference, Measurement
 from ..plants.core_ports import CorePorts
@@ -199,10 +200,10 @@ def linearise_at(model: PlantModel, point: str | None = None, numeric: NumericMo
     worst = int(np.argmax(np.abs(residual) / np.maximum(scale, 1e-300)))
     if not (np.abs(residual[worst]) <= HOLD_TOLERANCE * max(scale[worst], 1e-12) + 1e-12):
         raise PendcError(f"no input holds the plant at the {where}: d{numeric.names[worst]}/dt stays "
-                         f"{residual[worst]:.3g} at the best input ({u0:.4g} {iface.input.unit})")
+                         f"{residual[worst]:.3g} at the best input ({with_unit(f'{u0:.4g}', iface.input.unit)})")
     if not lo - 1e-9 * span <= u0 <= hi + 1e-9 * span:
-        raise PendcError(f"holding the plant at the {where} needs {iface.input.name} = {u0:.4g} "
-                         f"{iface.input.unit}, outside its range [{lo:g}, {hi:g}]")
+        raise PendcError(f"holding the plant at the {where} needs {iface.input.name} = "
+                         f"{with_unit(f'{u0:.4g}', iface.input.unit)}, outside its range [{lo:g}, {hi:g}]")
     n = len(numeric.names)
     A = 0.5 * sum(numeric.jacobian(shifted(sg), u0)[:, :n] for sg in (1.0, -1.0))
     du = span / 40.0
