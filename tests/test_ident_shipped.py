@@ -41,6 +41,18 @@ def test_every_shipped_file_through_fit(capsys, tmp_path):
                         "-o", tmp_path / "fitted.toml")
     assert rc == 0 and _clean(err), err
     lines = out.splitlines()
-    assert lines[0].startswith("before: 0.5 s horizon fit") and "pooled over 6 files" in lines[0]
+    assert lines[0] == "figures on the fit data:"
+    assert lines[1].startswith("before: 0.5 s horizon fit") and "pooled over 6 files" in lines[1]
     assert all(any(f"  {p} (" in line for line in lines) for p in SHIPPED)     # a figure per file
     assert (tmp_path / "fitted.toml").exists()
+
+
+def test_fit_says_which_data_its_figures_are_on(capsys, tmp_path):
+    """With --validate the before/after figures are the held-out file's, and the first line says
+    so (they read as the fit data's before: found by the private check)."""
+    rc, out, err = _run(capsys, "fit", SHIPPED[0], "--free", "b_theta", "--max-evaluations", "3",
+                        "--validate", SHIPPED[1], "-o", tmp_path / "fitted.toml")
+    assert rc == 0 and _clean(err), err
+    lines = out.splitlines()
+    assert lines[0] == f"figures on {SHIPPED[1]} (held out: --validate):"
+    assert lines[1].startswith("before: 0.5 s horizon fit") and "pooled" not in lines[1]     # one file

@@ -229,7 +229,9 @@ def cmd_fit(args) -> int:
     if args.json:
         _dump(out)
         return 0
-    lines = ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
+    judged = ", ".join(args.validate) if args.validate else "the fit data"
+    lines = [f"figures on {judged}" + (" (held out: --validate)" if args.validate else "") + ":"]
+    lines += ["before: " + line for line in _figure_lines(before)] + ["after:  " + line for line in _figure_lines(after)]
     lines += ["before: " + line for line in _figure_lines(free_before)]
     lines += ["after:  " + line for line in _figure_lines(free_after)]
     angles = set(signals_of(model).periodic)
