@@ -41,11 +41,14 @@ class OverflowStop(PendcError):
                          f"the fixed-point results from there on would be wrapped values")
 
 
-def first_overflow(overflows: dict) -> tuple[str, int] | None:
-    """(node, step) of the earliest overflow (ties by name), or None."""
+def first_overflow(overflows: dict, graph=None) -> tuple[str, int] | None:
+    """(node, step) of the earliest overflow, or None. Ties within a step go to the node the step
+    computes first (``graph``'s topological order: the cause, not a sum that inherits its wrapped
+    value; a Cramer numerator's partial sum, not the acceleration it feeds), else by name."""
     if not overflows:
         return None
-    return min(overflows.items(), key=lambda kv: (kv[1], kv[0]))
+    order = {n.name: i for i, n in enumerate(graph.nodes)} if graph is not None else {}
+    return min(overflows.items(), key=lambda kv: (kv[1], order.get(kv[0], len(order)), kv[0]))
 
 
 @dataclass(frozen=True)
@@ -136,7 +139,7 @@ class GoldenModel:
         states = {s: np.asarray(trace.outputs[s], dtype=np.float64)[rows // every] * self.graph.output(s).qformat.lsb
                   for s in self.states}
         result = SimResult(t=t, u=u, states=states, signals=self.signals)
-        first = first_overflow(trace.overflows)
+        first = first_overflow(trace.overflows, self.graph)
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(trace.overflows))
         return GoldenRun(result=result, raw={k: np.asarray(v) for k, v in trace.outputs.items()},
@@ -157,7 +160,7 @@ class GoldenModel:
         stepper.reset(start)
         for i, n in enumerate(steps):
             rows[i + 1] = stepper.advance(int(ints[i]), int(n), every_step=False)[-1, cols]
-        first = first_overflow(stepper.overflows)
+        first = first_overflow(stepper.overflows, self.graph)
         if first is not None and on_overflow == "error":
             raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows))
         states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(self.states)}

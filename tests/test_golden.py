@@ -116,3 +116,17 @@ def test_a_run_started_turns_away_is_the_same_motion(golden):
     for state in ("x", "dx", "dtheta"):
         np.testing.assert_allclose(far.result[state], near.result[state], rtol=0, atol=1e-6, err_msg=state)
     np.testing.assert_allclose(far.result["theta"] - near.result["theta"], 6 * np.pi, rtol=0, atol=1e-7)
+
+
+def test_the_first_overflow_of_a_step_is_the_node_the_step_computes_first():
+    """Two nodes overflow in one step: the message names the one computed first (the partial sum
+    whose wrap the next node inherits), not the one first by name."""
+    from pendc.golden import first_overflow
+    from pendc.ir.graph import Graph
+    from pendc.ir.nodes import Kind, make
+    g = Graph.build("tie", [make("u", Kind.INPUT, port="u"), make("ddx1_acc", Kind.GAIN, ["u"], value=2.0),
+                            make("ddx1", Kind.GAIN, ["ddx1_acc"], value=0.5)], [("ddx1", "ddx1")])
+    overflows = {"ddx1": 7, "ddx1_acc": 7, "u": 9}
+    assert first_overflow(overflows, g) == ("ddx1_acc", 7)
+    assert first_overflow(overflows) == ("ddx1", 7)                 # without the graph: by name
+    assert first_overflow({}) is None

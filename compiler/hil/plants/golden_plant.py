@@ -126,7 +126,7 @@ class GoldenPlant:
         out = self.stepper.advance(self.quantize_input(u), n)
         new = {k: s for k, s in self.stepper.overflows.items() if k not in known}
         if new and self.on_overflow == "error":
-            node, step = first_overflow(new)
+            node, step = first_overflow(new, self.build.graph)
             raise OverflowStop(node, step, self.dt, len(new))
         c = self._col
         for i, e in enumerate(self.ports.encoders):
