@@ -332,3 +332,61 @@ def test_a_state_nothing_reads_and_nothing_reports_is_a_one_line_error():
     text = TANK_FILE + '[states.q]\nunit = "m"\nmeaning = "inflow so far"\nderivative = "u"\noutput = false\n'
     with pytest.raises(PendcError, match=r"^tank\.toml: states\.q: nothing reads it and it is not reported"):
         lower_model(pendc.parse_model(text, "tank.toml"), dt=DT)
+
+
+PIPE = """
+[plant]
+name = "pipes"
+a = 1.0
+[constants]
+a = { unit = "1/s", meaning = "rate" }
+[intermediates]
+q = { value = "FLOW", meaning = "flow" }
+[states.x1]
+unit = "1"
+meaning = "level 1"
+derivative = "u - q"
+initial = 0.5
+[states.x2]
+unit = "1"
+meaning = "level 2"
+derivative = "q - a*x2"
+initial = 0.2
+[inputs.u]
+unit = "1/s"
+meaning = "inflow"
+range = [0.0, 1.0]
+"""
+
+
+def _luts(flow: str):
+    graph = lower_model(pendc.parse_model(PIPE.replace("FLOW", flow)), dt=DT)
+    verify(graph)
+    return graph, graph.of_kind(Kind.LUT)
+
+
+def test_a_function_of_a_difference_is_a_table_of_the_difference():
+    """A flow through a pipe between two levels, smooth at zero (the private check's three
+    tanks): one table of x1 - x2, not the expansion's table of x1^2 - 2 x1 x2 + x2^2 (steep and
+    cancelling near equal levels; the build was refused as a function of several variables)."""
+    graph, luts = _luts("a*(x1 - x2)/((x1 - x2)**2 + 1e-6)**(1/4)")
+    assert len(luts) == 1
+    source = graph[luts[0].inputs[0]]
+    assert source.kind is Kind.SUB and set(source.inputs) == {"x1", "x2"}
+    assert not graph.of_kind(Kind.MUL) or all("x1" not in n.inputs or "x2" not in n.inputs
+                                               for n in graph.of_kind(Kind.MUL))
+    interp = FloatInterpreter(graph)
+    out = interp.run({"u": np.zeros(3)})
+    d = 0.5 - 0.2
+    q = d / (d * d + 1e-6) ** 0.25
+    assert out.outputs["x1"][1] == pytest.approx(0.5 - DT * q, abs=1e-12)
+
+
+def test_a_function_of_a_computed_argument_is_a_table_of_it():
+    """A smooth function of one argument that is not a difference (x1 x2 + 1): the argument is
+    computed, the function is a table of it; a function of two arguments is one line naming
+    where it was."""
+    graph, luts = _luts("a*sqrt(x1*x2 + 1)")
+    assert len(luts) == 1 and graph[luts[0].inputs[0]].kind in (Kind.ADD, Kind.MUL, Kind.GAIN)
+    with pytest.raises(PendcError, match=r"cannot lower .*\(in q\): a smooth function of several variables"):
+        _luts("a*atan2(x1, x2 + 1)")

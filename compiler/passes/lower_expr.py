@@ -119,7 +119,7 @@ class ExpressionLowerer(PeriodicTables):
             return self.emit(Kind.MUX, [self.sign_bit(a), a, self.negated(a)], f"abs_{a}", meaning or f"|{a}|")
         if isinstance(e, sp.sign):
             return self.times_sign(self.const(1.0), e.args[0], hint)
-        return self.sum_of_terms(self.opaque(e), hint, meaning)
+        return self.sum_of_terms(self.differences_named(self.opaque(e)), hint, meaning)
 
     def times_sign(self, y: str, arg, hint: str) -> str:
         """y * sgn(arg) with sgn(0) = 0: sign-bit slice, negate and two muxes."""
@@ -184,10 +184,10 @@ class ExpressionLowerer(PeriodicTables):
                     coeff *= f
                     continue
                 (table_factors if self.smooth_single(f) is not None else rest).append(f)
-            for f in rest:
+            for f in list(rest):
                 if len(f.free_symbols) > 1 and not f.is_polynomial(*f.free_symbols):
-                    raise PendcError(f"cannot lower {f}: a smooth function of several variables "
-                                     f"({', '.join(sorted(map(str, f.free_symbols)))}); tables take one")
+                    rest.remove(f)
+                    table_factors.append(self.of_computed_argument(f, hint))
             variables = sorted({self.smooth_single(f) for f in table_factors}, key=sp.default_sort_key)
             if len(variables) > 1:
                 # a product of functions of several variables (cos(q1)*sin(q2) in a chain of
@@ -227,6 +227,51 @@ class ExpressionLowerer(PeriodicTables):
             else:
                 acc = self.emit(Kind.SUB if negative else Kind.ADD, [acc, part], name_hint, m)
         return acc if acc is not None else self.const(0.0)
+
+    def differences_named(self, e):
+        """``e`` with each linear combination of several variables that is the whole argument of a
+        smooth function (up to that combination: a flow through a pipe, (h1 - h3) /
+        ((h1 - h3)^2 + eps^2)^(1/4)) replaced by a placeholder, computed once: expanding would
+        square h1 and h3 apart and the function would be a table of a difference of products,
+        steep and cancelling, instead of a table of the difference. Periodic angles are left
+        alone (their tables are addressed by phase)."""
+        for f in sp.preorder_traversal(e):
+            if not ((isinstance(f, sp.Pow) and f.exp.is_number and not f.exp.is_integer)
+                    or (isinstance(f, sp.Function) and len(f.args) == 1)) or len(f.free_symbols) < 2:
+                continue
+            arg = f.base if isinstance(f, sp.Pow) else f.args[0]
+            for c in sp.preorder_traversal(arg):
+                # not of periodic angles: cos(q1 - q2) stays a product of tables addressed by phase
+                if (isinstance(c, sp.Add) and len(c.free_symbols) >= 2 and c.is_polynomial(*c.free_symbols)
+                        and not any(v in self.periodic for v in c.free_symbols)
+                        and sp.Poly(c, *c.free_symbols).total_degree() == 1):
+                    if c not in self.opaque_of:
+                        d = sp.Dummy("diff", real=True)
+                        self.opaque_of[c] = d
+                        self.placeholders[d] = c
+                    d = self.opaque_of[c]
+                    if arg.subs(c, d).free_symbols == {d}:
+                        return self.differences_named(e.subs(c, d))
+        return e
+
+    def of_computed_argument(self, f, hint: str):
+        """``f``, a smooth function of one argument that depends on several variables (a flow
+        through a pipe, ((h1 - h3)^2 + eps^2)^(-1/4)), as the same function of a placeholder for
+        that argument: the argument is computed (sums and products), the function is a table of
+        it. A function of several arguments, or a power with a variable exponent, is an error."""
+        if isinstance(f, sp.Pow) and f.exp.is_number:
+            inner, rebuild = f.base, (lambda d: d ** f.exp)
+        elif isinstance(f, sp.Function) and len(f.args) == 1:
+            inner, rebuild = f.args[0], f.func
+        else:
+            raise PendcError(f"cannot lower {f} (in {hint}): a smooth function of several variables "
+                             f"({', '.join(sorted(map(str, f.free_symbols)))}) that is not a function of "
+                             "one computed argument; tables take one")
+        if inner not in self.opaque_of:
+            d = sp.Dummy(f"arg_{hint}", real=True)
+            self.opaque_of[inner] = d
+            self.placeholders[d] = inner
+        return rebuild(self.opaque_of[inner])
 
     def function_factor(self, f):
         """A placeholder symbol standing for ``f``, a smooth function of one variable that is a
