@@ -7,17 +7,7 @@ import pytest
 
 from pendc.backend.emit import render_core
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
-from wrapper_bench import ENCODERS, ROOT, TOOL_PATH, TOPS, default_build, rendered_wrappers, run, tool, write
-
-
-@pytest.fixture(scope="module")
-def build():
-    return default_build()
-
-
-@pytest.fixture(scope="module")
-def rendered(build):
-    return rendered_wrappers(build)
+from wrapper_bench import ENCODERS, ROOT, TOOL_PATH, TOPS, build, rendered, run, tool, write  # noqa: F401 (build, rendered: fixtures)
 
 
 # ---------------------------------------------------------------- register map

@@ -14,17 +14,7 @@ from pendc.golden import GoldenModel
 from pendc.model.interface import InputSpec, PlantInterface, StateSpec
 from pendc.model.sensors import SensorSpec
 from stand_in_core import RAPTOR_SIGNALS, RAPTOR_TASKS, stand_in_core
-from wrapper_bench import ENCODERS, default_build, rendered_wrappers, run, tool, write
-
-
-@pytest.fixture(scope="module")
-def build():
-    return default_build()
-
-
-@pytest.fixture(scope="module")
-def rendered(build):
-    return rendered_wrappers(build)
+from wrapper_bench import ENCODERS, build, rendered, run, tool, write  # noqa: F401 (build, rendered: fixtures)
 
 
 # ---------------------------------------------------------------- simulation

@@ -63,3 +63,15 @@ def write(directory: Path, *file_dicts) -> list:
             (directory / name).write_text(text, encoding="utf-8")
             names.append(name)
     return verilog_names(dict.fromkeys(names))
+
+
+@pytest.fixture(scope="module")
+def build():
+    """:func:`default_build`, once per test module that imports this fixture."""
+    return default_build()
+
+
+@pytest.fixture(scope="module")
+def rendered(build):
+    """:func:`rendered_wrappers` of the module's :func:`build`."""
+    return rendered_wrappers(build)
