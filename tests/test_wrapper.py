@@ -7,7 +7,8 @@ import pytest
 
 from pendc.backend.emit import render_core
 from pendc.backend.wrapper import BUSES, markdown_table, register_map, render_wrapper
-from wrapper_bench import ENCODERS, ROOT, TOOL_PATH, TOPS, build, rendered, run, tool, write  # noqa: F401 (build, rendered: fixtures)
+# build, rendered: fixtures
+from wrapper_bench import ENCODERS, ROOT, TOOL_PATH, TOPS, build, rendered, run, tool, write  # noqa: F401
 
 
 # ---------------------------------------------------------------- register map
