@@ -290,10 +290,10 @@ def test_a_slow_states_working_range_starts_training_runs_at_both_ends():
     assert pendc.parse_model(SLOW_PLANT.replace("RANGE", "range = [223.15, 553.15]")).interface.state(
         "T2").working_range == (223.15, 553.15)
     names = [name for name, _, _ in envelope_runs(ranged)]
-    assert names[-2:] == ["envelope:T2_low", "envelope:T2_high"]
-    assert not any(name.startswith("envelope:T2") for name, _, _ in envelope_runs(plain))
+    assert names[-2:] == ["envelope:range_low", "envelope:range_high"]
+    assert not any(name.startswith("envelope:range") for name, _, _ in envelope_runs(plain))
     starts = {name: g["T2"].params.reset for name, g, _ in envelope_runs(ranged)}
-    assert starts["envelope:T2_low"] == 223.15 and starts["envelope:T2_high"] == 553.15
+    assert starts["envelope:range_low"] == 223.15 and starts["envelope:range_high"] == 553.15
     assert starts["envelope:full_scale_switching"] == pytest.approx(296.15)
     stimulus = {"steps": step_stimulus(duration=0.05)}
     without = analyze_ranges(plain, stimulus, DT)
@@ -302,3 +302,14 @@ def test_a_slow_states_working_range_starts_training_runs_at_both_ends():
     assert with_range["T2"] == pytest.approx(553.15, rel=1e-6)
     assert with_range["d_T2"] == pytest.approx((0.012 + 0.002) * (553.15 - 296.15) / 2.0, rel=1e-3)
     assert with_range["T2_inc"] == pytest.approx(with_range["d_T2"] * DT, rel=1e-9)
+
+
+def test_states_with_a_range_start_at_their_ends_together():
+    """Two ranged states start at their low ends together, then at their high ends (a motor and
+    its load through a gear are not twisted apart by the whole range); unranged ones at initial."""
+    both = SLOW_PLANT.replace("RANGE", "range = [223.15, 553.15]").replace(
+        'initial = "Ta"\n\n[states.T2]', 'initial = "Ta"\nrange = [250.0, 500.0]\n\n[states.T2]')
+    graph = lower_model(pendc.parse_model(both), dt=DT)
+    starts = {name: (g["T1"].params.reset, g["T2"].params.reset) for name, g, _ in envelope_runs(graph)}
+    assert starts["envelope:range_low"] == (250.0, 223.15) and starts["envelope:range_high"] == (500.0, 553.15)
+    assert sum(name.startswith("envelope:range") for name in starts) == 2

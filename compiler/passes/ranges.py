@@ -82,8 +82,9 @@ def envelope_runs(graph: Graph) -> list:
     """Training runs at the corners a controller can reach, beyond the identification stimuli:
     full-scale switching, driving into both track ends, and, for each state whose plant interface
     gives a ``training_rate`` (a pendulum spinning beyond its encoder's limit), a run with that
-    register reset to the rate, and for each state with a ``working_range`` (a thermal mass whose
-    minutes-long time constant the seconds of training never span) a run from each end of it.
+    register reset to the rate, and, when states declare a ``working_range`` (a thermal mass whose
+    minutes-long time constant the seconds of training never span), a run from the low ends of
+    all of them together and one from the high ends.
     Full scale is the plant input's range (0 and 10 V for a graph without a plant interface).
     (name, graph, (t, u)) triples."""
     iface = graph_interface(graph)
@@ -97,13 +98,14 @@ def envelope_runs(graph: Graph) -> list:
                                    if n.name == s.name else n)
         name = "envelope:spin" if len(spun) == 1 else f"envelope:spin:{spec.name}"
         runs.append((name, spinning, full_scale_switching(3.0, seed=10, levels=levels)))
-    for spec in (iface.states if iface else ()):
-        if spec.working_range is None or spec.name not in graph.by_name:
-            continue
-        for end, value in zip(("low", "high"), spec.working_range):
-            started = graph.map_nodes(lambda n, s=spec, v=value: n.with_params(reset=float(v))
-                                      if n.name == s.name else n)
-            runs.append((f"envelope:{spec.name}_{end}", started, full_scale_switching(3.0, seed=11, levels=levels)))
+    # every state with a range starts at the same end of it, together: coupled positions (a motor
+    # and its load through a gear) move as one instead of twisting their coupling by the whole range
+    ranged = {s.name: s.working_range for s in (iface.states if iface else ())
+              if s.working_range is not None and s.name in graph.by_name}
+    for i, end in enumerate(("low", "high") if ranged else ()):
+        started = graph.map_nodes(lambda n, i=i: n.with_params(reset=float(ranged[n.name][i]))
+                                  if n.name in ranged else n)
+        runs.append((f"envelope:range_{end}", started, full_scale_switching(3.0, seed=11, levels=levels)))
     return runs
 
 
