@@ -224,6 +224,30 @@ def test_a_state_gets_guard_bits_below_its_own_increment():
     assert assign_qformats(g, ranges, width=32, widen={"T": 12})["T"].qformat == Q("FIX44_34")
 
 
+def test_hold_seconds_puts_a_ceiling_on_a_states_lsb():
+    """A tank near its equilibrium moves 1e-11 m a step, far below its largest increment: with
+    [hardware] hold_seconds = 60 and a 76 um budget, its LSB is at most 2 * 76e-6 * 1e-6 / 60 =
+    2.5e-12 m, so a creep of its budget over a minute is not rounded away; without, the guard
+    bits alone (1/256 of the largest increment)."""
+    import math
+    from pendc.errors import PendcError
+    from pendc.passes.pipeline import validate_options
+    from pendc.passes.qformats import increment_guard_bits
+    nodes = [make("u", Kind.INPUT, port="u"), make("h_inc", Kind.GAIN, ["u"], value=6.8e-9),
+             make("h", Kind.REGISTER, ["h_sum"], reset=0.07), make("h_sum", Kind.ADD, ["h", "h_inc"])]
+    g = Graph.build("tank", nodes, [("h", "h")])
+    ranges = Ranges(max_abs={"u": 1.0, "h_inc": 6.8e-9, "h": 0.62, "h_sum": 0.62}, lo={}, hi={}, sources=("hand",))
+    ceiling = 2 * 7.57e-5 * 1e-6 / 60
+    plain, held = increment_guard_bits(g, ranges), increment_guard_bits(g, ranges, lsb_ceiling={"h": ceiling})
+    rule = thesis_format(0.62)
+    assert rule.frac + plain["h"] == math.ceil(8 - math.log2(6.8e-9))                  # 1/256 of a step
+    t = assign_qformats(g, ranges, width=32, lsb_ceiling={"h": ceiling})
+    assert t["h"].qformat.lsb <= ceiling < 2 * t["h"].qformat.lsb and held["h"] > plain["h"]
+    with pytest.raises(PendcError, match="hold_seconds must be 0"):
+        validate_options({"hold_seconds": -1.0})
+    assert validate_options({"hold_seconds": 60}).hold_seconds == 60.0
+
+
 def test_hand_graph_mul_cast_and_flags():
     nodes = [make("a", Kind.INPUT, port="u"), make("b", Kind.INPUT, port="w"),
              make("p", Kind.MUL, ["a", "b"]), make("c", Kind.COMPARE, ["a", "b"], op="lt"),

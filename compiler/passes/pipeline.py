@@ -51,6 +51,10 @@ class BuildOptions:
     lut_margin: float = 0.125
     training_scale: float = 1.0
     check_seconds: float = 2.0
+    # > 0: each state's LSB is at most 2 budget dt / hold_seconds, so an increment that would move
+    # the state by its budget over that long is not lost to rounding (a slow plant near its
+    # equilibrium, whose increments are far below its largest, creeps as its float twin does)
+    hold_seconds: float = 0.0
     budget: dict = field(default_factory=dict)   # state -> allowed |fixed - float|; others: the interface's
     error_budget: bool = True
     target: str = "ecp5-85k"          # whose DSP shape the products are fitted to (qformats.MULT_SHAPES)
@@ -183,6 +187,8 @@ def validate_options(values) -> BuildOptions:
                          f"got {addr_bits}")
     if table.get("target", defaults.target) not in MULT_SHAPES:
         raise PendcError(f"[hardware] target must be one of {', '.join(MULT_SHAPES)}, got {table['target']!r}")
+    if table.get("hold_seconds", 0.0) < 0:
+        raise PendcError(f"[hardware] hold_seconds must be 0 (off) or positive, got {table['hold_seconds']!r}")
     for state, value in table.get("budget", {}).items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
             raise PendcError(f"[hardware.budget] {state} must be a positive number (allowed |fixed - float|), "
@@ -229,11 +235,13 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     products = tuple(n.name for n in graph.of_kind(*product_kinds())
                      if n.name not in opt.qformats) if shape else ()
 
+    ceilings = {s: 2.0 * b * opt.dt / opt.hold_seconds for s, b in budgets.items()} if opt.hold_seconds else {}
+
     def typed(widen: dict, addr_bits: dict, levels: dict | None = None) -> Graph:
         g = graph.map_nodes(lambda n: n.with_params(addr_bits=addr_bits[n.name]) if n.name in addr_bits else n)
         g = tabulate_luts(g, ranges, margin=opt.lut_margin) if addr_bits else g
         g = assign_qformats(g, ranges, width=opt.width, margin_bits=opt.margin_bits,
-                            overrides=opt.qformats, widen=widen, shape=shape,
+                            overrides=opt.qformats, widen=widen, shape=shape, lsb_ceiling=ceilings,
                             levels=levels if levels is not None else {p: MAX_LEVEL for p in products})
         if opt.short_chain:     # the same numbers: roundings off the sums, the last term onto the state
             g = add_last_term_to_state(round_operands_early(g))

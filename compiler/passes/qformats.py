@@ -96,7 +96,7 @@ _KIND_FORMAT = _KindFormat()
 
 def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0,
                     overrides: dict | None = None, widen: dict | None = None, shape: tuple | None = None,
-                    levels: dict | None = None) -> Graph:
+                    levels: dict | None = None, lsb_ceiling: dict | None = None) -> Graph:
     """Type every node (see module docstring); returns a new graph. ``shape`` (DSP operand
     widths) and ``levels`` (product -> level, default 0) fit products to the multipliers."""
     levels = dict(levels or {})
@@ -114,7 +114,7 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
         for name in accumulator_chain(graph, reg.name):
             if reg.name in widen and name not in widen:
                 widen[name] = widen[reg.name]
-    for reg, extra in increment_guard_bits(graph, ranges, width, margin_bits).items():
+    for reg, extra in increment_guard_bits(graph, ranges, width, margin_bits, lsb_ceiling).items():
         for name in (reg, *accumulator_chain(graph, reg)):
             widen[name] = max(widen.get(name, 0), extra)
 
@@ -157,14 +157,17 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
 INCREMENT_GUARD_BITS = 8
 
 
-def increment_guard_bits(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0) -> dict:
+def increment_guard_bits(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: int = 0,
+                         lsb_ceiling: dict | None = None) -> dict:
     """Register -> fraction bits to add so that its LSB is at most 2^-INCREMENT_GUARD_BITS of the
     largest increment its accumulating sum adds (the increment's range): a state whose increment
     per step is about one LSB of its rule's format (a thermal mass at 296 K in FIX32_22, LSB
     2.4e-7 K, heated 5e-7 K a step) rounds every increment to 0 or 1 LSB, a bias that the two
     seconds of the error budget's check runs hide and a minute of heating turns into 4 K. With
     256 LSBs to the largest increment the rounding is at most 0.2 % of the state's motion per
-    step at full rate. The shipped plants' states hold their increments in 671 LSBs or more."""
+    step at full rate. The shipped plants' states hold their increments in 671 LSBs or more.
+    ``lsb_ceiling`` (register -> largest LSB, from ``[hardware] hold_seconds``) adds what a state
+    needs for increments far below its largest: a tank near its equilibrium."""
     import math
     out = {}
     for reg in graph.of_kind(Kind.REGISTER):
@@ -172,10 +175,13 @@ def increment_guard_bits(graph: Graph, ranges: Ranges, width: int = 32, margin_b
         increments = [i for n in chain if graph[n].kind in (Kind.ADD, Kind.SUB) and reg.name in graph[n].inputs
                       for i in graph[n].inputs if i != reg.name]
         step = max((ranges.max_abs.get(i, 0.0) for i in increments), default=0.0)
-        if step <= 0.0 or not math.isfinite(step):
+        ceiling = (lsb_ceiling or {}).get(reg.name)
+        if (step <= 0.0 or not math.isfinite(step)) and ceiling is None:
             continue
         rule = thesis_format(ranges.max_abs.get(reg.name, 0.0), width, margin_bits)
-        need = math.ceil(INCREMENT_GUARD_BITS - math.log2(step))
+        need = math.ceil(INCREMENT_GUARD_BITS - math.log2(step)) if step > 0.0 and math.isfinite(step) else 0
+        if ceiling is not None and ceiling > 0.0:
+            need = max(need, math.ceil(-math.log2(ceiling)))
         if need > rule.frac:
             out[reg.name] = min(need - rule.frac, MAX_WIDTH - rule.width)
     return out
