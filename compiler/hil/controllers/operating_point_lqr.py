@@ -193,7 +193,7 @@ def linearise_at(model: PlantModel, point: str | None = None, numeric: NumericMo
     residual = derivatives(u0)
     # each derivative's own scale: what the input moves it by, its size about the point, and the
     # size of the terms the states contribute (|A| |s0|), so an exact equilibrium's rounding (a
-    # buck's dvC/dt = (iL - vC/R)/C at 1e-12 V/s) is held and a tilted beam's g sin(alpha) is not
+    # buck's output voltage derivative at 1e-12 V/s) is held and a ball on a tilted beam is not
     n = len(s0)
     terms = np.abs(0.5 * sum(numeric.jacobian(shifted(sg), u0)[:, :n] for sg in (1.0, -1.0))) @ np.abs(s0)
     scale = np.abs(b) * span + np.abs(d_a) + np.abs(d_b) + np.nan_to_num(terms)
