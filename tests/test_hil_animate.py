@@ -192,14 +192,14 @@ def test_a_run_animates_from_any_folder_with_its_own_model(tmp_path, capsys, mon
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
     capsys.readouterr()
-    assert main(["animate", str(home / "run1" / "run.csv"), "-o", "a.gif"]) == 0
+    assert main(["animate", str(home / "run1" / "run.csv"), "-o", "a.html"]) == 0
     older = home / "run1" / "older.csv"
     older.write_text(header.replace(str(home / "my_cart.toml"), "my_cart.toml"), encoding="utf-8")
     assert read_run(older).meta["model"] == str(home / "my_cart.toml")
     lost = home / "run1" / "lost.csv"
     lost.write_text(header.replace(str(home / "my_cart.toml"), "gone.toml"), encoding="utf-8")
     capsys.readouterr()
-    assert main(["animate", str(lost), "-o", "b.gif"]) == 2
+    assert main(["animate", str(lost), "-o", "b.html"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"pendc: error: {lost}: the run's model 'gone.toml' (its header) is not found; give --model"]
-    assert main(["animate", str(lost), "--model", str(home / "my_cart.toml"), "-o", "c.gif"]) == 0
+    assert main(["animate", str(lost), "--model", str(home / "my_cart.toml"), "-o", "c.html"]) == 0
