@@ -282,3 +282,30 @@ def test_double_pendulum_held_upright_on_the_float_plant():
     lo, hi = controller.input_range
     late = run.t > 2.0
     assert np.mean((run.u[late] <= lo) | (run.u[late] >= hi)) < 0.05
+
+
+def test_the_lqr_weights_can_be_set_by_name(ball_beam, capsys):
+    """--excursion overrides the units' weights (Bryson's rule): a tighter ball position raises
+    its gain, a smaller input excursion (a dearer input) lowers every gain; unknown names and bad
+    values are one line, and only the LQR takes them."""
+    from cli_capture import run_cli
+    from pendc.hil.controllers.controller_spec import make_controller
+    base = OperatingPointLqr(ball_beam, 1e-3)
+    tight = OperatingPointLqr(ball_beam, 1e-3, excursions={"x": 0.002})
+    gentle = OperatingPointLqr(ball_beam, 1e-3, excursions={"u": 0.5})
+    ix = base.states.index("x")
+    assert abs(tight.K[ix]) > 2 * abs(base.K[ix])
+    assert np.all(np.abs(gentle.K) < np.abs(base.K))
+    with pytest.raises(PendcError, match=r"--excursion names 'y', not a state or the input of plant 'ball_beam'"):
+        OperatingPointLqr(ball_beam, 1e-3, excursions={"y": 1.0})
+    with pytest.raises(PendcError, match="--excursion x must be a positive number"):
+        OperatingPointLqr(ball_beam, 1e-3, excursions={"x": -1.0})
+    with pytest.raises(PendcError, match="--excursion sets the weights of --controller lqr, not of 'hold'"):
+        make_controller("hold", ball_beam, excursions={"x": 0.1})
+    rc, _, err = run_cli(capsys, "hil", "--model", BALL_BEAM, "--controller", "lqr", "--excursion", "x=tight",
+                         "--seconds", "0.1")
+    assert rc == 2
+    assert err.strip() == "pendc: error: --excursion takes NAME=VALUE,... (e.g. q1=0.05,tau=0.5), got 'x=tight'"
+    rc, out, _ = run_cli(capsys, "hil", "--model", BALL_BEAM, "--controller", "lqr", "--excursion", "x=0.002,u=5",
+                         "--start", "centred", "--seconds", "2")
+    assert rc == 0 and "from operating point centred" in out

@@ -82,7 +82,7 @@ def cmd_hil(args) -> int:
                          timeout=args.timeout, progress=progress, count_origin=origin,
                          announce=lambda text: print(text, file=sys.stderr, flush=True))
     else:
-        controller = make_controller(args.controller, model, args.period)
+        controller = make_controller(args.controller, model, args.period, excursions=_excursions(args.excursion))
         run = run_closed_loop(plant, controller, args.seconds, period=args.period, plant_name=args.plant,
                               progress=progress, count_origin=origin)
         if isinstance(controller, OperatingPointLqr):
@@ -117,6 +117,22 @@ def cmd_hil(args) -> int:
     return 0
 
 
+def _excursions(text: str | None) -> dict:
+    """``NAME=VALUE,...`` -> {name: float}; a one-line error on a malformed item."""
+    out = {}
+    for item in (text or "").split(","):
+        if not item.strip():
+            continue
+        name, sep, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not name.strip():
+            raise PendcError(f"--excursion takes NAME=VALUE,... (e.g. q1=0.05,tau=0.5), got '{item.strip()}'")
+    return out
+
+
 def cmd_animate(args) -> int:
     from ..hil.animate import animate_run, model_of_run, read_run_input
 
@@ -141,6 +157,9 @@ def add_parsers(sub) -> None:
                         "balance (any plant that is one pendulum on one driven coordinate), lqr (LQR about the plant "
                         "file's first operating point; lqr:NAME about another), hold (any plant: PD on its first "
                         "measured position), or package.module:Class")
+    p.add_argument("--excursion", metavar="NAME=VALUE,...",
+                   help="the LQR's acceptable excursions by name (Bryson's rule), overriding the units' choice: "
+                        "positions, rates and the input, each in its unit, e.g. q1=0.05,dq1=2,tau=0.5")
     p.add_argument("--model", help=MODEL_HELP)
     p.add_argument("--plant", default="float", choices=("float", "golden", "verilator", "icarus"),
                    help="the plant to run against (default float)")

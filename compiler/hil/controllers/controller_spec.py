@@ -39,12 +39,16 @@ BUILTIN_CONTROLLERS = {
 }
 
 
-def make_controller(spec: str, model: PlantModel, period: float = 1e-3, position_ref=0.0):
+def make_controller(spec: str, model: PlantModel, period: float = 1e-3, position_ref=0.0,
+                    excursions: dict | None = None):
     """The controller that ``spec`` names, designed for ``model`` at ``period`` (``position_ref``:
-    the balance's set point of the actuated position)."""
+    the balance's set point of the actuated position; ``excursions``: the LQR's weights by name,
+    :class:`OperatingPointLqr`, for ``lqr`` only)."""
+    if excursions and not (spec == "lqr" or spec.startswith("lqr:")):
+        raise PendcError(f"--excursion sets the weights of --controller lqr, not of '{spec}'")
     if spec == "lqr" or spec.startswith("lqr:"):
         point = spec.partition(":")[2] or None
-        return OperatingPointLqr(model, period, point)
+        return OperatingPointLqr(model, period, point, excursions=excursions)
     if spec == "builtin":
         numeric = NumericModel.of(model)
         try:

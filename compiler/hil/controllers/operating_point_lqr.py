@@ -15,7 +15,9 @@ the control period (zero-order hold), and the gain is the discrete LQR with
 
 * Q from the states' units: a position 1/(0.01 m)^2 or 1/(0.02 rad)^2 (another unit:
   1/(0.01 unit)^2), a rate 1/(0.5 unit/s)^2, any other state 1e-6;
-* R = 1/(span/10)^2 from the input's range (1/(2 V)^2 for +-10 V).
+* R = 1/(span/10)^2 from the input's range (1/(2 V)^2 for +-10 V);
+* either overridden by name (``excursions``, ``pendc hil --excursion q1=0.05,dq1=2,tau=0.5``):
+  each the acceptable excursion of that position, rate or input in its unit (Bryson's rule).
 
 The controller sees what a rig's controller sees: the measured positions (encoders' and
 sampled converters', :attr:`~pendc.hil.plants.core_ports.CorePorts.measured`) and their filtered
@@ -139,15 +141,34 @@ def wrap(error: float, period: float | None) -> float:
     return half - (half - error) % period
 
 
-def state_weights(model: PlantModel, coords: tuple) -> np.ndarray:
-    """Q's diagonal in the model's state order (see the module docstring)."""
+def state_weights(model: PlantModel, coords: tuple, excursions: dict | None = None) -> np.ndarray:
+    """Q's diagonal in the model's state order (see the module docstring); ``excursions`` (state
+    -> acceptable excursion) override the units' choice."""
     states = [s.name for s in model.equations.states]
     q = np.full(len(states), Q_OTHER)
     for c in coords:
         q[c.index] = 1.0 / Q_POSITION.get(c.unit, Q_POSITION_OTHER) ** 2
         if c.rate_index is not None:
             q[c.rate_index] = 1.0 / Q_RATE ** 2
+    for name, value in (excursions or {}).items():
+        if name in states:
+            q[states.index(name)] = 1.0 / float(value) ** 2
     return q
+
+
+def check_excursions(model: PlantModel, excursions: dict | None) -> dict:
+    """``excursions`` checked: each names a state of the model or its input, with a positive
+    finite value; a one-line error otherwise."""
+    names = [s.name for s in model.equations.states] + [model.interface.input.name]
+    out = {}
+    for name, value in (excursions or {}).items():
+        if name not in names:
+            raise PendcError(f"--excursion names '{name}', not a state or the input of plant "
+                             f"'{model.interface.name}' (known: {', '.join(names)})")
+        if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+            raise PendcError(f"--excursion {name} must be a positive number, got {value!r}")
+        out[name] = float(value)
+    return out
 
 
 @dataclass(frozen=True)
@@ -258,7 +279,9 @@ class OperatingPointLqr:
     mode = "lqr"
 
     def __init__(self, model: PlantModel, period: float = 1e-3, point: str | None = None,
-                 velocity_tau: float = VELOCITY_TAU, numeric: NumericModel | None = None):
+                 velocity_tau: float = VELOCITY_TAU, numeric: NumericModel | None = None,
+                 excursions: dict | None = None):
+        excursions = check_excursions(model, excursions)
         numeric = numeric or NumericModel.of(model)
         self.lin = linearise_at(model, point, numeric)
         self.point = self.lin.point
@@ -267,9 +290,10 @@ class OperatingPointLqr:
         iface = model.interface
         self.input_range = (float(iface.input.lo), float(iface.input.hi))
         span = self.input_range[1] - self.input_range[0]
-        self.q = state_weights(model, self.coords)
-        self.r = 1.0 / (R_FRACTION * span) ** 2
-        check_controllable(self.lin, self.q, R_FRACTION * span, iface.name)
+        self.q = state_weights(model, self.coords, excursions)
+        input_excursion = excursions.get(iface.input.name, R_FRACTION * span)
+        self.r = 1.0 / input_excursion ** 2
+        check_controllable(self.lin, self.q, input_excursion, iface.name)
         self.K, self.Ad, self.Bd = discrete_lqr(self.lin.A, self.lin.B, period, self.q, self.r,
                                                 f"operating point '{self.point}' of plant '{iface.name}'")
         self.period = float(period)
