@@ -162,7 +162,9 @@ def _hostile():
         ("extends a missing file", '# values\nextends = "nowhere.toml"\n[plant]\ng = 9.8\n', "nowhere.toml"),
         ("extends and physics", 'extends = "x.toml"\n' + t, "declares no physics"),
         ("shipped plant unknown", '[plant]\nbody = "zeppelin"\ng = 9.8\n', "'zeppelin' is not a shipped plant"),
-        ("inconsistent units", t.replace('force = "F"', 'force = "F + b"'), r"F_x \(the generalized force on x, the sum of the forces acting on it\): inconsistent units: 'F' is kg\*m/s\^2"),
+        ("inconsistent units", t.replace('force = "F"', 'force = "F + b"'),
+         r"F_x \(the generalized force on x, the sum of the forces acting on it\): inconsistent units: "
+         r"'F' is kg\*m/s\^2"),
         ("a force of the wrong unit", t.replace('coefficient = "b"', 'coefficient = "b*M"'),
          "the generalized force on theta has units of"),
         ("unknown unit", t.replace('unit = "N*m*s/rad"', 'unit = "Nm*s/rad"'), "unknown unit 'Nm'"),

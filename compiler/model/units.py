@@ -234,6 +234,18 @@ _DIMENSIONLESS_ARG = (sp.sin, sp.cos, sp.tan, sp.asin, sp.acos, sp.atan, sp.sinh
 _SAME_AS_ARG = (sp.Abs, sp.floor, sp.ceiling)
 
 
+_NAMED = ("N", "J", "W", "V", "ohm", "F", "H", "C", "Pa", "T", "Wb", "S")
+
+
+def shown(dim: Dim) -> str:
+    """``dim`` as a message prints it: in SI base units, and the derived unit's name where one
+    matches (``kg*m^2/(s^3*A) (V)``), since a user wrote volts, not base units."""
+    for name in _NAMED:
+        if parse_unit(name, "") == dim:
+            return f"{dim} ({name})"
+    return str(dim)
+
+
 class _Checker:
     """Works out dimensions; ``None`` stands for a literal zero, which fits any dimension."""
 
@@ -253,8 +265,8 @@ class _Checker:
             if found is None:
                 found = (expr, dim)
             elif dim != found[1]:
-                raise self.fail(f"inconsistent units{what}: '{_text(found[0])}' is {found[1]} "
-                                f"but '{_text(expr)}' is {dim}")
+                raise self.fail(f"inconsistent units{what}: '{_text(found[0])}' is {shown(found[1])} "
+                                f"but '{_text(expr)}' is {shown(dim)}")
         return None if found is None else found[1]
 
     def dimensionless(self, expr, context: str) -> None:
@@ -365,4 +377,4 @@ def check_same(expected: Dim, expr: sp.Basic, dims: Mapping[str, Dim], where: st
     dimension ``expected`` (a zero expression fits any)."""
     got = _Checker(dims, where).dim(_as_sympy(expr))
     if got is not None and got != expected:
-        raise PendcError(f"{where}: {what} has units of {got}, expected {expected}")
+        raise PendcError(f"{where}: {what} has units of {shown(got)}, expected {shown(expected)}")
