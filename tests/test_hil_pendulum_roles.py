@@ -160,3 +160,18 @@ def test_the_lqr_holds_the_furuta_upright_in_the_golden_model(furuta, furuta_con
     last = run.t >= BALANCE_SECONDS - 1.0
     assert np.max(np.abs(phi[last])) <= 5 * enc.resolution       # held within 5 counts (15 mrad)
     assert np.max(np.abs(run.column(c.actuated))) < 0.5          # the arm stays within 0.5 rad
+
+
+def test_an_angle_the_input_drives_is_no_pendulum():
+    """Two rotors, one input driving both, a spring restoring one: the sprung angle is driven, so
+    no pendulum; builtin is the LQR about the operating point (it took the sprung angle for a
+    pendulum and stopped: 'the pendulum ... is not at rest at 3.14159 rad')."""
+    from pendc.hil.controllers.operating_point_lqr import OperatingPointLqr
+    from pendc.hil.controllers.pendulum_roles import driven_positions
+    model = load_model(str(Path(__file__).parent / "data" / "two_driven_rotors.toml"))
+    assert driven_positions(model) == {"a", "b"}
+    with pytest.raises(PendcError, match="0 of them is such an angle"):
+        pendulum_roles(model)
+    assert isinstance(make_controller("builtin", model), OperatingPointLqr)
+    cart = load_model()
+    assert driven_positions(cart) == {"x"} and pendulum_roles(cart).pendulum.position == "theta"

@@ -7,8 +7,9 @@ The plant interface gives the measured positions (its encoders' states), their r
 (``derivative_of``), units and periods; which of the two is the pendulum is physics, read off
 the model's own equations: the pendulum's angle is the measured *periodic* position that
 gravity restores (its acceleration at rest falls as the angle grows: d²q/dt² = -k q with
-k > 0), the actuated one is the other measured position (a cart or an arm, on which gravity
-does not act). The angle counts from hanging down, so the upright is half a turn away.
+k > 0) and whose generalized force the input does not enter (:func:`driven_positions`), the
+actuated one is the other measured position (a cart or an arm, on which gravity does not act).
+The angle counts from hanging down, so the upright is half a turn away.
 """
 
 from __future__ import annotations
@@ -67,6 +68,20 @@ def _coordinate(iface, numeric: NumericModel, position: str) -> Coordinate:
                       numeric.index(position), numeric.index(rate.name))
 
 
+def driven_positions(model: PlantModel) -> set:
+    """The positions whose generalized force the input enters (directly or through intermediates
+    and effects such as a drive law): a pendulum is not one of them, however gravity acts on it
+    (a helicopter's pitch, driven by its rotor, is not the pendulum of its yaw)."""
+    d = model.definition
+    depends = {model.interface.input.name}
+    for sym, expr in model.equations.assignments:
+        if {str(x) for x in expr.free_symbols} & depends:
+            depends.add(sym.name)
+    forces = {c.name: c.force for c in d.coordinates}
+    forces.update({s.rate_of: s.force for s in d.states if s.rate_of and s.force})
+    return {position for position, force in forces.items() if force in depends}
+
+
 def restoring_stiffness(numeric: NumericModel, coord: Coordinate) -> float:
     """-d(acceleration)/d(position) of ``coord`` at rest (every state 0, no input): positive
     for a pendulum hanging under gravity, zero for a free cart or arm."""
@@ -85,7 +100,9 @@ def pendulum_roles(model: PlantModel, numeric: NumericModel | None = None) -> Pe
     iface = model.interface
     numeric = numeric or NumericModel.of(model)
     measured = [_coordinate(iface, numeric, s.state) for s in iface.sensors]
-    pendulums = [c for c in measured if c.period is not None and restoring_stiffness(numeric, c) > 0]
+    driven = driven_positions(model)
+    pendulums = [c for c in measured if c.period is not None and c.position not in driven
+                 and restoring_stiffness(numeric, c) > 0]
     others = [c for c in measured if c not in pendulums]
     if len(measured) != 2 or len(pendulums) != 1:
         what = ", ".join(c.position for c in measured) or "nothing"
