@@ -155,8 +155,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--controller",
                    help="builtin (default: swing-up + LQR balance on a single pendulum, else lqr), swing-up, "
                         "balance (any plant that is one pendulum on one driven coordinate), lqr (LQR about the plant "
-                        "file's first operating point; lqr:NAME about another), hold (any plant: PD on its first "
-                        "measured position), or package.module:Class")
+                        "file's first operating point; lqr:NAME about another), hold (PD on the first measured "
+                        "position, of a plant whose position has a rate), or package.module:Class")
     p.add_argument("--excursion", metavar="NAME=VALUE,...",
                    help="the LQR's acceptable excursions by name (Bryson's rule), overriding the units' choice: "
                         "positions, rates and the input, each in its unit, e.g. q1=0.05,dq1=2,tau=0.5")

@@ -302,8 +302,11 @@ def _sensors(top: TableReader, states, rates=()) -> tuple:
             s.fail(f"names unknown position '{state}' (known: {', '.join(states)})", "state")
         out.append(SensorDecl(name, state, kind, s.number("band", required=True, positive=True),
                               s.integer("lines", required=True), s.integer("bands_per_rev", required=True)))
-    if len({s.state for s in out}) != len(out):
-        r.fail("two sensors read the same state")
+    seen = {}
+    for s in out:
+        if s.state in seen:
+            r.fail(f"{seen[s.state]} and {s.name} both read '{s.state}' (one sensor a state)")
+        seen[s.state] = s.name
     return tuple(out)
 
 

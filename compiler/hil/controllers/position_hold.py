@@ -77,7 +77,9 @@ class PositionHold:
             raise PendcError(f"no encoder reads '{self.state}' (measured: {', '.join(read)})")
         rate = next((s.name for s in iface.states if s.derivative_of == self.state), None)
         if rate is None:
-            raise PendcError(f"the plant interface names no rate of '{self.state}'")
+            raise PendcError(f"--controller hold holds a measured position through its rate (a PD on its "
+                             f"acceleration); plant '{iface.name}' measures '{self.state}', which is no state's "
+                             f"rate_of (a first-order plant: use --controller lqr at an operating point)")
         self.u0, self.b, self.a = rest_response(model, rate)
         self.omega, self.zeta = float(omega), float(zeta)
         self.target = target if callable(target) else (lambda t, v=float(target): v)
