@@ -131,6 +131,9 @@ def _hostile():
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
+        ("two sensors on one state", t.replace("[sensors.enc_theta]", '[sensors.enc_x2]\nstate = "x"\nband = 1e-4\n'
+                                               'lines = 1000\nbands_per_rev = 2000\n\n[sensors.enc_theta]'),
+         r"sensors: enc_x and enc_x2 both read 'x'"),
         ("sensor band zero", t.replace("band = 1e-4", "band = 0.0"), r"sensors\.enc_x\.band: must be positive"),
         ("sensor of an unknown kind", t + _ADC.replace('"adc"', '"sar"'), r"sensors\.adc_v\.kind: unknown sensor kind 'sar'"),
         ("converter without bits", t + _ADC.replace("bits = 12\n", ""), r"sensors\.adc_v\.bits: is missing"),
