@@ -90,3 +90,28 @@ def test_complete_model_of_the_shipped_two_effect_data_is_at_the_noise_level():
     complete = noise_ratio(spring.with_effect("coulomb_pendulum", {"tau_c": 0.004}), [data])
     assert max(complete.values()) <= NOISE_FACTOR, complete
     assert noise_ratio(spring, [data])["theta"] > 5 * NOISE_FACTOR     # the pivot friction is still missing
+
+
+def test_an_effect_on_the_input_is_a_candidate_and_one_asked_for_is_never_dropped_silently():
+    """A state-form DC motor whose catalogue has a dead zone on its input: with nothing held the
+    input moves every part, so the dead zone is a candidate (a state-form ladder's was left out,
+    and `--effects input_dz` then scored nothing and said nothing: the private check); an effect
+    the model has already is left out with its reason."""
+    from pathlib import Path
+    import numpy as np
+    from pendc.ident.diagnose import candidate_effects, exclusions
+    from pendc.model.modelfile import parse_model
+    from pendc.sim.simulator import Simulator
+    text = (Path(__file__).parent / "plant_dc_motor.toml").read_text(encoding="utf-8") + (
+        '\n[catalogue.input_dz]\nkind = "dead_zone"\non = "v"\nwidth = "v_dz"\n'
+        'params.v_dz = { unit = "V", default = 0.3, bounds = [0.0, 2.0], meaning = "driver dead zone" }\n')
+    model = parse_model(text)
+    t = np.arange(0, 0.5 + 1e-9, 1e-3)
+    u = 0.5 * np.sin(2 * np.pi * 8 * t)
+    run = Simulator(model, dt=1e-4, method="rk4")(t, u)
+    from pendc.sim.readers import ReadOptions
+    data = parse_measurements(format_csv({"t": t, "v": u, "phi": run["phi"]}), source="motor.csv",
+                              options=ReadOptions(plant=model))
+    assert "input_dz" in candidate_effects(model, [data])
+    why = exclusions(model, [data])
+    assert why["input_dz"] is None and why["bearing"] == "the model has it already"

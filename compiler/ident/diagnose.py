@@ -92,7 +92,8 @@ class Diagnosis:
 
 def visible_parts(datasets: list, outputs=None, model=None) -> set:
     """What the compared outputs of ``datasets`` can see: the positions compared and the
-    bodies they belong to (the names the plant file declares)."""
+    bodies they belong to (the names the plant file declares), and with nothing held the input
+    (an effect on it, a dead zone, moves every part)."""
     from ..model.equations import DEFAULT_EXPERIMENT
 
     plan = plan_outputs(datasets, outputs, model)
@@ -102,6 +103,7 @@ def visible_parts(datasets: list, outputs=None, model=None) -> set:
         seen |= set(used)
         if experiment_of(data, model) == DEFAULT_EXPERIMENT:
             seen |= {sig.body_of(p) for p in sig.positions}    # coupled: each part moves the other
+            seen |= {i.name for i in model.interface.inputs}   # the input drives them all: its effects show
         else:
             seen |= {sig.body_of(p) for p in used}
     return seen
@@ -119,24 +121,30 @@ def candidate_effects(model: PlantModel, datasets: list | None = None, outputs=N
     """Catalogue effects the model lacks and could take (no conflict, requirements met) and,
     given data, that the data could show (a sensor offset only where :func:`offset_blindness`
     finds physics that reveals it)."""
+    return [name for name, why in exclusions(model, datasets, outputs).items() if why is None]
+
+
+def exclusions(model: PlantModel, datasets: list | None = None, outputs=None) -> dict:
+    """Every catalogue effect -> why :func:`candidate_effects` leaves it out (None: a candidate)."""
     seen = visible_parts(datasets, outputs, model) if datasets else None
     reach = _reach(datasets, model)
     positions = signals_of(model).positions
-    out = []
+    out = {}
     for name, cls in _catalogue(model).items():
+        why = None
         if name in model.effects:
-            continue
-        if seen is not None and cls.acts_on not in seen:
-            continue
-        if _out_of_reach(model, name, datasets):
-            continue
-        if any(name in (a, b) and (b if name == a else a) in model.effects for a, b, _ in _conflicts(model)):
-            continue
-        if any(not any(r in model.effects for r in alts) for alts in cls.requires):
-            continue
-        if cls.acts_on in positions and datasets and offset_blindness(model, datasets, cls.acts_on, reach):
-            continue
-        out.append(name)
+            why = "the model has it already"
+        elif seen is not None and cls.acts_on not in seen:
+            why = f"it acts on {cls.acts_on}, which the data do not show"
+        elif _out_of_reach(model, name, datasets):
+            why = "it acts beyond a threshold the data never come near"
+        elif any(name in (a, b) and (b if name == a else a) in model.effects for a, b, _ in _conflicts(model)):
+            why = "it conflicts with an effect the model has"
+        elif any(not any(r in model.effects for r in alts) for alts in cls.requires):
+            why = "it needs an effect the model lacks"
+        elif cls.acts_on in positions and datasets and offset_blindness(model, datasets, cls.acts_on, reach):
+            why = f"nothing in the data reveals an offset of {cls.acts_on}"
+        out[name] = why
     return out
 
 
@@ -295,6 +303,10 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
             raise PendcError(f"unknown effect(s) {', '.join(unknown)} (the catalogue has: {', '.join(catalogue)})")
         names = [n for n in names if n in effects]
         skipped = [n for n in skipped if n.split(" ", 1)[0] in effects]
+        why = exclusions(model, datasets, outputs)
+        # an effect asked for by name and left out is said, never silently dropped
+        skipped += [f"{e} is not tested: {why[e]}" for e in effects
+                    if e not in names and why.get(e) and not any(n.split(" ", 1)[0] == e for n in skipped)]
     jobs = [(model, datasets, name, dt, segment, outputs) for name in names]
     results = []
     if workers > 1 and len(jobs) > 1:
