@@ -102,3 +102,16 @@ def test_the_builtin_swing_up_brings_a_lightly_damped_qube_up(furuta):
     assert summary["upright_at_s"] is not None and summary["upright_at_s"] < 3.0, summary
     shipped = run_closed_loop(make_plant("float", furuta), make_controller("builtin", furuta), 5.0)
     assert np.max(np.abs(getattr(shipped, shipped.angle))) < 2.0
+
+
+def test_upright_guides_only_where_the_angle_comes_near_one():
+    """run.png marks a pendulum angle's uprights within half a turn of where it goes, and none for
+    an angle held near 0 (a helicopter's yaw, drawn flat between guides at -pi and 3 pi: the
+    private check)."""
+    import math
+    import numpy as np
+    from pendc.hil.records import upright_guides
+    assert upright_guides(np.linspace(-0.05, 0.05, 50)) == []
+    assert upright_guides(np.linspace(0.0, math.pi, 50)) == pytest.approx([-math.pi, math.pi])
+    assert upright_guides(np.linspace(-0.5, 7.5, 50)) == pytest.approx([-math.pi, math.pi, 3 * math.pi])
+    assert upright_guides([]) == []

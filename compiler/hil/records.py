@@ -83,6 +83,20 @@ def write_run(folder, run: HilRun, meta: dict | None = None, plot: bool = True, 
     return summary
 
 
+def upright_guides(column) -> list:
+    """The upright positions ((2k + 1) pi) to mark on a plot of a pendulum angle: those within half
+    a turn of the values it takes, and none when the angle never comes within 0.5 rad of one (a
+    helicopter's yaw held near 0 was drawn flat between guides at -pi and 3 pi)."""
+    from .controllers.measurement import wrap_upright
+    column = np.asarray(column, dtype=float)
+    if not column.size or min(abs(wrap_upright(v)) for v in column) >= 0.5:
+        return []
+    lo, hi = float(column.min()), float(column.max())
+    first, last = math.ceil((lo - 2 * math.pi) / (2 * math.pi)), math.floor(hi / (2 * math.pi))
+    return [(2 * k + 1) * math.pi for k in range(first, last + 1)
+            if lo - math.pi <= (2 * k + 1) * math.pi <= hi + math.pi]
+
+
 def plot_png(run: HilRun, title: str = "") -> bytes:
     """Each measured position and the input over time (a periodic angle with its upright
     positions dotted and the upright periods marked), balance periods shaded."""
@@ -99,10 +113,10 @@ def plot_png(run: HilRun, title: str = "") -> bytes:
     for ax, (state, column) in zip(axes, run.positions):
         ax.plot(t, column, lw=0.8)
         ax.set_ylabel(f"{state} ({units.get(state, '')})")
-        if state == run.angle:
-            turns = int(np.max(np.abs(column)) // (2 * math.pi)) + 1 if len(column) else 1
-            for k in range(-turns, turns + 1):   # the upright positions within the run's range
-                ax.axhline((2 * k + 1) * math.pi, color="grey", lw=0.5, ls=":")
+        guides = upright_guides(column) if state == run.angle else []
+        for y in guides:
+            ax.axhline(y, color="grey", lw=0.5, ls=":")
+        if guides:
             upright = np.abs(np.array([wrap_upright(v) for v in column])) < 0.05
             if upright.any():
                 ax.plot(t[upright], column[upright], ".", ms=1, color="tab:orange")
