@@ -49,6 +49,7 @@ SLOWEST_FIRST = (
     "test_fuzz_engine.py",          # ~35 s: fuzz batches on 1 and 2 Dask workers
     "test_sim_shared_multipliers.py",   # 57 s: tb/run.py on a quick model, small preset, Icarus
     "test_make_sim.py",             # ~45 s (estimated): make sim on the QUBE (its vectors)
+    "test_quick_deposits.py",       # 32 s (a5d7840, clean clone): a private-check plant's cold build, Icarus core tests
     "test_new_plants.py",           # ~40 s (estimated): the double pendulum's short build
     "test_narrow_products.py",      # the thesis build's held-out check; its compile is test_sim's, cached by then
     "test_cli_ident.py",            # 100 s at 4368da0 (cold cache, 2 workers; so are the new entries below)
