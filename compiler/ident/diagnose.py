@@ -295,7 +295,8 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     the candidates to those named (each still subject to the checks of
     :func:`candidate_effects`); ``workers`` > 1 tests candidates in parallel processes;
     ``progress(done, total, name)`` is called after each candidate."""
-    names, skipped = candidate_effects(model, datasets, outputs), offset_notes(model, datasets, outputs)
+    why = exclusions(model, datasets, outputs)
+    names, skipped = [n for n, w in why.items() if w is None], offset_notes(model, datasets, outputs)
     if effects is not None:
         catalogue = _catalogue(model)
         unknown = [e for e in effects if e not in catalogue]
@@ -303,7 +304,6 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
             raise PendcError(f"unknown effect(s) {', '.join(unknown)} (the catalogue has: {', '.join(catalogue)})")
         names = [n for n in names if n in effects]
         skipped = [n for n in skipped if n.split(" ", 1)[0] in effects]
-        why = exclusions(model, datasets, outputs)
         # an effect asked for by name and left out is said, never silently dropped
         skipped += [f"{e} is not tested: {why[e]}" for e in effects
                     if e not in names and why.get(e) and not any(n.split(" ", 1)[0] == e for n in skipped)]

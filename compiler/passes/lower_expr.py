@@ -245,12 +245,10 @@ class ExpressionLowerer(PeriodicTables):
                 if (isinstance(c, sp.Add) and len(c.free_symbols) >= 2 and c.is_polynomial(*c.free_symbols)
                         and not any(v in self.periodic for v in c.free_symbols)
                         and sp.Poly(c, *c.free_symbols).total_degree() == 1):
-                    if c not in self.opaque_of:
-                        d = sp.Dummy("diff", real=True)
+                    d = self.opaque_of.get(c) or sp.Dummy("diff", real=True)
+                    if arg.subs(c, d).free_symbols == {d}:      # registered only when it is used
                         self.opaque_of[c] = d
                         self.placeholders[d] = c
-                    d = self.opaque_of[c]
-                    if arg.subs(c, d).free_symbols == {d}:
                         return self.differences_named(e.subs(c, d))
         return e
 
