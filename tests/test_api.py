@@ -81,12 +81,9 @@ def test_compare_reads_other_formats_and_models_side_by_side(swing, lab, tmp_pat
         pendc.compare(lab, [])
 
 
-def test_diagnose_ranks_the_missing_damping(swing, lab, monkeypatch):
+def test_diagnose_ranks_the_missing_damping(swing, lab):
     """Two candidates only (the full catalogue takes a minute): pivot damping must beat an encoder offset."""
-    from pendc.ident import diagnose as module
-    monkeypatch.setattr(module, "candidate_effects", lambda model, datasets, outputs=None:
-                        ["viscous_pendulum", "theta_offset"])
-    d = pendc.diagnose(lab, swing)
+    d = pendc.diagnose(lab, swing, effects="viscous_pendulum,theta_offset")
     assert [c.effect for c in d.candidates] == ["viscous_pendulum", "theta_offset"]
     assert d.candidates[0].score > 0.5 and not d.unexplained
 
