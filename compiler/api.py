@@ -48,8 +48,9 @@ def _as_list(x) -> list:
     return list(x) if isinstance(x, (list, tuple)) else [x]
 
 
-def _datasets(data, reading: dict) -> list:
-    """Measurements from Measurements or paths; paths are read with ``ReadOptions(**reading)``."""
+def _datasets(data, reading: dict, model=None) -> list:
+    """Measurements from Measurements or paths; paths are read with ``ReadOptions(**reading)``,
+    for the signals of ``model`` unless ``reading`` names a ``plant``."""
     from .errors import PendcError
     from .sim.measurements import Measurement, read_measurements
     from .sim.readers import ReadOptions
@@ -58,7 +59,7 @@ def _datasets(data, reading: dict) -> list:
     if not items:
         raise PendcError("no data given")
     # the same rig-limit checks as the commands (millimetres, millivolts, outliers are refused)
-    options = ReadOptions(**{"uniform": True, "plausible": True, **reading})
+    options = ReadOptions(**{"uniform": True, "plausible": True, "plant": model, **reading})
     out = []
     for d in items:
         if isinstance(d, Measurement):
@@ -141,7 +142,7 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
     given = _as_list(model)
     models = [_model(m) for m in given]
     uncertainties = [load_fit_uncertainty(m) if isinstance(m, (str, os.PathLike)) and band else None for m in given]
-    datasets = _datasets(data, reading)
+    datasets = _datasets(data, reading, models[0] if models else None)
     with np.errstate(all="ignore"):   # undefined figures are NaN by design, never a warning
         return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels,
                                             outputs=None if outputs is None else tuple(_as_list(outputs)),
@@ -173,7 +174,7 @@ def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, s
     from .ident.diagnose import diagnose as run
 
     m = _model(model)
-    datasets = _datasets(data, reading)
+    datasets = _datasets(data, reading, m)
     with np.errstate(all="ignore"):
         return run(m, datasets, dt=dt, segment=segment, workers=workers,
                    outputs=None if outputs is None else tuple(_as_list(outputs)),
@@ -238,8 +239,8 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
     from .ident.shooting import horizon_figures
 
     m = _model(model)
-    datasets = _datasets(data, reading)
-    checks = _datasets(validate, reading) if validate is not None else datasets
+    datasets = _datasets(data, reading, m)
+    checks = _datasets(validate, reading, m) if validate is not None else datasets
     wanted = None if outputs is None else tuple(_as_list(outputs))
     with np.errstate(all="ignore"):
         before = horizon_figures(m, checks, outputs=wanted)
@@ -248,7 +249,7 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
         for effect in added:
             if effect not in m.effects:   # as pendc fit: adding what is there means fitting it
                 m = m.with_effect(effect)
-        names = list(dict.fromkeys([p for e in added for p in free_parameters(e)] + _names(free))) or list(m.free)
+        names = list(dict.fromkeys([p for e in added for p in free_parameters(e, m)] + _names(free))) or list(m.free)
         if not names:
             raise PendcError("nothing to fit: name effects with add= or parameters with free=")
         result = fit_parameters(m, datasets, names, max_evaluations=max_evaluations, outputs=wanted)

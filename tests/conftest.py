@@ -66,6 +66,8 @@ SLOWEST_FIRST = (
     "test_simulator.py",            # 28 s
     "test_pipeline.py",             # 25 s
     "test_fit.py",                  # 24 s
+    "test_start_rates.py",          # 16 s: a coarse encoder's compare and fit (independent data)
+    "test_fast_plants.py",          # 13 s: an RLC ladder at 10 kHz: compare, diagnose, fit, plant check
     "test_sim_debug_status.py",     # 24 s
     "test_fuzz_backend.py",         # 20 s
     "test_furuta_build.py",         # a few s: the Furuta build test_emit.py compiled (the build cache)

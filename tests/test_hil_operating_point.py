@@ -248,7 +248,8 @@ def test_one_line_errors(tmp_path, ball_beam):
         make_controller("lqr:nowhere", ball_beam)
     tilted = _variant(tmp_path, 'centred = { x = "0", theta = "0" }',
                       'centred = { x = "0", theta = "0" }\ntilted = { theta = "0.1" }')
-    with pytest.raises(PendcError, match="no input holds the plant at the operating point 'tilted'"):
+    with pytest.raises(PendcError, match="no input holds the plant at the operating point 'tilted' of plant 'ball_beam': the rate "
+                       "of change of dx stays"):
         OperatingPointLqr(tilted, point="tilted")
     unseen = _variant(tmp_path, '[sensors.adc_x]\nkind = "adc"\nstate = "x"\nbits = 12\nrange = [-0.212725, 0.212725]\n',
                       "")

@@ -103,10 +103,15 @@ def cmd_diagnose(args) -> int:
         lines.append(f"Nothing systematic left: the remaining error is at the noise level of the measurement "
                      f"chain (encoder quantisation and input noise; residual / noise-only residual: {ratio}).")
     elif d.unexplained:
-        lines.append("No catalogue effect explains the error (the best removes less than half of it), and it is "
+        why = "the best removes less than half of it" if d.candidates else "no candidate was tested"
+        lines.append(f"No catalogue effect explains the error ({why}), and it is "
                      f"above the noise level ({ratio} the noise-only residual).")
-        lines.append("The unexplained acceleration correlates with:")
-        lines += [f"  {r['target']:21s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
+        if d.correlations:
+            lines.append("The unexplained acceleration correlates with:")
+            lines += [f"  {r['target']:21s} ~ {r['signal']:20s} r = {r['r']:+.2f}" for r in d.correlations]
+        else:
+            lines.append("No equation error to correlate: it is the acceleration of a measured position with a "
+                         "rate state, and these data have none.")
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}.")
             lines.append("Tested, each freed alone (a short 0.5 s horizon fit): "

@@ -175,6 +175,8 @@ def cmd_plant_check(args) -> int:
     import sympy as sp
 
     from ..model.modelfile import load_model
+    from ..model.modes import euler_note
+    from ..passes.pipeline import options_from_model
 
     model = load_model(args.file)
     d, eq, iface = model.definition, model.equations, model.interface
@@ -204,5 +206,6 @@ def cmd_plant_check(args) -> int:
         out.append(f"  {ddt}{show(state)} = {show(derivative)}")
     if eq.velocity_bound is not None:
         out.append(f"  after each step: |rate| <= {show(eq.velocity_bound)}")
+    out.append(euler_note(model, options_from_model(model).dt))
     sys.stdout.write("\n".join(out) + "\n")
     return 0

@@ -36,6 +36,8 @@ def cmd_simulate(args) -> int:
     from ..atomic import check_file_output
     from ..sim.signals import TIME
     from ..sim.simulator import Simulator, sensor_offsets
+    from ..model.modes import euler_shortfall
+    from .data import note
     from .options import build_model, write_output
 
     if args.output not in (None, "-"):
@@ -77,6 +79,9 @@ def cmd_simulate(args) -> int:
         if args.on_overflow != "error":
             raise PendcError("--on-overflow applies to --fixed runs (the float model has no formats)")
         sim = Simulator(model, dt=args.dt, method=args.method)
+        shortfall = euler_shortfall(model, args.dt) if args.method == "euler" else None
+        if shortfall:
+            note(shortfall)
         result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
         columns = result.columns()
         method, dt = args.method, args.dt

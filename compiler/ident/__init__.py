@@ -17,6 +17,7 @@ One line per module:
 * :mod:`.outputs` - which outputs are compared and how each is weighted (spread vs resolution);
 * :mod:`.shooting` - the multiple-shooting residual, each file under its own experiment;
 * :mod:`.smoothing` - the derivative filters (velocities, accelerations from encoder positions);
+* :mod:`.start_rates` - start rates from a segment's own samples where a coarse sensor's filter fails;
 * :mod:`.units` - how reports print a signal by its interface unit (mm, mrad, rad);
 * :mod:`.fit` - bounded parameter fit with intervals and refusal of what the data do not identify;
 * :mod:`.diagnose` - which catalogue effect is missing: fit on half the data, score on the other;

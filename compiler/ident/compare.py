@@ -45,9 +45,10 @@ from ..sim.measurements import Measurement
 from ..sim.signals import signals_of
 from ..sim.simulator import SimResult, Simulator
 from . import headline as hl
-from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, measured_motion
+from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, integration_step, measured_motion
 from .outputs import experiment_of, plan_outputs
 from .smoothing import SAVGOL_WINDOW, estimate_velocities
+from .start_rates import data_start_fit, free_run_start
 from .regimes import CENTRE_NAME, centre_and_name, input_centre, regime_partitions, regimes, wrap_angle  # noqa: F401
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
                         autocorrelation, cross_correlation, decimate, whiteness)
@@ -257,7 +258,7 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
         regimes=regimes(residual, partitions),
         whiteness=whiteness(t, white_input, u, input_missing=sig.input in missing),
         measured={**y, **({lead_rate: lead_velocity} if lead_rate else {})},
-        model=model, data_source=data.source, dt=float(dt), method=method, v_off=v_off, centre_name=centre_name,
+        model=model, data_source=data.source, dt=sim.dt, method=method, v_off=v_off, centre_name=centre_name,
         motion_source=motion_source,
         outputs=outputs, experiment=model.experiment, free_residual=free_residual, fit_wrapped=wrapped_fit,
         turns=turns, turn_time=turn_time, horizon_run=hrun, headline=head, residual_of=residual_of,
@@ -284,9 +285,11 @@ def _free_run(model, data, dt, method, outputs, horizon) -> tuple:
     outputs = plan.outputs[0]
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
-    sim = Simulator(model, dt=dt, method=method)
+    sim = Simulator(model, dt=integration_step(dt, t), method=method)
     position, velocity = measured_motion(data, model)
     x0 = sim.true_state(sim.initial_vector(position, velocity, 0))
+    # a coarse sensor's rate at the first sample: from the first samples, with the model
+    x0 = free_run_start(sim, t, u, x0, data_start_fit(sim, data, model, position, outputs))
     run = sim(t, u, x0=tuple(x0))
 
     def free_run(start) -> dict:
@@ -297,7 +300,7 @@ def _free_run(model, data, dt, method, outputs, horizon) -> tuple:
         twin = hl.twin_fit(free_run, x0, y, sim.signals)
     except PendcError:                 # a twin run that diverges: the free run is as sensitive as can be
         twin = {k: -math.inf for k in outputs}
-    head = hl.choose(twin, horizon, controller=(data.meta or {}).get("controller"))
+    head = hl.choose(twin, horizon, controller=(data.meta or {}).get("controller"), signals=sim.signals)
     return model, plan, outputs, t, u, y, sim, x0, run, head
 
 

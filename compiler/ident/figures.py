@@ -16,6 +16,7 @@ import numpy as np
 from ..model.plant import PlantModel
 from ..sim.simulator import Simulator
 from .shooting import ShootingProblem, horizon_figures
+from .start_rates import free_run_start, start_fit
 
 
 def _fit(err: np.ndarray, y: np.ndarray) -> float:
@@ -32,9 +33,11 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
     problem = ShootingProblem(model, datasets, [], dt=dt, segment=1e9, outputs=outputs)
     files, num, den, wrapped_sq, wrapped_n = [], {}, {}, 0.0, 0
     for rec in problem.records:
-        sim = problem.sims[rec.experiment]
+        sim = problem.sim_for(rec)
         p = sim.param_vector
         s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0), p)
+        refine = start_fit(sim, rec.t, rec.positions, rec.estimated, rec.outputs, problem.resolution, problem.scales)
+        s0 = free_run_start(sim, rec.t, rec.u, s0, refine)
         states, valid = sim.raw(rec.t, rec.u, s0, p)
         off = sim.offset_values(p)
         fit, extra = {}, {}

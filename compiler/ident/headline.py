@@ -9,7 +9,7 @@ measures chaos, not the model, and it can go down when the model gets better (th
 fitted spring changes how often the simulated pendulum goes over the top).
 
 The test: simulate the model from the data's initial state and from that state moved by
-one encoder count of each position (its plant file's sensor) up and down; when the two runs
+one sensor step (encoder count or converter code) of each position (its plant file's sensor) up and down; when the two runs
 differ, anywhere in the run, by more than ``SENSITIVITY`` of the data's spread (their
 fit% against each other falls below ``100 (1 - SENSITIVITY)``), the free run is not
 meaningful for these data and the headline is the horizon fit.
@@ -60,7 +60,7 @@ def horizon_label(horizon: float) -> str:
 
 
 def count_step(signals) -> np.ndarray:
-    """One encoder count on every position a sensor reads, zero elsewhere, as a state vector."""
+    """One sensor step (encoder count or converter code) on every position a sensor reads, zero elsewhere, as a state vector."""
     sig = signals_of(signals)
     step = np.zeros(len(sig.mechanical))
     for p in sig.positions:
@@ -91,10 +91,24 @@ def twin_fit(simulate, x0, measured: dict, signals=None) -> dict:
     return out
 
 
-def choose(twin: dict, horizon: float, controller: str | None = None) -> Headline:
+def one_step_words(signals=None) -> str:
+    """What one step of the plant's sensors is called: "one encoder count", "one converter
+    code" or, with both kinds, "one sensor step"."""
+    from ..model.sensors import ADC
+
+    sig = signals_of(signals)
+    kinds = {s.kind for s in (sig.interface.sensor_of(p) for p in sig.positions) if s is not None}
+    if kinds == {ADC}:
+        return "one converter code"
+    return "one sensor step" if ADC in kinds else "one encoder count"
+
+
+def choose(twin: dict, horizon: float, controller: str | None = None, signals=None) -> Headline:
     """The headline for one model on one run, from its ``twin`` fit (see :func:`twin_fit`);
-    ``controller``: the controller the run's metadata name, if it was recorded under feedback."""
+    ``controller``: the controller the run's metadata name, if it was recorded under feedback;
+    ``signals``: the plant's, whose sensors name the step."""
     threshold = 100.0 * (1.0 - SENSITIVITY)
+    step = one_step_words(signals)
     if controller:
         reason = (f"a free run is not meaningful on these data: they were recorded under feedback (controller: "
                   f"{controller}), and a free run replays their input without the controller")
@@ -103,12 +117,12 @@ def choose(twin: dict, horizon: float, controller: str | None = None) -> Headlin
     bad = {k: v for k, v in defined.items() if v < threshold}
     if bad:
         k = min(bad, key=bad.get)
-        reason = (f"a free run is not meaningful on these data: the same model started one encoder count away "
+        reason = (f"a free run is not meaningful on these data: the same model started {step} away "
                   f"scores only {bad[k]:.1f} % free-run fit of {k} against itself (below {threshold:g} %), so the "
                   f"free-run figure measures the plant's sensitivity, not the model")
         return Headline(HORIZON, horizon_label(horizon), reason, dict(twin))
     worst = min(defined.values()) if defined else float("nan")
-    reason = (f"a free run is meaningful on these data: the same model started one encoder count away still "
+    reason = (f"a free run is meaningful on these data: the same model started {step} away still "
               f"scores {worst:.1f} % free-run fit against itself" if defined else
               "no output varies in these data")
     return Headline(FREE_RUN, "free-run fit", reason, dict(twin))

@@ -21,7 +21,8 @@ import numpy as np
 
 from ..errors import PendcError
 from ..sim.simulator import Simulator
-from .shooting import HISTORY, measured_motion  # noqa: F401 (measured_motion re-exported)
+from .shooting import HISTORY, integration_step, measured_motion  # noqa: F401 (measured_motion re-exported)
+from .start_rates import data_start_fit, run_segment
 
 DEFAULT_HORIZON = 0.5   # s: the segment length diagnose and fit use
 
@@ -72,7 +73,7 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
     measured, velocity = motion if motion is not None else measured_motion(data, model)
-    sim = Simulator(model, dt=dt, method=method)
+    sim = Simulator(model, dt=integration_step(dt, t), method=method)
     positions = sim.signals.positions
     outputs = positions if outputs is None else tuple(outputs)
     p = sim.vector(params)
@@ -83,11 +84,12 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
     predicted = {k: np.full(len(t), np.nan) for k in positions}
     # as shooting does: a tail shorter than two samples is no segment
     starts = tuple(a for a in range(0, len(t) - 1, step) if min(a + step, len(t) - 1) - a >= 2)
+    fit = data_start_fit(sim, data, model, measured, outputs)
     for a in starts:
         b = min(a + step, len(t) - 1)
         s0 = sim.true_state(sim.initial_vector(measured, velocity, a), p)
         h0 = max(0, a - history)
-        states, valid = sim.raw(t[h0:b + 1], u[h0:b + 1], s0, p, a - h0)
+        _, states, valid = run_segment(sim, p, t, u, s0, a, b, h0, fit, offset)
         if valid < b + 1 - h0:
             raise PendcError(f"{data.source}: the simulation diverged in the horizon segment at t = {t[a]:.6g} s")
         for k in positions:

@@ -51,7 +51,7 @@ def noise_run(model: PlantModel, problem: ShootingProblem, index: int, seed: int
     """The model's own response to record ``index``'s input, through the measurement chain
     (None if the free run leaves the finite range)."""
     rec = problem.records[index]
-    sim = Simulator(model.for_experiment(rec.experiment), dt=problem.sim.dt, method=problem.sim.method)
+    sim = Simulator(model.for_experiment(rec.experiment), dt=problem.sim_for(rec).dt, method=problem.sim.method)
     s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0))
     applied = degrade_input(rec.u, model.interface.input.range, seed=seed)
     out, valid = sim.raw(rec.t, applied, s0, sim.param_vector)

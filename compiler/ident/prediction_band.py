@@ -22,9 +22,10 @@ from ..model.fit_uncertainty import BAND_SAMPLES, FitUncertainty
 from ..model.plant import PlantModel
 from ..sim.simulator import Simulator
 from .fit import parameter_bounds
-from .horizon import DEFAULT_HORIZON, horizon_run, measured_motion
+from .horizon import DEFAULT_HORIZON, horizon_run, integration_step, measured_motion
 from .outputs import experiment_of
 from .smoothing import velocity_error_sd
+from .start_rates import data_start_fit, free_run_start
 
 LEVEL = 0.95
 
@@ -77,11 +78,12 @@ def prediction_band(model: PlantModel, data, uncertainty: FitUncertainty, sample
     experiment = experiment_of(data, model)
     if experiment != model.experiment:
         model = model.for_experiment(experiment)
-    sim = Simulator(model, dt=dt, method=method)
-    outputs = tuple(outputs) if outputs is not None else sim.signals.positions
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
+    sim = Simulator(model, dt=integration_step(dt, t), method=method)
+    outputs = tuple(outputs) if outputs is not None else sim.signals.positions
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
     position, velocity = measured_motion(data, model)
+    refine = data_start_fit(sim, data, model, position, outputs)
     bounds = {n: parameter_bounds(model, n) for n in uncertainty.names}
     free = {k: [] for k in outputs}
     ahead = {k: [] for k in outputs}
@@ -92,7 +94,8 @@ def prediction_band(model: PlantModel, data, uncertainty: FitUncertainty, sample
         p = sim.vector(values)
         start = _start_as_sensed(sim, data, position, velocity, rng)
         try:
-            run = sim(t, u, x0=tuple(sim.true_state(sim.initial_vector(*start, 0), p)), params=values)
+            x0 = free_run_start(sim, t, u, sim.true_state(sim.initial_vector(*start, 0), p), refine, p)
+            run = sim(t, u, x0=tuple(x0), params=values)
             restarted = horizon_run(model, data, outputs=outputs, horizon=horizon, dt=dt, method=method,
                                     params=values, motion=start)
         except PendcError:             # a draw that diverges predicts nothing; counted, not banded

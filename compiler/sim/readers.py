@@ -256,7 +256,15 @@ def _input_warning(source: str, sig: PlantSignals, columns: dict) -> list:
 def _regrid(table: Table, t, columns: dict, options: ReadOptions):
     from .resample import regrid
 
-    return regrid(t, columns, table.source, table.where, options.rate)
+    return regrid(t, columns, table.source, table.where, options.rate, fastest=lambda: _fastest_mode(options.plant))
+
+
+def _fastest_mode(plant) -> float:
+    """The fastest mode (Hz) of ``plant`` if it is a model (an interface alone has no equations)."""
+    from ..model.modes import fastest_mode_hz
+    from ..model.plant import PlantModel
+
+    return fastest_mode_hz(plant) if isinstance(plant, PlantModel) else 0.0
 
 
 def _frozen(values) -> np.ndarray:

@@ -6,7 +6,9 @@ at the hardware's 1 kHz. So (:func:`regrid`):
 
 - a uniform file (every step within ``UNIFORM_TOLERANCE`` of the median) at or below
   ``DEFAULT_MAX_RATE`` is kept as it is;
-- a faster one is brought to 1 kHz (or ``--rate``) by averaging: for an integer ratio
+- a faster one is brought to 1 kHz (or ``--rate``) by averaging, unless the plant's fastest
+  mode (:func:`pendc.model.modes.fastest_mode_hz`) needs more: then to ``MODE_SAMPLES`` samples
+  a period of that mode, or the file's own rate if that is not faster. For an integer ratio
   q, blocks of q samples, each mean placed at its block's centre; otherwise the
   average over each output interval of the linearly interpolated signal. A boxcar is
   the anti-aliasing filter (first null at the output rate): unlike an FIR low-pass
@@ -30,6 +32,7 @@ UNIFORM_TOLERANCE = 0.01
 DEFAULT_MAX_RATE = 1000.0  # Hz, the HIL core's rate
 MAX_GAP_S = 0.02
 MAX_GAP_STEPS = 5
+MODE_SAMPLES = 10          # samples a period of the plant's fastest mode that decimation keeps
 
 
 def hertz(rate: float) -> str:
@@ -43,9 +46,10 @@ def median_step(steps: np.ndarray, most: int = 1_000_000) -> float:
     return float(np.median(steps[::stride]))
 
 
-def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None):
+def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None, fastest=None):
     """``(t, columns, note)`` on a uniform grid (see the module docstring); note is None
-    when nothing was done. ``where(k)`` names row k in messages."""
+    when nothing was done. ``where(k)`` names row k in messages; ``fastest()`` is the plant's
+    fastest mode in Hz (asked only of a file faster than 1 kHz)."""
     if len(t) < 3:
         return t, columns, None
     steps = np.diff(t)
@@ -62,7 +66,16 @@ def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None 
     if rate is not None:
         h_out = 1.0 / rate
     elif 1.0 / h > DEFAULT_MAX_RATE * (1 + UNIFORM_TOLERANCE):
+        needed = MODE_SAMPLES * (fastest() if fastest is not None else 0.0)
         h_out = 1.0 / DEFAULT_MAX_RATE
+        if needed > DEFAULT_MAX_RATE:
+            h_out = max(h, 1.0 / needed)
+            if uniform:                 # whole blocks of samples: no interpolation between them
+                h_out = h * max(1, int(np.floor(h_out / h * (1 + 1e-9))))
+            if abs(h_out - h) <= UNIFORM_TOLERANCE * h:
+                return t, columns, (f"{source}: kept at {hertz(1 / h)}: the plant's fastest mode "
+                                    f"({needed / MODE_SAMPLES:.4g} Hz where it starts) needs {MODE_SAMPLES} samples a "
+                                    f"period (--rate decimates)")
     else:
         h_out = h
     if uniform and abs(h_out - h) <= UNIFORM_TOLERANCE * h:

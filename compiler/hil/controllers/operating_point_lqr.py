@@ -220,7 +220,7 @@ def linearise_at(model: PlantModel, point: str | None = None, numeric: NumericMo
     scale = np.abs(b) * span + np.abs(d_a) + np.abs(d_b) + np.nan_to_num(terms)
     worst = int(np.argmax(np.abs(residual) / np.maximum(scale, 1e-300)))
     if not (np.abs(residual[worst]) <= HOLD_TOLERANCE * max(scale[worst], 1e-12) + 1e-12):
-        raise PendcError(f"no input holds the plant at the {where}: d{numeric.names[worst]}/dt stays "
+        raise PendcError(f"no input holds the plant at the {where}: the rate of change of {numeric.names[worst]} stays "
                          f"{residual[worst]:.3g} at the best input ({with_unit(f'{u0:.4g}', iface.input.unit)})")
     if not lo - 1e-9 * span <= u0 <= hi + 1e-9 * span:
         raise PendcError(f"holding the plant at the {where} needs {iface.input.name} = "

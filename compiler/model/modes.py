@@ -1,0 +1,113 @@
+"""How fast a plant moves: the fastest mode of its linearisation where it starts, and what the
+core's forward Euler step does to it.
+
+Reading data faster than the hardware's 1 kHz keeps as many samples as the plant's fastest
+mode needs (:func:`pendc.sim.resample.regrid`): a power stage or an electrical ladder rings at
+hundreds of hertz to kilohertz, and averaging its record down to 1 kHz would erase what is to be
+identified. The linearisation is the controllers' (derivative of a sign is zero), at each state's
+``initial`` value with the input at zero.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .plant import PlantModel
+
+
+def fastest_mode_hz(model: PlantModel) -> float:
+    """The largest |eigenvalue| / 2 pi of the state equations' Jacobian at the start state (Hz;
+    0 for a plant without dynamics there). Made once per model."""
+    return float(abs(fastest_eigenvalue(model))) / (2 * math.pi)
+
+
+def fastest_eigenvalue(model: PlantModel) -> complex:
+    """The eigenvalue of largest magnitude of the Jacobian at the start state (0 if none); kept
+    on disk by the model's fingerprint, as differentiating the equations takes up to seconds
+    (a double pendulum's: 5 s) and ``pendc simulate`` asks on every float run."""
+    return model.derived("fastest_eigenvalue", _stored)
+
+
+def _stored(model: PlantModel) -> complex:
+    import hashlib
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from ..codegen import cache_dir
+    from .modelfile import model_fingerprint
+
+    # what the eigenvalue depends on: the model's values and physics, and the code that derives
+    # its equations (this folder) and differentiates them
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256((model_fingerprint(model) + str(model.experiment)).encode())
+    for f in sorted(here.glob("*.py")) + [here.parent / "hil" / "controllers" / "numeric_model.py"]:
+        digest.update(f.read_bytes())
+    key = digest.hexdigest()[:24]
+    path = cache_dir("modes") / f"{key}.txt"
+    try:
+        return complex(path.read_text().strip())
+    except (OSError, ValueError):
+        pass
+    value = _fastest(model)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".mode_")
+        with os.fdopen(fd, "w") as f:
+            f.write(repr(value))
+        os.replace(tmp, path)
+    except OSError:           # a read-only cache: computed again next time
+        pass
+    return value
+
+
+def euler_growth(eigenvalue: complex, dt: float) -> float:
+    """How much faster (1/s) forward Euler at ``dt`` lets a mode ``eigenvalue`` grow than the
+    equations do: Euler multiplies it by 1 + lambda dt a step, the rate log|1 + lambda dt| / dt
+    against Re lambda (an undamped mode of angular frequency w gains about w^2 dt / 2)."""
+    factor = abs(1 + complex(eigenvalue) * dt)
+    if factor == 0.0:
+        return 0.0
+    return math.log(factor) / dt - complex(eigenvalue).real
+
+
+def euler_shortfall(model: PlantModel, dt: float) -> str | None:
+    """What forward Euler at ``dt`` takes of the fastest mode's damping, when it is more than 5 %
+    of it (None otherwise): a sentence for ``pendc simulate``."""
+    lam = fastest_eigenvalue(model)
+    grow, decay = euler_growth(lam, dt), -complex(lam).real
+    if lam == 0 or decay <= 0 or grow <= 0.05 * decay:
+        return None
+    return (f"forward Euler at {dt:g} s takes {100 * grow / decay:.0f} % of the damping of the plant's fastest "
+            f"mode ({abs(lam) / (2 * math.pi):.4g} Hz) away, as the core does; --method rk4 follows the equations")
+
+
+def euler_note(model: PlantModel, dt: float) -> str:
+    """One line on the core's integrator and the plant's fastest mode (``plant check``)."""
+    lam = fastest_eigenvalue(model)
+    head = f"core integrator: forward Euler at {dt:g} s"
+    if lam == 0:
+        return head + "; no dynamics at the start state"
+    grow, decay = euler_growth(lam, dt), -complex(lam).real
+    line = (f"{head}; fastest mode {abs(lam) / (2 * math.pi):.4g} Hz at the start state "
+            f"(decays at {decay:.3g} /s): Euler adds {grow:.3g} /s of growth to it")
+    if decay > 0 and grow > 0.05 * decay:
+        line += (f", {100 * grow / decay:.0f} % of its damping: the core rings longer than the equations "
+                 f"(a smaller [hardware] dt shrinks this)")
+    return line
+
+
+def _fastest(model: PlantModel) -> complex:
+    from ..hil.controllers.numeric_model import NumericModel
+
+    numeric = NumericModel.of(model)
+    initial = {s.name: s.initial for s in model.interface.states}
+    start = [float(initial.get(name, 0.0) or 0.0) for name in numeric.names]
+    n = len(start)
+    with np.errstate(all="ignore"):
+        jac = numeric.jacobian(start, 0.0)[:, :n]
+    if n == 0 or not np.all(np.isfinite(jac)):
+        return 0j
+    eig = np.linalg.eigvals(jac)
+    return complex(eig[int(np.argmax(np.abs(eig)))])
