@@ -175,3 +175,27 @@ def test_an_angle_the_input_drives_is_no_pendulum():
     assert isinstance(make_controller("builtin", model), OperatingPointLqr)
     cart = load_model()
     assert driven_positions(cart) == {"x"} and pendulum_roles(cart).pendulum.position == "theta"
+
+
+def test_the_summary_and_the_reports_follow_the_pendulum_not_the_declaration_order(tmp_path):
+    """A reaction-wheel pendulum written pendulum first, wheel second (the private check): the run's
+    upright was judged on the wheel (the last periodic encoder), so a balanced pendulum read 'not
+    upright'; compare's swing regimes and wrapped fit took the wheel too."""
+    from pendc.hil.loop import run_closed_loop, upright_angle
+    from pendc.hil.plants.plant import FloatPlant
+    from pendc.ident.compare import angle_of
+    from pendc.ident.regimes import regime_partitions
+    model = load_model(str(Path(__file__).parent / "data" / "reaction_wheel.toml"))
+    plant = FloatPlant(model)
+    assert upright_angle(plant.ports) == "phi"          # the old rule: the last periodic encoder
+    assert upright_angle(plant.ports, model) == "theta"
+    assert angle_of(model) == "theta"
+    z = np.zeros(3)
+    parts = {p: [m[1] for m in ms] for p, ms in regime_partitions(model, {"theta": z, "dtheta": z, "phi": z,
+                                                                           "dphi": z}, z, 0.0)}
+    assert parts["pendulum angle"][0] == "|theta| < 0.3 rad from hanging down"
+    assert parts["wheel motion"][0] == "|dphi| < 0.05 rad/s"
+    run = run_closed_loop(plant, make_controller("lqr", model), 0.05)
+    assert run.angle == "theta"
+    from pendc.hil.controllers.operating_point_lqr import start_moved
+    assert start_moved(model, plant.ports) == "theta"        # --start moved the wheel

@@ -177,7 +177,7 @@ def run_closed_loop(plant, controller, seconds: float, period: float = 1e-3, pla
                   extra={"plant_build": plant.describe()} if hasattr(plant, "describe") else {},
                   input_name=ports.input, units=tuple((name, sensor_unit(ports, name)) for name in measured)
                   + ((ports.input, ports.input_unit),),
-                  angle=upright_angle(ports))
+                  angle=upright_angle(ports, getattr(plant, "model", None)))
 
 
 def sensor_unit(ports, state: str) -> str:
@@ -186,8 +186,19 @@ def sensor_unit(ports, state: str) -> str:
     return sensor.unit if sensor is not None else ""
 
 
-def upright_angle(ports) -> str | None:
-    """The measured angle whose upright a run's summary reports: the last encoder-read periodic
-    state (the pendulum, after any arm), or None."""
+def upright_angle(ports, model=None) -> str | None:
+    """The measured angle whose upright a run's summary reports: of the encoder-read periodic
+    states, the pendulum (:func:`~pendc.hil.controllers.pendulum_roles.pendulum_roles`: gravity
+    restores it and the input does not drive it, whichever the file declares first), else the
+    last one the input does not drive, else the last one (the pendulum after any arm), or None."""
     angles = [e.state for e in ports.encoders if e.periodic]
+    if model is not None and len(angles) > 1:
+        from .controllers.pendulum_roles import driven_positions, pendulum_roles
+        try:
+            pendulum = pendulum_roles(model).pendulum.position
+        except PendcError:
+            driven = driven_positions(model)
+            pendulum = next((a for a in reversed(angles) if a not in driven), None)
+        if pendulum in angles:
+            return pendulum
     return angles[-1] if angles else None

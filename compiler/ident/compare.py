@@ -49,7 +49,7 @@ from .horizon import DEFAULT_HORIZON, HorizonRun, horizon_run, integration_step,
 from .outputs import experiment_of, plan_outputs
 from .smoothing import SAVGOL_WINDOW, estimate_velocities
 from .start_rates import data_start_fit, free_run_start
-from .regimes import CENTRE_NAME, centre_and_name, input_centre, regime_partitions, regimes, wrap_angle  # noqa: F401
+from .regimes import CENTRE_NAME, centre_and_name, input_centre, regime_partitions, regimes, swing_angle, wrap_angle  # noqa: F401
 from .whiteness import (LAGS, MIN_WHITENESS_SAMPLES, WHITENESS_DT, Z99, allowed_outside,  # noqa: F401 (re-exported)
                         autocorrelation, cross_correlation, decimate, whiteness)
 
@@ -124,7 +124,7 @@ class Comparison:
 
     @property
     def angle(self) -> str | None:
-        """The plant's periodic position whose wrapped fit and turns are reported (the last: e.g. a
+        """The plant's periodic position whose wrapped fit and turns are reported (e.g. a
         pendulum's angle), or None; its figures are NaN and 0 when it is not compared."""
         return angle_of(self.model)
 
@@ -168,9 +168,9 @@ class Comparison:
 
 
 def angle_of(model) -> str | None:
-    """The last periodic position of ``model``'s plant (e.g. a pendulum's angle), or None."""
-    periodic = signals_of(model).periodic if model is not None else ()
-    return periodic[-1] if periodic else None
+    """The periodic position of ``model``'s plant whose swing is reported (:func:`.regimes.swing_angle`:
+    e.g. a pendulum's angle), or None."""
+    return swing_angle(model) if model is not None else None
 
 
 def model_name(model) -> str:

@@ -25,6 +25,7 @@ from ..sim.signals import PlantSignals, signals_of
 from ..sim.simulator import Simulator
 from ..sim.stimuli import Stimuli
 from .plant_roles import drive_gain, driven_coordinate, holding_experiment
+from .regimes import swing_angle
 
 FS = 1000.0
 
@@ -95,13 +96,13 @@ def make_dataset(true_model: PlantModel, t=None, u=None, dac_bits: int = 12, noi
 
 def free_swing(true_model: PlantModel, duration: float = 30.0, angle0: float = 0.8, seed: int = 17) -> dict:
     """A free swing with the driven coordinate held (the plant file's experiment that holds it
-    alone): the last periodic position released from ``angle0`` at rest; the actuator is idle
+    alone): the swinging angle (:func:`.regimes.swing_angle`) released from ``angle0`` at rest; the actuator is idle
     (the log holds the input's neutral value)."""
     t = np.arange(int(round(duration * FS)) + 1) / FS
     sig = signals_of(true_model)
     u = np.full_like(t, sig.interface.input.neutral)
     x0 = np.zeros(len(sig.mechanical))
-    x0[sig.index(sig.periodic[-1])] = angle0
+    x0[sig.index(swing_angle(true_model))] = angle0
     return make_dataset(true_model, t, u, seed=seed, experiment=held_experiment(true_model), x0=tuple(x0))
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..model.plant import PlantModel
 from ..sim.simulator import Simulator
+from .regimes import swing_angle
 from .shooting import ShootingProblem, horizon_figures
 from .start_rates import free_run_start, start_fit
 
@@ -41,7 +42,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
         states, valid = sim.raw(rec.t, rec.u, s0, p)
         off = sim.offset_values(p)
         fit, extra = {}, {}
-        periodic = [o for o in rec.outputs if sim.signals.period(o) is not None]
+        swing = swing_angle(model)
         for o in sim.signals.positions:
             if o not in rec.outputs:
                 continue
@@ -54,7 +55,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             fit[o] = _fit(err, y)
             num[o] = num.get(o, 0.0) + float(err @ err)
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))
-            if periodic and o == periodic[-1]:       # the swinging angle: the last periodic position
+            if o == swing:       # the swinging angle (a pendulum's), wrapped
                 wrapped = np.angle(np.exp(1j * err))
                 key = f"wrapped_{o}_rms"
                 extra[key] = float(np.sqrt(np.mean(wrapped ** 2)))

@@ -4,9 +4,9 @@ Each partition splits the run's samples into regimes that cover every sample exa
 classified on the *measured* motion (a wrong model must not decide which regime the real
 rig was in). The partitions are read off the plant interface:
 
-* **<body> motion** for the first position (e.g. a cart's or a rotary arm's): standing,
+* **<body> motion** for the position the drive moves (else the first; e.g. a cart's or a rotary arm's): standing,
   moving + or - (its rate below or beyond ``STANDSTILL`` of its unit: static friction's realm);
-* **<body> angle** for the last periodic position (e.g. a pendulum's): small or large swing
+* **<body> angle** for the last periodic position the drive does not move (e.g. a pendulum's): small or large swing
   from its zero (``SMALL_SWING``: sin(q) ~ q still holds within 1.5 %);
 * **drive**: the input near or far from its centre (where the model's drive law pushes
   nothing at rest, e.g. a servo drive's offset voltage, else the middle of the input's
@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from ..sim.signals import signals_of
+from .plant_roles import driven_coordinate
 
 STANDSTILL = {"m/s": 0.005, "rad/s": 0.05}   # per rate unit: below this the body counts as standing
 SMALL_SWING = 0.3            # rad from the angle's zero
@@ -71,6 +72,16 @@ def _number(value: float, unit: str) -> str:
     return f"{value:g} {unit}"
 
 
+def swing_angle(plant) -> str | None:
+    """The periodic position whose swing the reports follow: the last one the drive does not move
+    (a pendulum's angle, whatever the order of the file's coordinates: a reaction wheel declared
+    after its pendulum is driven), else the last periodic one, else None."""
+    sig = signals_of(plant)
+    driven = driven_coordinate(plant) if hasattr(plant, "catalogue") else None
+    free = [p for p in sig.periodic if p != driven]
+    return free[-1] if free else (sig.periodic[-1] if sig.periodic else None)
+
+
 def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_name: str = CENTRE_NAME) -> list:
     """``[(partition, [(name, definition, mask), ...]), ...]``; each partition's masks cover
     every sample exactly once. ``measured`` holds the data's positions and rates by state name
@@ -81,7 +92,10 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_n
     spec = sig.interface.input
     u = np.asarray(u, dtype=np.float64)
     out = []
-    lead = sig.positions[0]
+    # the coordinate the drive moves leads (a reaction wheel declared after its pendulum too);
+    # the swing is the last periodic position it does not move
+    driven = driven_coordinate(plant) if hasattr(plant, "catalogue") else None
+    lead = driven if driven in sig.positions else sig.positions[0]
     rate = sig.rate(lead)
     if rate is not None and rate in measured and sig.unit(rate) in STANDSTILL:
         v, still = np.asarray(measured[rate], dtype=np.float64), STANDSTILL[sig.unit(rate)]
@@ -90,7 +104,7 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_n
             ("standstill", f"|{rate}| < {s}", np.abs(v) < still),
             (f"moving +{lead}", f"{rate} >= {s}", v >= still),
             (f"moving -{lead}", f"{rate} <= -{s}", v <= -still)]))
-    swing = sig.periodic[-1] if sig.periodic else None
+    swing = swing_angle(plant)
     if swing is not None and swing in measured:
         th = np.abs(wrap_angle(measured[swing], sig.period(swing)))
         zero = sig.spec(swing).meaning.split(" from ", 1)[1].split(" (")[0] if " from " in sig.spec(swing).meaning \

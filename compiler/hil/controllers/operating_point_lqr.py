@@ -51,7 +51,8 @@ R_FRACTION = 0.1           # acceptable input excursion, as a fraction of the in
 HOLD_TOLERANCE = 1e-6      # relative residual of the hold input's least squares
 CONTROLLABLE_TOLERANCE = 1e-9
 VELOCITY_TAU = 0.02        # s: the rate filter (a coarse encoder's one count must not kick the input)
-START_OFFSET = {"m": 0.01, "rad": 0.05}   # --start: the offset of the last measured position
+START_OFFSET = {"m": 0.01, "rad": 0.05}   # --start: the offset of the moved state (start_moved)
+START_SPAN_SHARE = 0.05                     # of a converter's span, the largest --start offset of a state it reads
 START_OFFSET_OTHER = 0.01
 
 
@@ -320,17 +321,39 @@ class OperatingPointLqr:
         return self.lin.u0 - float(self.K @ self.error(meas))
 
 
+def start_moved(model: PlantModel, ports) -> str | None:
+    """The measured state ``pendc hil --start`` moves: the pendulum if the plant is one pendulum
+    on a driven coordinate (whichever the file declares first), else the last measured position
+    with a rate (the far end of the chain: a top link, a ball; not a coil's current), else the
+    last measured state."""
+    from .pendulum_roles import pendulum_roles
+
+    try:
+        pendulum = pendulum_roles(model).pendulum.position
+    except PendcError:
+        pendulum = None
+    if pendulum in ports.measured:
+        return pendulum
+    rated = {s.derivative_of for s in model.interface.states if s.derivative_of}
+    positions = [m for m in ports.measured if m in rated]
+    return positions[-1] if positions else (ports.measured[-1] if ports.measured else None)
+
+
 def start_state(model: PlantModel, point: str) -> tuple:
-    """The reported states (the plant interface's order) at operating point ``point`` with the last
-    measured position (the far end of the chain: a pendulum's top link, a ball) moved by
-    :data:`START_OFFSET` (0.05 rad, 1 cm; 0.01 of another unit): where ``pendc hil --start``
-    starts the plant, so that holding it takes the controller."""
+    """The reported states (the plant interface's order) at operating point ``point`` with one
+    measured state (:func:`start_moved`) moved by :data:`START_OFFSET` (0.05 rad, 1 cm; 0.01 of
+    another unit; at most 5 % of its converter's span): where ``pendc hil --start`` starts the
+    plant, so that holding it takes the controller."""
     name, values = operating_state(model, point)
     iface = model.interface
     ports = CorePorts.of_interface(iface)
-    last = ports.measured[-1] if ports.measured else None
-    if last is not None:
-        values[last] += START_OFFSET.get(iface.state(last).unit, START_OFFSET_OTHER)
+    moved = start_moved(model, ports)
+    if moved is not None:
+        offset = START_OFFSET.get(iface.state(moved).unit, START_OFFSET_OTHER)
+        adc = ports.adc_of(moved)
+        if adc is not None:       # within its converter's span (1 cm would leave a 14 mm maglev gap)
+            offset = min(offset, START_SPAN_SHARE * (adc.hi - adc.lo))
+        values[moved] += offset
     missing = [s for s in ports.states if s not in values]
     if missing:
         raise PendcError(f"operating point '{name}' gives no value of reported state {missing[0]}")
