@@ -130,3 +130,18 @@ def test_the_first_overflow_of_a_step_is_the_node_the_step_computes_first():
     assert first_overflow(overflows, g) == ("ddx1_acc", 7)
     assert first_overflow(overflows) == ("ddx1", 7)                 # without the graph: by name
     assert first_overflow({}) is None
+
+
+def test_an_overflow_of_a_periodic_register_says_to_raise_its_turns():
+    """A reaction wheel that spins past its 256 turns overflowed 'phi_sum' with nothing said of
+    `turns` (the private check); a node of a state that is not periodic gets no such advice."""
+    from pathlib import Path
+
+    from pendc.golden import OverflowStop, overflow_hint
+    from pendc.model.modelfile import load_model
+    from pendc.sim.signals import signals_of
+    wheel = signals_of(load_model(str(Path(__file__).parent / "data" / "reaction_wheel.toml")))
+    assert "phi is periodic and its register holds 256 whole turns" in overflow_hint("phi_sum", wheel)
+    assert overflow_hint("dphi_sum", wheel) == ""
+    assert "larger `turns`" in str(OverflowStop("phi_sum", 10, 1e-6, signals=wheel))
+    assert overflow_hint("x_sum", signals_of(load_model())) == ""

@@ -310,3 +310,27 @@ def test_limits_are_checked_for_identification_not_for_a_simulation_output():
     assert parse_measurements(text).x.max() > 1.5
     with pytest.raises(PendcError, match="column 'x' looks like centimetres"):
         parse_measurements(text, options=opts(plausible=True))
+
+
+def test_a_plant_that_declares_a_fast_wheel_is_read_at_its_speed(tmp_path):
+    """A reaction wheel at 200 rad/s (its plant file's training rate 250 rad/s) is no unit mistake
+    nor degrees (the private check: the tool refused its own simulated data), a pendulum angle
+    in degrees still is, and a unit given for the column is taken at its word."""
+    from pathlib import Path
+
+    from pendc.model.modelfile import load_model
+    from pendc.sim.readers import ReadOptions
+    model = load_model(str(Path(__file__).parent / "data" / "reaction_wheel.toml"))
+    t = np.arange(2001) * 1e-3
+    rows = ["t,u,theta,phi,dphi"] + [f"{a!r},1.0,{0.01 * math.sin(a)!r},{200.0 * a!r},200.0" for a in t.tolist()]
+    path = tmp_path / "spin.csv"
+    path.write_text("\n".join(rows) + "\n")
+    data = read_measurements(str(path), options=ReadOptions(plant=model, uniform=True, plausible=True))
+    assert float(np.max(data.column("phi"))) == pytest.approx(400.0)
+    rows = ["t,u,theta,phi"] + [f"{a!r},1.0,{math.degrees(3.0 * math.sin(5 * a))!r},0.0" for a in t.tolist()]
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(PendcError, match="'theta' looks like degrees"):
+        read_measurements(str(path), options=ReadOptions(plant=model, uniform=True, plausible=True))
+    given = read_measurements(str(path), options=ReadOptions(plant=model, uniform=True, plausible=True,
+                                                               units={"theta": 1.0}))
+    assert float(np.max(given.column("theta"))) > 100.0

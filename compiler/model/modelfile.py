@@ -161,8 +161,10 @@ def _merged(text: str, source: str, chain: tuple) -> dict:
     base_path = None
     if "extends" in doc:
         if has_physics(doc) or "body" in doc["plant"]:
+            found = [f"[{k}]" for k in PHYSICS if k in doc] + [f"[plant] {k}" for k in ("name", "body")
+                                                                if k in doc.get("plant", {})]
             raise PendcError(f"{source}: extends: a file that extends another declares no physics (and no body) "
-                             f"of its own")
+                             f"of its own; remove {', '.join(found)} (the name, too, is the extended plant's)")
         if not isinstance(doc["extends"], str) or not doc["extends"]:
             raise PendcError(f"{source}: extends must be the path of a plant file, got {doc['extends']!r}")
         here = Path(source).parent if source not in (STDIN_SOURCE, "<model>") else Path.cwd()

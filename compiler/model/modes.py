@@ -72,6 +72,16 @@ def euler_growth(eigenvalue: complex, dt: float) -> float:
     return math.log(factor) / dt - complex(eigenvalue).real
 
 
+def mode_words(eigenvalue: complex) -> str:
+    """An eigenvalue in words: "a 1154 Hz oscillation decaying at 119 /s", "a real pole at -31.3 /s
+    (5 Hz corner)"."""
+    lam = complex(eigenvalue)
+    if abs(lam.imag) <= 1e-9 * abs(lam):
+        return f"a real pole at {lam.real:.3g} /s ({abs(lam) / (2 * math.pi):.3g} Hz corner)"
+    verb = "decaying" if lam.real < 0 else "growing"
+    return f"a {abs(lam.imag) / (2 * math.pi):.4g} Hz oscillation {verb} at {abs(lam.real):.3g} /s"
+
+
 def euler_shortfall(model: PlantModel, dt: float) -> str | None:
     """What forward Euler at ``dt`` takes of the fastest mode's damping, when it is more than 5 %
     of it (None otherwise): a sentence for ``pendc simulate``."""
@@ -90,8 +100,7 @@ def euler_note(model: PlantModel, dt: float) -> str:
     if lam == 0:
         return head + "; no dynamics at the start state"
     grow, decay = euler_growth(lam, dt), -complex(lam).real
-    line = (f"{head}; fastest mode {abs(lam) / (2 * math.pi):.4g} Hz at the start state "
-            f"(decays at {decay:.3g} /s): Euler adds {grow:.3g} /s of growth to it")
+    line = f"{head}; fastest mode at the start state: {mode_words(lam)}; Euler adds {grow:.3g} /s of growth to it"
     if decay > 0 and grow > 0.05 * decay:
         line += (f", {100 * grow / decay:.0f} % of its damping: the core rings longer than the equations "
                  f"(a smaller [hardware] dt shrinks this)")

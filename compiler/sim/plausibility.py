@@ -12,7 +12,8 @@ typical bench rig's: a 750 mm track, a 0-10 V drive, an angle encoder designed f
   for a 10 V input): many rows beyond mean a smaller unit (millivolts), a few rows an
   outlier (outside the range the actuator takes, the interface's, is only a warning, as a
   clipped amplifier can show);
-- rates stay below ``RATE_LIMIT`` of their unit;
+- rates stay below ``RATE_LIMIT`` of their unit, or twice what the plant file declares of them
+  (a velocity bound or training rate: a reaction wheel's 250 rad/s);
 - an angle (a periodic position in radians) turns at most about 8π ≈ 25 rad/s on a bench
   rig, so a sample that jumps away from both neighbours by more than ``ANGLE_SPIKE``
   (1 rad, 40 ms at top speed) while they agree with each other is an outlier; angles in
@@ -41,6 +42,7 @@ MIN_RATE = 10.0                 # Hz
 RATE_LIMIT = {"m/s": 10.0,      # a bench rig's carriage moves well below 1 m/s
               "rad/s": 200.0}
 UNIT_FRACTION = 0.01   # more than this fraction of rows out of range -> a unit mistake
+DECLARED_MARGIN = 2.0  # x the rate a plant file declares (velocity bound, training rate): still plausible
 _DEG_UNITS = {"deg", "degree", "degrees", "°"}
 
 
@@ -151,15 +153,20 @@ def degrees_suspected(names: list, angle: str) -> list:
     return [n for n in names if pattern.match(n)]
 
 
-def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, name: str) -> None:
+def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, name: str,
+                  declared: float = 0.0) -> None:
     """Reject angles (column ``name``) that look like degrees.
 
     An angle is unwrapped radians, and a bench rig's angle turns at most about 8π rad/s.
     So a swing beyond ±2π that also moves faster than ``MAX_RAD_RATE`` (60 rad/s) between
     consecutive samples, or any |angle| > 200, is taken as degrees (a full turn is 360, and
-    180°/s is already 3.1 rad/s). A ``<name>_unit: deg`` metadata entry is refused unless the
-    unit was given (``--<name>-unit``).
+    180°/s is already 3.1 rad/s). A plant file that declares its angle faster (``declared``, its
+    rate's velocity bound or training rate: a reaction wheel's 250 rad/s) raises both limits to
+    ``DECLARED_MARGIN`` times that rate, and that many seconds of it. A ``<name>_unit: deg``
+    metadata entry is refused unless the unit was given (``--<name>-unit``).
     """
+    rate_limit = max(MAX_RAD_RATE, DECLARED_MARGIN * declared)
+    peak_limit = max(200.0, DECLARED_MARGIN * declared * float(t[-1] - t[0]) if len(t) else 0.0)
     unit = table.meta.get(f"{name}_unit", "").strip().lower()
     peak = max(float(angle.max()), -float(angle.min()))
     rate, block = 0.0, 1 << 20  # in blocks: no full-length temporaries on a 1e7-row file
@@ -169,7 +176,7 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
             rate = max(rate, float(np.abs(np.diff(th) / np.diff(tt)).max()))
     if unit in _DEG_UNITS and not given:
         why = f"metadata {name}_unit: {unit}"
-    elif peak > 200.0 or (peak > 2 * math.pi and rate > MAX_RAD_RATE):
+    elif peak > peak_limit or (peak > 2 * math.pi and rate > rate_limit):
         why = f"max |{name}| = {peak:.4g}, max |d{name}/dt| = {rate:.4g} between samples"
     else:
         return

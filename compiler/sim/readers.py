@@ -325,7 +325,8 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
     if options.plausible:
         _check_limits(table, columns, options)
     for name in angles:
-        plaus.check_radians(table, t, columns[name], name in options.units, name)
+        if name not in options.units:     # a unit given for the column is taken at its word
+            plaus.check_radians(table, t, columns[name], False, name, declared_rate(sig, sig.rate(name)))
     if options.plausible and any(p in columns for p in sig.positions):  # an input alone may be sparse steps
         plaus.check_time_unit(table, t, TIME in options.units)
 
@@ -360,8 +361,18 @@ def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
                             f"the {sig.label(name)} spans {span:g} {unit} at most",
                             (_spelled(guess), _unit_hint(options, name, guess)))
     for name in [r for r in sig.rates if r in columns and sig.unit(r) in plaus.RATE_LIMIT]:
-        plaus.check_bounded(table, name, columns[name], plaus.RATE_LIMIT[sig.unit(name)], "per s",
+        limit = max(plaus.RATE_LIMIT[sig.unit(name)], plaus.DECLARED_MARGIN * declared_rate(sig, name))
+        plaus.check_bounded(table, name, columns[name], limit, "per s",
                             "faster than the rig can move", ("a unit mistake", "check its unit"))
+
+
+def declared_rate(sig, rate: str | None) -> float:
+    """How fast the plant file says rate state ``rate`` goes (its velocity bound, else its
+    training rate; 0 if it says nothing): a reaction wheel's 250 rad/s is no unit mistake."""
+    if rate is None:
+        return 0.0
+    spec = sig.spec(rate)
+    return float(spec.velocity_bound or spec.training_rate or 0.0)
 
 
 def _smaller_units(si_unit: str) -> list:

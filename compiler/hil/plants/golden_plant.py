@@ -13,6 +13,7 @@ import numpy as np
 from ...errors import PendcError
 from ...golden import OVERFLOW_CHOICES, GoldenStepper, OverflowStop, first_overflow
 from ...model.plant import PlantModel
+from ...sim.signals import signals_of
 from .core_ports import CorePorts
 from .plant_state import PlantState, check_initial, check_step_request, x4_count_delta  # noqa: F401
 
@@ -127,7 +128,7 @@ class GoldenPlant:
         new = {k: s for k, s in self.stepper.overflows.items() if k not in known}
         if new and self.on_overflow == "error":
             node, step = first_overflow(new, self.build.graph)
-            raise OverflowStop(node, step, self.dt, len(new))
+            raise OverflowStop(node, step, self.dt, len(new), signals_of(self.model))
         c = self._col
         for i, e in enumerate(self.ports.encoders):
             self._counts[i] += x4_count_delta(out[:, c[e.channel_a]], out[:, c[e.channel_b]])
