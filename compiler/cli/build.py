@@ -7,7 +7,7 @@ import json
 import sys
 
 from ..errors import PendcError
-from .options import MODEL_HELP, build_model
+from .options import MODEL_HELP, build_model, note_offsets as _note_offsets
 
 
 def _warn_unmet_budget(report) -> None:
@@ -48,6 +48,7 @@ def cmd_build(args) -> int:
         return 0
     write_hdl(args.output, files)
     _warn_unmet_budget(build.error)
+    _note_offsets(model, "the core")
     if args.json:
         sys.stdout.write(files["report.json"])
     else:

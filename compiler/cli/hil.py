@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from .options import MODEL_HELP, positive
+from .options import MODEL_HELP, note_offsets as _note_offsets, positive
 from ..errors import PendcError
 
 
@@ -73,6 +73,7 @@ def cmd_hil(args) -> int:
     if initial is not None:
         meta["start"] = args.start
     plant = make_plant(args.plant, model, **({"initial": initial} if initial is not None else {}))
+    _note_offsets(model, f"the {args.plant} plant")
     origin = start_counts(plant.ports, initial)
     progress = _progress(not args.json)
     if address is not None:

@@ -85,3 +85,12 @@ def add_engine_arguments(p, default_out: str, resumed: str) -> None:
                    "LocalCluster on this machine's cores)")
     p.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
     p.add_argument("--resume", metavar="DIR", help=f"continue the sweep in DIR (only its missing {resumed})")
+
+
+def note_offsets(model, what: str) -> None:
+    """A note when ``model`` has sensor offsets, which ``what`` (the core, a HIL plant) leaves out."""
+    names = model.sensor_offsets_without_hardware()
+    if names:
+        print(f"pendc: note: {', '.join(names)} (a sensor offset) is left out of {what}: it reports the state "
+              f"itself, as a calibrated sensor would; simulate --quantize and identification apply it",
+              file=sys.stderr)

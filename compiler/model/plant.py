@@ -115,6 +115,12 @@ class PlantModel:
     def _experiment_copies(self) -> dict:
         return {}
 
+    def sensor_offsets_without_hardware(self) -> list:
+        """The effects of kind ``offset`` this model has: what its sensors read besides the state,
+        applied by ``pendc simulate --quantize`` and identification; the core and the HIL plants
+        report the state itself (an offset is the measurement's, not the plant's)."""
+        return [n for n in self.effects if self.catalogue[n].kind == "offset"]
+
     def derived(self, key: str, make):
         """``make(self)``, made once for this model and kept with it as its equations are: what
         other layers derive from it (the controllers' numeric equations, asked for by every
