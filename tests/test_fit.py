@@ -3,6 +3,7 @@ spring with intervals that cover it: tests/test_cli_ident.py (``pendc fit`` of t
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pendc import load_model
@@ -34,3 +35,19 @@ def test_bounds_come_from_the_catalogue():
 def test_nothing_to_fit(spring_data):
     with pytest.raises(PendcError, match="nothing to fit"):
         fit_parameters(load_model(), [spring_data], [])
+
+
+def test_a_value_on_its_bound_is_not_an_estimate():
+    """The private check's maglev: a closed-loop record the model could not follow pushed a sensor
+    offset to its bound, and fit wrote it with an interval past the bound. A value on a bound
+    (zero excepted: an effect the data do not want) is refused like an unidentified one."""
+    from pendc.cli.ident import diverging_note
+    from pendc.ident.fit import _unidentifiable
+    model = load_model(str(Path(__file__).parent / "data" / "reaction_wheel.toml")).with_effect("theta_offset")
+    why = _unidentifiable(model, ["theta_off"], np.array([0.2]), {"theta_off": [0.19, 0.21]}, set())
+    assert why["theta_off"].startswith("it sits at its upper bound 0.2")
+    assert _unidentifiable(model, ["theta_off"], np.array([0.05]), {"theta_off": [0.049, 0.051]}, set()) == {}
+    assert "bound" not in _unidentifiable(model, ["b_p"], np.array([0.0]), {"b_p": [0.0, 1e-7]}, set())["b_p"]
+    assert diverging_note({"label": "0.5 s horizon fit", "pooled": {"x": -8005.1, "i": 98.0}})[0].startswith(
+        "the model's 0.5 s horizon fit leaves these data far behind (x -8005 %)")
+    assert diverging_note({"label": "0.5 s horizon fit", "pooled": {"x": 35.0}}) == []

@@ -307,14 +307,22 @@ def _at(problem: ShootingProblem, tf: "_Transform", z: np.ndarray) -> SimpleName
                            message="evaluated at the given values")
 
 
+BOUND_SHARE = 1e-6    # of a parameter's physical range: a fitted value this near a bound sits on it (zero excepted)
+
+
 def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict, null: set) -> dict:
     """Parameters the data do not determine, with the reason in words."""
     why = {}
     for p, v in zip(free, values):
         lo, hi = parameter_bounds(model, p)
         half = 0.5 * (ci[p][1] - ci[p][0])
+        span = hi - lo if np.isfinite(hi - lo) else max(abs(v), 1.0)
         if p in null or not np.isfinite(half):
             why[p] = "the data do not excite it (the cost does not change when it moves)"
+        elif v >= hi - BOUND_SHARE * span or (lo != 0 and v <= lo + BOUND_SHARE * span):
+            side = "upper" if v >= hi - BOUND_SHARE * span else "lower"
+            why[p] = (f"it sits at its {side} bound {hi if side == 'upper' else lo:.6g}: the data push it past its "
+                      f"physical range (an effect the model lacks, or data it cannot follow over the horizon)")
         elif lo >= 0 and half >= abs(v):
             why[p] = f"its 95 % interval [{ci[p][0]:.3g}, {ci[p][1]:.3g}] is wider than its value"
         elif lo < 0 and half > 0.1 * (hi - lo):
