@@ -51,7 +51,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             if valid < rec.t.size:
                 fit[o] = float("-inf")
                 continue
-            err = states[:, col] + off[o] - y
+            err = sim.reading(o, states[:, col] + off[o]) - y
             fit[o] = _fit(err, y)
             num[o] = num.get(o, 0.0) + float(err @ err)
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))

@@ -93,7 +93,7 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
         if valid < b + 1 - h0:
             raise PendcError(f"{data.source}: the simulation diverged in the horizon segment at t = {t[a]:.6g} s")
         for k in positions:
-            predicted[k][a + 1:b + 1] = states[a - h0 + 1:, sim.signals.index(k)] + offset[k]
+            predicted[k][a + 1:b + 1] = sim.reading(k, states[a - h0 + 1:, sim.signals.index(k)] + offset[k])
     fit = {k: _segment_fit(measured[k], predicted[k]) for k in outputs}
     return HorizonRun(horizon=float(horizon), t=t, outputs={k: predicted[k] for k in outputs}, starts=starts,
                       restarts={k: measured[k][list(starts)] for k in outputs}, fit=fit)

@@ -208,8 +208,8 @@ class ShootingProblem:
                 if valid <= b - a:
                     segs.append(None)
                     continue
-                segs.append({o: states[1:, sim.signals.index(o)] + off[o] - r.positions[o][a + 1:b + 1]
-                             for o in r.outputs})
+                segs.append({o: sim.reading(o, states[1:, sim.signals.index(o)] + off[o])
+                             - r.positions[o][a + 1:b + 1] for o in r.outputs})
             out.append(segs)
         return out
 

@@ -172,5 +172,5 @@ def _map_step(sim, p, t, u, s0, a: int, w: int, h0: int, fit: StartFit, offsets:
 
 def _scaled_errors(sim, fit: StartFit, offsets: dict, states, a: int, b: int, h0: int) -> np.ndarray:
     """Simulated minus measured outputs over samples a+1..b, each over its noise, stacked."""
-    return np.concatenate([(states[a - h0 + 1:b - h0 + 1, sim.signals.index(o)] + offsets.get(o, 0.0)
+    return np.concatenate([(sim.reading(o, states[a - h0 + 1:b - h0 + 1, sim.signals.index(o)] + offsets.get(o, 0.0))
                             - fit.measured[o][a + 1:b + 1]) / fit.noise[o] for o in fit.outputs])

@@ -17,6 +17,7 @@ from ..model.plant import PlantModel
 from .encoders import quantize as to_counts
 from .kernel import load_kernel
 from .signals import PlantSignals, signals_of
+from ..model.sensors import ADC
 
 METHODS = ("euler", "rk4")
 MAX_STEPS = 1e10   # about ten minutes of compiled stepping
@@ -87,6 +88,7 @@ class Simulator:
         self._initial = {st.name: st.initial for st in model.interface.states}
         self._offsets = tuple((name, eq.params.index(expr) if expr in eq.params else None, expr)
                               for name, expr in eq.sensor_offsets)
+        self.reading_limits = converter_limits(self.signals)
 
     def offset_values(self, p: np.ndarray) -> dict:
         """``{state name: offset}`` of the sensor offsets for parameter vector ``p``."""
@@ -98,6 +100,13 @@ class Simulator:
             else:
                 out[name] += float(p[index])
         return out
+
+    def reading(self, position: str, values: np.ndarray) -> np.ndarray:
+        """What the sensor of ``position`` reads of ``values`` (the position plus its offset): a
+        converter's reading stops at the middle of its first and last codes (past its range it
+        reads the end), an encoder's does not stop."""
+        limits = self.reading_limits.get(position)
+        return values if limits is None else np.clip(values, *limits)
 
     def initial_state(self) -> np.ndarray:
         """Where a run starts unless told otherwise: each state's ``initial`` (zero in a
@@ -176,7 +185,7 @@ class Simulator:
             raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
         off = self.offset_values(self.vector(params))
-        outputs = {p: states[p] + off[p] for p in self.signals.positions}
+        outputs = {p: self.reading(p, states[p] + off[p]) for p in self.signals.positions}
         if quantize:
             for p in self.signals.positions:
                 step = self.signals.resolution(p)
@@ -185,6 +194,18 @@ class Simulator:
         return SimResult(t=t, u=u, states=states, outputs=outputs, signals=self.signals)
 
     run = __call__
+
+
+def converter_limits(signals) -> dict:
+    """``{position: (low, high)}`` of each converter-read position: the middles of its converter's
+    first and last codes, where its reading stops (a ball on a post past the converter's range)."""
+    out = {}
+    for p in signals.positions:
+        sensor = signals.interface.sensor_of(p)
+        if sensor is not None and sensor.kind == ADC:
+            half = 0.5 * (sensor.hi - sensor.lo) / (1 << sensor.bits)
+            out[p] = (sensor.lo + half, sensor.hi - half)
+    return out
 
 
 def sensor_offsets(model: PlantModel) -> dict:
