@@ -192,15 +192,18 @@ def test_diagnose_says_there_is_no_acceleration_to_correlate(tmp_path, capsys):
 
 
 def test_a_converter_reading_stops_at_its_range(tmp_path):
-    """The model reads a converter-read state as the converter does: past its range, the middle of
-    its end code (the private check's maglev ball on its post, read past a 0-14 mm converter with an
-    offset, scored its own model 93.7 % and fitted the offset 51 % low; clipped: 99.99 %, exact)."""
+    """Where the data reach a converter's end code, the model's reading stops there too (the private
+    check's maglev ball on its post, read past a 0-14 mm converter with an offset, scored its own
+    model 93.7 % and fitted the offset 51 % low; clipped: 99.99 %, exact). Where the data stay
+    inside, a model that leaves the range is not clipped: its whole distance is its error."""
     from pendc.sim.simulator import Simulator
     model = tmp_path / "ladder.toml"
     model.write_text(LADDER)
     sim = Simulator(load_model(model))
     half = 0.5 * 50.0 / 2 ** 16
-    assert sim.reading("v1", np.array([30.0, 1.0, -30.0])).tolist() == [25.0 - half, 1.0, -25.0 + half]
-    assert sim.reading("i1", np.array([30.0])).tolist() == [30.0]          # no converter reads i1
-    run = sim(np.arange(3) * 1e-4, np.full(3, 10.0), x0=(0.0, 40.0, 0.0, 0.0))
-    assert run.measured("v1")[0] == 25.0 - half and run["v1"][0] == 40.0
+    reached = sim.limits_reached({"v1": np.array([0.0, 25.0 - half]), "v2": np.array([0.0, 24.0])})
+    assert reached == {"v1": (-25.0 + half, 25.0 - half)}        # v2's data stay inside: not clipped
+    assert sim.reading("v1", np.array([30.0, 1.0, -30.0]), reached).tolist() == [25.0 - half, 1.0, -25.0 + half]
+    assert sim.reading("v2", np.array([30.0]), reached).tolist() == [30.0]
+    run = sim(np.arange(3) * 1e-4, np.full(3, 10.0), x0=(0.0, 40.0, 0.0, 0.0), quantize=True)
+    assert run.measured("v1")[0] == 25.0 - half          # what the converter reads of 40 V

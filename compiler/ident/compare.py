@@ -214,7 +214,8 @@ def compare(model: PlantModel, data: Measurement, dt: float = 1e-4, method: str 
     """
     model, plan, outputs, t, u, y, sim, x0, run, head = _free_run(model, data, dt, method, outputs, horizon)
     sig = sim.signals
-    simulated = {k: run.measured(k) for k in outputs}
+    limits = sim.limits_reached(y)
+    simulated = {k: sim.reading(k, run.measured(k), limits) for k in outputs}
     free_residual = {k: y[k] - simulated[k] for k in outputs}
     hrun = horizon_run(model, data, outputs=outputs, horizon=horizon, dt=dt, method=method)
     if head.metric == hl.HORIZON:
@@ -292,9 +293,11 @@ def _free_run(model, data, dt, method, outputs, horizon) -> tuple:
     x0 = free_run_start(sim, t, u, x0, data_start_fit(sim, data, model, position, outputs))
     run = sim(t, u, x0=tuple(x0))
 
+    limits = sim.limits_reached(y)
+
     def free_run(start) -> dict:
         again = run if np.array_equal(start, x0) else sim(t, u, x0=tuple(start))
-        return {k: again.measured(k) for k in outputs}
+        return {k: sim.reading(k, again.measured(k), limits) for k in outputs}
 
     try:
         twin = hl.twin_fit(free_run, x0, y, sim.signals)

@@ -33,7 +33,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
     e.g. a pendulum's angle, wrapped to one turn); a run that diverges scores -inf."""
     problem = ShootingProblem(model, datasets, [], dt=dt, segment=1e9, outputs=outputs)
     files, num, den, wrapped_sq, wrapped_n = [], {}, {}, 0.0, 0
-    for rec in problem.records:
+    for rec, limits in zip(problem.records, problem.limits):
         sim = problem.sim_for(rec)
         p = sim.param_vector
         s0 = sim.true_state(sim.initial_vector(rec.positions, rec.rates, 0), p)
@@ -51,7 +51,7 @@ def free_run_figures(model: PlantModel, datasets: list, dt: float = 1e-4, output
             if valid < rec.t.size:
                 fit[o] = float("-inf")
                 continue
-            err = sim.reading(o, states[:, col] + off[o]) - y
+            err = sim.reading(o, states[:, col] + off[o], limits) - y
             fit[o] = _fit(err, y)
             num[o] = num.get(o, 0.0) + float(err @ err)
             den[o] = den.get(o, 0.0) + float(np.sum((y - np.mean(y)) ** 2))

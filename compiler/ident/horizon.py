@@ -85,6 +85,7 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
     # as shooting does: a tail shorter than two samples is no segment
     starts = tuple(a for a in range(0, len(t) - 1, step) if min(a + step, len(t) - 1) - a >= 2)
     fit = data_start_fit(sim, data, model, measured, outputs)
+    limits = sim.limits_reached(measured)
     for a in starts:
         b = min(a + step, len(t) - 1)
         s0 = sim.true_state(sim.initial_vector(measured, velocity, a), p)
@@ -93,7 +94,7 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
         if valid < b + 1 - h0:
             raise PendcError(f"{data.source}: the simulation diverged in the horizon segment at t = {t[a]:.6g} s")
         for k in positions:
-            predicted[k][a + 1:b + 1] = sim.reading(k, states[a - h0 + 1:, sim.signals.index(k)] + offset[k])
+            predicted[k][a + 1:b + 1] = sim.reading(k, states[a - h0 + 1:, sim.signals.index(k)] + offset[k], limits)
     fit = {k: _segment_fit(measured[k], predicted[k]) for k in outputs}
     return HorizonRun(horizon=float(horizon), t=t, outputs={k: predicted[k] for k in outputs}, starts=starts,
                       restarts={k: measured[k][list(starts)] for k in outputs}, fit=fit)

@@ -58,7 +58,8 @@ def noise_run(model: PlantModel, problem: ShootingProblem, index: int, seed: int
     if valid < rec.t.size:
         return None
     off = sim.offset_values(sim.param_vector)
-    cols = {k: sim.reading(k, out[:, sim.signals.index(k)] + off[k]) for k in sim.signals.positions}
+    limits = problem.limits[index]
+    cols = {k: sim.reading(k, out[:, sim.signals.index(k)] + off[k], limits) for k in sim.signals.positions}
     res = problem.resolution
     cols = {k: _quantise(v, res.get(k, 1e-12)) for k, v in cols.items()}
     return SyntheticRun(t=rec.t, u=rec.u, columns=cols, source=f"noise-only run of {rec.source}",

@@ -178,6 +178,7 @@ class ShootingProblem:
         self.history = int(np.ceil(HISTORY / h))   # input samples before a segment, for delays
         self.start_fits = [start_fit(self.sim_for(r), r.t, r.positions, r.estimated, r.outputs, self.resolution,
                                      self.scales) for r in self.records]
+        self.limits = [self.sim_for(r).limits_reached(r.positions) for r in self.records]
 
     def sim_for(self, record: Record) -> Simulator:
         """The simulator of ``record``: its experiment's equations at its integration step."""
@@ -196,7 +197,7 @@ class ShootingProblem:
         output -> array (None for a diverged segment)."""
         p = self.vector(values)
         out = []
-        for r, fit in zip(self.records, self.start_fits):
+        for r, fit, limits in zip(self.records, self.start_fits, self.limits):
             sim = self.sim_for(r)
             off = sim.offset_values(p)
             segs = []
@@ -208,7 +209,7 @@ class ShootingProblem:
                 if valid <= b - a:
                     segs.append(None)
                     continue
-                segs.append({o: sim.reading(o, states[1:, sim.signals.index(o)] + off[o])
+                segs.append({o: sim.reading(o, states[1:, sim.signals.index(o)] + off[o], limits)
                              - r.positions[o][a + 1:b + 1] for o in r.outputs})
             out.append(segs)
         return out

@@ -54,6 +54,7 @@ class StartFit:
     measured: dict
     noise: dict
     prior: dict
+    limits: dict = None      # converter ranges the data reach (Simulator.limits_reached)
 
 
 def uncertain_rates(t: np.ndarray, estimated, resolution: dict, scale: dict) -> dict:
@@ -80,7 +81,8 @@ def start_fit(sim, t, positions: dict, estimated, outputs, resolution: dict, sca
     if not prior:
         return None
     noise = {o: max(resolution.get(o, 0.0) / np.sqrt(12.0), 1e-9 * scale.get(o, 1.0)) for o in outputs}
-    return StartFit(outputs=tuple(outputs), measured={o: positions[o] for o in outputs}, noise=noise, prior=prior)
+    return StartFit(outputs=tuple(outputs), measured={o: positions[o] for o in outputs}, noise=noise, prior=prior,
+                    limits=sim.limits_reached(positions))
 
 
 def data_start_fit(sim, data, model, positions: dict, outputs) -> StartFit | None:
@@ -172,5 +174,5 @@ def _map_step(sim, p, t, u, s0, a: int, w: int, h0: int, fit: StartFit, offsets:
 
 def _scaled_errors(sim, fit: StartFit, offsets: dict, states, a: int, b: int, h0: int) -> np.ndarray:
     """Simulated minus measured outputs over samples a+1..b, each over its noise, stacked."""
-    return np.concatenate([(sim.reading(o, states[a - h0 + 1:b - h0 + 1, sim.signals.index(o)] + offsets.get(o, 0.0))
+    return np.concatenate([(sim.reading(o, states[a - h0 + 1:b - h0 + 1, sim.signals.index(o)] + offsets.get(o, 0.0), fit.limits)
                             - fit.measured[o][a + 1:b + 1]) / fit.noise[o] for o in fit.outputs])

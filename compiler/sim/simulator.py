@@ -101,12 +101,26 @@ class Simulator:
                 out[name] += float(p[index])
         return out
 
-    def reading(self, position: str, values: np.ndarray) -> np.ndarray:
-        """What the sensor of ``position`` reads of ``values`` (the position plus its offset): a
-        converter's reading stops at the middle of its first and last codes (past its range it
-        reads the end), an encoder's does not stop."""
-        limits = self.reading_limits.get(position)
-        return values if limits is None else np.clip(values, *limits)
+    def reading(self, position: str, values: np.ndarray, limits: dict | None = None) -> np.ndarray:
+        """What the sensor of ``position`` reads of ``values`` (the position plus its offset) where
+        ``limits`` (:meth:`limits_reached`) says its converter's range is reached: there its reading
+        stops at the middle of its end code; elsewhere, and for an encoder, ``values``."""
+        bounds = (limits or {}).get(position)
+        return values if bounds is None else np.clip(values, *bounds)
+
+    def limits_reached(self, measured: dict) -> dict:
+        """The :attr:`reading_limits` of the converter-read positions whose ``measured`` values reach
+        an end code: a model's reading past the range is compared as the converter's end there (a
+        maglev's ball on its post, read past the range with an offset). Where the data stay inside,
+        a model that leaves the range is wrong by all its distance, and is not clipped."""
+        out = {}
+        for p, (lo, hi) in self.reading_limits.items():
+            y = measured.get(p)
+            tol = 1e-6 * (hi - lo)
+            # the end code's own value is the last (first) reading: values past it are no converter's
+            if y is not None and len(y) and (abs(float(np.max(y)) - hi) <= tol or abs(float(np.min(y)) - lo) <= tol):
+                out[p] = (lo, hi)
+        return out
 
     def initial_state(self) -> np.ndarray:
         """Where a run starts unless told otherwise: each state's ``initial`` (zero in a
@@ -185,7 +199,8 @@ class Simulator:
             raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
         off = self.offset_values(self.vector(params))
-        outputs = {p: self.reading(p, states[p] + off[p]) for p in self.signals.positions}
+        outputs = {p: self.reading(p, states[p] + off[p], self.reading_limits if quantize else None)
+                   for p in self.signals.positions}
         if quantize:
             for p in self.signals.positions:
                 step = self.signals.resolution(p)
