@@ -51,3 +51,13 @@ def test_a_value_on_its_bound_is_not_an_estimate():
     assert diverging_note({"label": "0.5 s horizon fit", "pooled": {"x": -8005.1, "i": 98.0}})[0].startswith(
         "the model's 0.5 s horizon fit leaves these data far behind (x -8005 %)")
     assert diverging_note({"label": "0.5 s horizon fit", "pooled": {"x": 35.0}}) == []
+
+
+def test_the_grid_refines_the_runner_up_basin_too():
+    """A maglev's sensor offset: its cost is 0.0014 at -0.5 mm in a valley narrower than the grid's
+    step, 700 at 0 and 500 at -2.25 mm; refining the best grid point alone fitted -2.25 mm and
+    diagnose ranked the offset last (the private check). The grid's local minima, lowest first."""
+    from pendc.ident.fit import _basins
+    costs = [650.6, 502.0, 900.0, 1685.5, 698.7, 895.5, 990.0]
+    assert _basins(costs) == [1, 4]
+    assert _basins([3.0, 2.0, 1.0]) == [2] and _basins([1.0, 1.0]) == [0, 1]
