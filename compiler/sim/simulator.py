@@ -14,10 +14,10 @@ import numpy as np
 
 from ..errors import PendcError
 from ..model.plant import PlantModel
+from ..model.sensors import ADC
 from .encoders import quantize as to_counts
 from .kernel import load_kernel
 from .signals import PlantSignals, signals_of
-from ..model.sensors import ADC
 
 METHODS = ("euler", "rk4")
 MAX_STEPS = 1e10   # about ten minutes of compiled stepping
