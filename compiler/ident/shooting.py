@@ -29,7 +29,7 @@ from ..sim.simulator import Simulator
 from ..sim.experiment_axes import irrelevant_axes
 from .outputs import experiment_of, plan_outputs, signals_for
 from .smoothing import SAVGOL_WINDOW, estimate_velocities  # noqa: F401 (re-exported: the one derivative filter)
-from .start_rates import run_segment, start_fit
+from .start_rates import estimated_rates, run_segment, start_fit
 
 HISTORY = 0.1          # s of input history handed to each segment (longest delay it can see)
 STEPS_PER_SAMPLE = 10  # integration steps per data sample, at least
@@ -97,15 +97,6 @@ def measured_motion(data, model=None) -> tuple[dict, dict]:
         else:
             velocity[pos] = estimate_velocities(t, measured[pos])
     return measured, velocity
-
-
-def estimated_rates(data, model=None) -> tuple:
-    """The positions whose rates :func:`measured_motion` takes from the derivative filter: a
-    rate the data lack, of a position the data's experiment does not hold."""
-    sig = signals_for(data)
-    held = irrelevant_axes(model, experiment_of(data, model)) if model is not None else set()
-    return tuple(p for p in sig.positions if p not in held and sig.rate(p) is not None
-                 and data.columns.get(sig.rate(p)) is None)
 
 
 def prepare(data, segment: float, outputs: tuple = None, model=None) -> Record:

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..sim.experiment_axes import irrelevant_axes
+from .outputs import experiment_of, resolution_of, signals_for
 from .smoothing import velocity_error_sd
 
 REFINE_ABOVE = 0.03      # of an output's spread: the filter's rate error carried over CARRIED s above which it is refined
@@ -75,6 +77,15 @@ def uncertain_rates(t: np.ndarray, estimated, resolution: dict, scale: dict) -> 
     return out
 
 
+def estimated_rates(data, model=None) -> tuple:
+    """The positions whose rates :func:`measured_motion` takes from the derivative filter: a
+    rate the data lack, of a position the data's experiment does not hold."""
+    sig = signals_for(data)
+    held = irrelevant_axes(model, experiment_of(data, model)) if model is not None else set()
+    return tuple(p for p in sig.positions if p not in held and sig.rate(p) is not None
+                 and data.columns.get(sig.rate(p)) is None)
+
+
 def start_fit(sim, t, positions: dict, estimated, outputs, resolution: dict, scale: dict) -> StartFit | None:
     """The :class:`StartFit` of a record (None when no rate needs refining)."""
     prior = uncertain_rates(t, [p for p in estimated if sim.signals.rate(p) is not None], resolution, scale)
@@ -87,9 +98,6 @@ def start_fit(sim, t, positions: dict, estimated, outputs, resolution: dict, sca
 
 def data_start_fit(sim, data, model, positions: dict, outputs) -> StartFit | None:
     """:func:`start_fit` for one data set on its own: each output's resolution and spread from it."""
-    from .outputs import resolution_of
-    from .shooting import estimated_rates
-
     outputs = tuple(o for o in outputs if o in positions)
     resolution = {o: resolution_of(data, o) for o in sim.signals.positions if o in positions}
     scale = {o: max(float(np.std(positions[o])), resolution[o]) for o in resolution}

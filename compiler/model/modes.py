@@ -4,8 +4,8 @@ core's forward Euler step does to it.
 Reading data faster than the hardware's 1 kHz keeps as many samples as the plant's fastest
 mode needs (:func:`pendc.sim.resample.regrid`): a power stage or an electrical ladder rings at
 hundreds of hertz to kilohertz, and averaging its record down to 1 kHz would erase what is to be
-identified. The linearisation is the controllers' (derivative of a sign is zero), at each state's
-``initial`` value with the input at zero.
+identified. The linearisation is the controllers' (derivative of a sign is zero: :func:`without_delta`),
+at each state's ``initial`` value with the input at zero.
 """
 
 from __future__ import annotations
@@ -40,10 +40,10 @@ def _stored(model: PlantModel) -> complex:
     from .modelfile import model_fingerprint
 
     # what the eigenvalue depends on: the model's values and physics, and the code that derives
-    # its equations (this folder) and differentiates them
+    # and differentiates its equations (this folder)
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256((model_fingerprint(model) + str(model.experiment)).encode())
-    for f in sorted(here.glob("*.py")) + [here.parent / "hil" / "controllers" / "numeric_model.py"]:
+    for f in sorted(here.glob("*.py")):
         digest.update(f.read_bytes())
     key = digest.hexdigest()[:24]
     path = cache_dir("modes") / f"{key}.txt"
@@ -107,16 +107,34 @@ def euler_note(model: PlantModel, dt: float) -> str:
     return line
 
 
-def _fastest(model: PlantModel) -> complex:
-    from ..hil.controllers.numeric_model import NumericModel
+def without_delta(expr):
+    """``expr`` with every DiracDelta set to zero: d sign(v)/dv is one, zero away from v = 0,
+    where the linearisations are taken."""
+    import sympy as sp
 
-    numeric = NumericModel.of(model)
+    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
+
+
+def _fastest(model: PlantModel) -> complex:
+    import sympy as sp
+
+    eq = model.equations
+    values = {p: sp.Float(v) for p, v in zip(eq.params, model.parameter_vector())}
     initial = {s.name: s.initial for s in model.interface.states}
-    start = [float(initial.get(name, 0.0) or 0.0) for name in numeric.names]
-    n = len(start)
-    with np.errstate(all="ignore"):
-        jac = numeric.jacobian(start, 0.0)[:, :n]
-    if n == 0 or not np.all(np.isfinite(jac)):
+    point = {s: sp.Float(float(initial.get(s.name, 0.0) or 0.0)) for s in eq.states}
+    point[eq.input] = sp.Float(0.0)
+    n = len(eq.states)
+    if n == 0:
+        return 0j
+    jac = np.empty((n, n))
+    try:
+        for i, d in enumerate(eq.derivatives):
+            f = eq.inline(d).xreplace(values)
+            for j, x in enumerate(eq.states):
+                jac[i, j] = float(without_delta(sp.diff(f, x)).xreplace(point).evalf())
+    except (TypeError, ValueError, ZeroDivisionError):   # not a number there (a pole at the start state)
+        return 0j
+    if not np.all(np.isfinite(jac)):
         return 0j
     eig = np.linalg.eigvals(jac)
     return complex(eig[int(np.argmax(np.abs(eig)))])

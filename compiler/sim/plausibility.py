@@ -161,12 +161,12 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
     So a swing beyond ±2π that also moves faster than ``MAX_RAD_RATE`` (60 rad/s) between
     consecutive samples, or any |angle| > 200, is taken as degrees (a full turn is 360, and
     180°/s is already 3.1 rad/s). A plant file that declares its angle faster (``declared``, its
-    rate's velocity bound or training rate: a reaction wheel's 250 rad/s) raises both limits to
-    ``DECLARED_MARGIN`` times that rate, and that many seconds of it. A ``<name>_unit: deg``
+    rate's velocity bound or training rate: a reaction wheel's 250 rad/s) raises the rate limit
+    to ``DECLARED_MARGIN`` times that rate, and an angle that turns that fast may be any size (a
+    wheel's thousands of radians). A ``<name>_unit: deg``
     metadata entry is refused unless the unit was given (``--<name>-unit``).
     """
     rate_limit = max(MAX_RAD_RATE, DECLARED_MARGIN * declared)
-    peak_limit = max(200.0, DECLARED_MARGIN * declared * float(t[-1] - t[0]) if len(t) else 0.0)
     unit = table.meta.get(f"{name}_unit", "").strip().lower()
     peak = max(float(angle.max()), -float(angle.min()))
     rate, block = 0.0, 1 << 20  # in blocks: no full-length temporaries on a 1e7-row file
@@ -174,9 +174,12 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
         th, tt = angle[start:start + block + 1], t[start:start + block + 1]
         with np.errstate(divide="ignore", invalid="ignore"):
             rate = max(rate, float(np.abs(np.diff(th) / np.diff(tt)).max()))
+    # a large angle that turns faster than a bench rig, within what the file declares, is a
+    # spinning wheel's, not degrees: its magnitude follows from its speed
+    spinning = MAX_RAD_RATE < rate <= rate_limit
     if unit in _DEG_UNITS and not given:
         why = f"metadata {name}_unit: {unit}"
-    elif peak > peak_limit or (peak > 2 * math.pi and rate > rate_limit):
+    elif (peak > 200.0 and not spinning) or (peak > 2 * math.pi and rate > rate_limit):
         why = f"max |{name}| = {peak:.4g}, max |d{name}/dt| = {rate:.4g} between samples"
     else:
         return

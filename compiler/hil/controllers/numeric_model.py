@@ -14,6 +14,7 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
+from ...model.modes import without_delta
 from ...model.plant import PlantModel
 
 
@@ -34,11 +35,6 @@ def scalar_function(args, exprs):
     """``exprs`` of the symbols ``args`` as a Python function for scalar arguments: the math
     printer's conditional expressions, NumPy's functions (see ``NUMPY_FUNCTIONS``)."""
     return sp.lambdify(args, exprs, modules=[NUMPY_FUNCTIONS, "math"])
-
-
-def _no_delta(expr: sp.Expr) -> sp.Expr:
-    # d sign(v)/dv is a DiracDelta, zero away from v = 0 where a Jacobian is evaluated
-    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
 
 
 @dataclass(frozen=True)
@@ -63,7 +59,7 @@ class NumericModel:
         values = {p: sp.Float(v) for p, v in zip(eq.params, model.parameter_vector())}
         rhs = [eq.inline(d).xreplace(values) for d in eq.derivatives]
         variables = list(eq.states) + [eq.input]
-        jac = [[_no_delta(sp.diff(f, v)) for v in variables] for f in rhs]
+        jac = [[without_delta(sp.diff(f, v)) for v in variables] for f in rhs]
         return cls(names=tuple(s.name for s in eq.states), plant=model.interface.name,
                    _f=scalar_function(variables, rhs), _jac=scalar_function(variables, jac))
 
