@@ -20,9 +20,9 @@ import sympy as sp
 
 from ...errors import PendcError
 from ...model.plant import PlantModel
+from ...model.modes import without_delta
 from .measurement import FilteredDifference, Measurement
 from .linearize import U_SPAN, _solve_hold_input
-from .numeric_model import _no_delta
 
 HOLD_OMEGA = 8.0          # rad/s: natural frequency of the held coordinate
 HOLD_ZETA = 0.8           # damping ratio
@@ -35,10 +35,10 @@ def rest_response(model: PlantModel, rate: str) -> tuple[float, float, float]:
     eq = model.equations
     names = [s.name for s in eq.states]
     values = dict(zip(eq.params, model.parameter_vector()))
-    f = _no_delta(eq.inline(eq.derivatives[names.index(rate)]).subs(values))
+    f = without_delta(eq.inline(eq.derivatives[names.index(rate)]).subs(values))
     args = list(eq.states) + [eq.input]
     f_num = sp.lambdify(args, f, modules=["numpy"])
-    dfdv = sp.lambdify(args, _no_delta(sp.diff(f, eq.states[names.index(rate)])), modules=["numpy"])
+    dfdv = sp.lambdify(args, without_delta(sp.diff(f, eq.states[names.index(rate)])), modules=["numpy"])
 
     def at(u: float, v: float = 0.0) -> list:
         s = [0.0] * len(names)
