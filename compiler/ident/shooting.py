@@ -167,13 +167,15 @@ class ShootingProblem:
         self.size = sum(len(r.outputs) * (b - a) for r in self.records for a, b in r.bounds)
         h = float(np.median(np.diff(self.records[0].t)))
         self.history = int(np.ceil(HISTORY / h))   # input samples before a segment, for delays
+        # found once: the step's median over the record would otherwise be taken at every evaluation
+        self._sim_of = {id(r): self.sims[(r.experiment, integration_step(dt, r.t))] for r in self.records}
         self.start_fits = [start_fit(self.sim_for(r), r.t, r.positions, r.estimated, r.outputs, self.resolution,
                                      self.scales) for r in self.records]
         self.limits = [self.sim_for(r).limits_reached(r.positions) for r in self.records]
 
     def sim_for(self, record: Record) -> Simulator:
         """The simulator of ``record``: its experiment's equations at its integration step."""
-        return self.sims[(record.experiment, integration_step(self.dt, record.t))]
+        return self._sim_of[id(record)]
 
     def start_values(self) -> np.ndarray:
         return self.sim.param_vector[self.index].copy()

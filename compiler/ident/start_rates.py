@@ -57,6 +57,7 @@ class StartFit:
     noise: dict
     prior: dict
     limits: dict = None      # converter ranges the data reach (Simulator.limits_reached)
+    window: int = 2          # samples in WINDOW seconds of the record
 
 
 def uncertain_rates(t: np.ndarray, estimated, resolution: dict, scale: dict) -> dict:
@@ -93,7 +94,7 @@ def start_fit(sim, t, positions: dict, estimated, outputs, resolution: dict, sca
         return None
     noise = {o: max(resolution.get(o, 0.0) / np.sqrt(12.0), 1e-9 * scale.get(o, 1.0)) for o in outputs}
     return StartFit(outputs=tuple(outputs), measured={o: positions[o] for o in outputs}, noise=noise, prior=prior,
-                    limits=sim.limits_reached(positions))
+                    limits=sim.limits_reached(positions), window=_window(t, WINDOW))
 
 
 def data_start_fit(sim, data, model, positions: dict, outputs) -> StartFit | None:
@@ -140,7 +141,7 @@ def run_segment(sim, p, t, u, s0, a: int, b: int, h0: int, fit: StartFit | None 
         states, valid = sim.raw(t[h0:b + 1], u[h0:b + 1], s0, p, a - h0)
         return s0, states, valid
     # the step is found on the window alone; only its result runs the whole segment
-    w = min(b, a + _window(t, WINDOW))
+    w = min(b, a + fit.window)
     better = _map_step(sim, p, t, u, s0, a, w, h0, fit, offsets or {}, columns)
     if better is not None:
         states, valid = sim.raw(t[h0:b + 1], u[h0:b + 1], better, p, a - h0)
