@@ -115,13 +115,56 @@ def test_the_simulated_reading_is_the_converters():
     assert np.allclose(sensor_reading(enc, np.array([0.0123, 0.0131])), [0.0123, 0.0133])
 
 
+_X_OFFSET = """
+[catalogue.x_offset]
+kind = "offset"
+on = "x"
+offset = "x_off"
+summary = "the converter reads x + x_off"
+params.x_off = { unit = "m", default = 0.0, bounds = [-0.1, 0.1], meaning = "offset of the converter" }
+
+[effects.x_offset]
+x_off = 0.0123
+"""
+
+
+def _x_on_a_converter(extra: str = ""):
+    """The example plant with its cart position read by an 8-bit converter over [-1, 1] m."""
+    return parse_model(example_text().replace(
+        '[sensors.enc_x]\nstate = "x"\n', '[sensors.enc_x]\nkind = "adc"\nstate = "x"\nbits = 8\nrange = [-1.0, 1.0]\n')
+        .replace("band = 1e-4                        # motion of one light or dark band (x4 decoding: band/2 per count)\n"
+                 "lines = 1000\nbands_per_rev = 2000\n", "", 1) + extra)
+
+
+def test_a_converters_sensor_offset_is_in_the_core():
+    """The private check ran a maglev 'with a miscalibrated sensor' in HIL and got the run without it
+    to the last digit: the core and the HIL plants reported the state itself. A converter now codes
+    state + offset: the lowering shifts its range (no node added), the float plant's code rule too."""
+    from pendc.hil.plants.plant import FloatPlant
+    from pendc.passes.lower import lower_model
+    plain, shifted = _x_on_a_converter(), _x_on_a_converter(_X_OFFSET)
+    assert shifted.sensor_offset_values() == {"x": pytest.approx(0.0123)}
+    assert shifted.sensor_offsets_without_hardware() == []          # build and hil note nothing
+    g0, g1 = lower_model(plain), lower_model(shifted)
+    assert [n.name for n in g0.nodes] == [n.name for n in g1.nodes]
+    assert g1["enc_x_lo"].param("value") == pytest.approx(-1.0123) and g0["enc_x_lo"].param("value") == -1.0
+    spec = _spec(-1.0, 1.0, 8)
+    nodes, reg = lower_adc(spec, "s", "x", offset=0.0123)
+    g = Graph.build("adc", [make("s", Kind.INPUT, port="s", max_abs=3.0)] + nodes, [("code", reg)])
+    declared = {n.name: float(n.params.max_abs or 0.0) for n in g.nodes}
+    typed = assign_qformats(g, Ranges(max_abs=declared, lo={}, hi={}, sources=()), margin_bits=1)
+    values = np.linspace(-1.2, 1.2, 997)
+    want = spec.code(values + 0.0123)
+    near = np.abs(((values + 0.0123 + 1.0) * 128) % 1.0) < 1e-6     # on a threshold: the constants' rounding
+    assert np.array_equal(_codes(typed, values)[~near], want[~near]) and want.min() == 0 and want.max() == 255
+    adc = FloatPlant(shifted).ports.adc_of("x")
+    assert adc.code(0.5) == spec.code(0.5123) and adc.reading(adc.code(0.5)) == pytest.approx(0.5123, abs=1 / 256)
+
+
 def test_the_data_generators_readings_use_the_converter():
     from pendc.ident.datagen import encoder_readings
     from pendc.sim.signals import signals_of
-    model = parse_model(example_text().replace(
-        '[sensors.enc_x]\nstate = "x"\n', '[sensors.enc_x]\nkind = "adc"\nstate = "x"\nbits = 8\nrange = [-1.0, 1.0]\n')
-        .replace("band = 1e-4                        # motion of one light or dark band (x4 decoding: band/2 per count)\n"
-                 "lines = 1000\nbands_per_rev = 2000\n", "", 1))
+    model = _x_on_a_converter()
     sig = signals_of(model)
     x = np.linspace(-1.5, 1.5, 101)
     got = encoder_readings(sig, {"x": x})["x"]

@@ -54,7 +54,7 @@ def test_sensor_offsets_change_the_reading_not_the_motion():
     shifted = plain.with_effect("theta_offset", {"theta_off": 0.05}).with_effect("x_offset", {"x_off": -0.01})
     eq = shifted.equations
     assert dict((n, str(e)) for n, e in eq.sensor_offsets) == {"theta": "theta_off", "x": "x_off"}
-    # no hardware form: the offsets never enter the dynamics that lowering sees
+    # a measurement's effect: the offsets never enter the dynamics
     used = set().union(*(e.free_symbols for _, e in eq.assignments), *(d.free_symbols for d in eq.derivatives))
     assert not {"theta_off", "x_off"} & {s.name for s in used}
     a = Simulator(plain, dt=1e-4, method="rk4")(t, u, x0=(0.0, 0.0, 0.3, 0.0))

@@ -202,11 +202,11 @@ def test_the_summary_and_the_reports_follow_the_pendulum_not_the_declaration_ord
 
 
 def test_a_sensor_offset_left_out_of_the_hil_plant_is_said(tmp_path, capsys):
-    """The private check ran a maglev 'with a miscalibrated sensor' in HIL and got the same run to
-    the last digit as without: the plants report the state itself; the command says so."""
+    """An encoder's offset is its homing's: the core and the HIL plants leave it out (a converter's is
+    in the core: test_adc_sensor); the command says so."""
     from cli_capture import run_cli
     text = (Path(__file__).parent / "data" / "reaction_wheel.toml").read_text()
     model = tmp_path / "offset.toml"
     model.write_text(text + "\n[effects.theta_offset]\ntheta_off = 0.01\n")
     rc, _, err = run_cli(capsys, "hil", "--model", model, "--controller", "hold", "--seconds", "0.01")
-    assert rc == 0 and "theta_offset (a sensor offset) is left out of the float plant" in err
+    assert rc == 0 and "theta_offset (a sensor offset on an encoder) is left out of the float plant" in err

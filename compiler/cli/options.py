@@ -88,9 +88,10 @@ def add_engine_arguments(p, default_out: str, resumed: str) -> None:
 
 
 def note_offsets(model, what: str) -> None:
-    """A note when ``model`` has sensor offsets, which ``what`` (the core, a HIL plant) leaves out."""
+    """A note when ``model`` has sensor offsets on encoder-read positions, which ``what`` (the
+    core, a HIL plant) leaves out (a converter's offset is in the core)."""
     names = model.sensor_offsets_without_hardware()
     if names:
-        print(f"pendc: note: {', '.join(names)} (a sensor offset) is left out of {what}: it reports the state "
-              f"itself, as a calibrated sensor would; simulate --quantize and identification apply it",
-              file=sys.stderr)
+        print(f"pendc: note: {', '.join(names)} (a sensor offset on an encoder) is left out of {what}: an "
+              f"incremental encoder counts from where it was homed; simulate --quantize and identification "
+              f"apply it", file=sys.stderr)

@@ -115,11 +115,26 @@ class PlantModel:
     def _experiment_copies(self) -> dict:
         return {}
 
+    def sensor_offset_values(self) -> dict:
+        """``{state: offset}`` of the sensor offset effects at this model's parameter values (the
+        states whose sensor reads state + offset; the others are absent)."""
+        import sympy as sp
+
+        eq = self.equations
+        values = dict(zip(eq.params, self.parameter_vector()))
+        out: dict = {}
+        for name, expr in eq.sensor_offsets:
+            out[name] = out.get(name, 0.0) + float(sp.sympify(expr).subs(values))
+        return out
+
     def sensor_offsets_without_hardware(self) -> list:
-        """The effects of kind ``offset`` this model has: what its sensors read besides the state,
-        applied by ``pendc simulate --quantize`` and identification; the core and the HIL plants
-        report the state itself (an offset is the measurement's, not the plant's)."""
-        return [n for n in self.effects if self.catalogue[n].kind == "offset"]
+        """The effects of kind ``offset`` on a position an encoder reads: applied by ``pendc simulate
+        --quantize`` and identification, left out of the core and the HIL plants (an incremental
+        encoder counts from where it was homed, so its offset is the homing's). A converter's offset
+        is in the core: its thresholds are shifted (:func:`pendc.passes.lower_sensors.lower_adc`)."""
+        converted = {s.state for s in self.interface.sensors if s.is_adc}
+        return [n for n in self.effects if self.catalogue[n].kind == "offset"
+                and self.catalogue[n].on not in converted]
 
     def derived(self, key: str, make):
         """``make(self)``, made once for this model and kept with it as its equations are: what

@@ -144,10 +144,11 @@ def lower_model(model: PlantModel, dt: float = 1e-6, encoders: bool = True, fold
             enc_nodes, levels = lower_encoder(sensor.name, increments[sensor.state], sensor.band, sensor.body)
             nodes += enc_nodes
             outputs += [(channel, levels[key]) for channel, key in zip(sensor.channels, ("a", "b"))]
+        offsets = model.sensor_offset_values()
         for sensor in iface.sensors:       # the converters' codes after the channels
             if sensor.is_adc:
                 adc_nodes, code = lower_adc(sensor, nxt[sensor.state], iface.state(sensor.state).label,
-                                            initial[sensor.state])
+                                            initial[sensor.state], offsets.get(sensor.state, 0.0))
                 nodes += adc_nodes
                 outputs.append((sensor.code_port, code))
     reached = {n.name for n in live_nodes(nodes, outputs)}

@@ -15,6 +15,9 @@ weights (each a mux of 0 and ``2**k``). Below ``lo`` no bit is set (code 0), fro
 code's threshold ``lo + (2**bits - 1) q`` up every bit is (the top code): the clamp costs
 nothing.
 
+A sensor offset (the catalogue's ``offset``: the converter reads ``s + offset``) moves the
+range instead of adding a node: ``lo`` and ``hi`` less the offset, the same compares.
+
 The state is compared as it is (a compare is exact, whatever the formats), so the code steps
 exactly at the thresholds; the thresholds themselves are sums of the constants ``lo`` and
 ``2**k q``, stored as the compiler stores every constant (to nearest, 32 bits or more), in
@@ -30,11 +33,13 @@ from ..ir.compare_ops import CompareOp
 from ..ir.nodes import Kind, make
 
 
-def lower_adc(sensor, value: str, meaning: str, initial: float = 0.0) -> tuple[list, str]:
+def lower_adc(sensor, value: str, meaning: str, initial: float = 0.0, offset: float = 0.0) -> tuple[list, str]:
     """Nodes of converter ``sensor`` (a :class:`~pendc.model.sensors.SensorSpec` of kind
-    ``adc``) reading node ``value`` (the state's next value); returns the node list and the name
-    of the code register (the core's ``sensor.code_port`` output)."""
+    ``adc``) reading node ``value`` (the state's next value) plus ``offset`` (a sensor offset
+    effect's value); returns the node list and the name of the code register (the core's
+    ``sensor.code_port`` output)."""
     p, bits = sensor.name, sensor.bits
+    lo, hi = sensor.lo - offset, sensor.hi - offset   # s + offset >= t  <=>  s >= t - offset
     q = (sensor.hi - sensor.lo) / (1 << bits)
     top = (1 << bits) - 1
     nodes = []
@@ -44,8 +49,9 @@ def lower_adc(sensor, value: str, meaning: str, initial: float = 0.0) -> tuple[l
         return name
 
     zero = add(f"{p}_zero", Kind.CONST, value=0.0)
-    edge = max(abs(sensor.lo), abs(sensor.hi))
-    base = add(f"{p}_lo", Kind.CONST, value=float(sensor.lo), what=f"bottom of {sensor.name}'s range")
+    edge = max(abs(lo), abs(hi))
+    base = add(f"{p}_lo", Kind.CONST, value=float(lo), what=f"bottom of {sensor.name}'s range"
+               + (", less the sensor offset" if offset else ""))
     code = None
     for k in range(bits - 1, -1, -1):
         weight = add(f"{p}_w{k}", Kind.CONST, value=(1 << k) * q, what=f"weight of code bit {k}")
@@ -59,5 +65,5 @@ def lower_adc(sensor, value: str, meaning: str, initial: float = 0.0) -> tuple[l
         code = term if code is None else add(f"{p}_s{k}", Kind.ADD, [code, term], max_abs=float(top))
     code = add(f"{p}_next", Kind.CAST, [code], f"{meaning} converter code after the step", max_abs=float(top))
     reg = add(f"{p}_code", Kind.REGISTER, [code], f"{meaning} converter code ({bits} bits)",
-              reset=float(sensor.code(initial)), max_abs=float(top))
+              reset=float(sensor.code(initial + offset)), max_abs=float(top))
     return nodes, reg

@@ -226,13 +226,8 @@ def converter_limits(signals) -> dict:
 def sensor_offsets(model: PlantModel) -> dict:
     """``{position: offset}``: what each position's sensor adds to it (the model's sensor offset
     effects at its own parameter values; 0 where there is none), without compiling a kernel."""
-    import sympy as sp
-
-    eq = model.equations
-    values = dict(zip(eq.params, model.parameter_vector()))
     out = dict.fromkeys(signals_of(model).positions, 0.0)
-    for name, expr in eq.sensor_offsets:
-        out[name] += float(sp.sympify(expr).subs(values))
+    out.update(model.sensor_offset_values())
     return out
 
 

@@ -12,7 +12,7 @@ Verilog harness.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ...model.interface import require_interface
 
@@ -41,7 +41,8 @@ class EncoderPorts:
 class AdcPorts:
     """One sampled converter (ADC) of the core: its name, the state it reads, its code port,
     bits and range ``lo`` .. ``hi`` in the state's unit (the code of the state after the last
-    step: :meth:`pendc.model.sensors.SensorSpec.code`)."""
+    step: :meth:`pendc.model.sensors.SensorSpec.code`), and the plant's sensor ``offset`` (the
+    converter codes state + offset; a controller's :meth:`reading` does not know it)."""
 
     name: str
     state: str
@@ -50,6 +51,7 @@ class AdcPorts:
     lo: float
     hi: float
     unit: str = ""
+    offset: float = 0.0
 
     @property
     def resolution(self) -> float:
@@ -61,10 +63,10 @@ class AdcPorts:
         return self.lo + (float(code) + 0.5) * self.resolution
 
     def code(self, value) -> int:
-        """The code of state ``value``, by the interface's rule
+        """The code of state ``value`` (plus the offset), by the interface's rule
         (:func:`pendc.model.sensors.converter_code`: floor, clipped to the range)."""
         from ...model.sensors import converter_code
-        return int(converter_code(float(value), self.lo, self.hi, self.bits))
+        return int(converter_code(float(value) + self.offset, self.lo, self.hi, self.bits))
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,12 @@ class CorePorts:
                      for s in iface.sensors if s.is_adc)
         return cls(module=iface.core, input=iface.input.name, states=tuple(iface.outputs), encoders=encoders,
                    adcs=adcs, input_range=(iface.input.lo, iface.input.hi), input_unit=iface.input.unit)
+
+    def with_offsets(self, offsets: dict) -> "CorePorts":
+        """The same ports with each converter coding its state plus ``offsets[state]`` (a model's
+        :meth:`~pendc.model.plant.PlantModel.sensor_offset_values`), as the compiled core does."""
+        adcs = tuple(replace(a, offset=float(offsets.get(a.state, 0.0))) for a in self.adcs)
+        return replace(self, adcs=adcs)
 
     @classmethod
     def of_graph(cls, graph) -> "CorePorts":

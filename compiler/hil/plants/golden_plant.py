@@ -39,7 +39,7 @@ def core_of(model: PlantModel, dt: float, build, on_overflow: str) -> tuple:
         ports = CorePorts.of_graph(build.graph)
     except ValueError as exc:
         raise PendcError(str(exc)) from None
-    return build, ports
+    return build, ports.with_offsets(model.sensor_offset_values())
 
 
 class GoldenPlant:

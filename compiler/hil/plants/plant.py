@@ -62,7 +62,7 @@ class FloatPlant:
     Extra states (a motor lag) carry over between steps; an input delay is applied from the
     history of inputs since reset (before reset the plant saw the first input). Encoder counts
     are those of a ×4 decoder on the absolute band grid, counted from reset; each converter's
-    code is the interface's rule applied to its state (:meth:`~pendc.hil.plants.core_ports.AdcPorts.code`).
+    code is the interface's rule applied to its state plus its sensor offset (:meth:`~pendc.hil.plants.core_ports.AdcPorts.code`).
     ``initial`` (one value per reported state, in the plant interface's order, as the golden
     plant takes it) starts the mechanical states elsewhere than at rest at 0 (extra states such
     as a motor lag start from the first input; the encoders count from there).
@@ -80,7 +80,7 @@ class FloatPlant:
         self._params = sim.param_vector
         eq = model.equations
         from .core_ports import CorePorts
-        self.ports = CorePorts.of_interface(model.interface)
+        self.ports = CorePorts.of_interface(model.interface).with_offsets(model.sensor_offset_values())
         names = [s.name for s in eq.states]
         missing = [n for n in self.ports.states if n not in names]
         if missing:
