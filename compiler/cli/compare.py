@@ -6,6 +6,7 @@ import json
 import sys
 
 from .data import add_data_options, load_datasets, note
+from .options import add_horizon_option, horizon_of
 from ..errors import PendcError
 
 EPILOG = """\
@@ -29,8 +30,7 @@ def cmd_compare(args) -> int:
     from ..model.modelfile import fit_uncertainty_of, parse_model, read_model_text
     from ..sim.signals import signals_of
 
-    if not args.horizon > 0:
-        raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
+    horizon_of(args)
     if args.band < 0 or args.band == 1:
         raise PendcError(f"--band must be 0 (no band) or at least 2 draws, got {args.band}")
     paths = args.model or [None]
@@ -69,8 +69,7 @@ def add_parsers(sub) -> None:
     add_data_options(p, many=True)
     p.add_argument("--model", action="append", metavar="MODEL.toml",
                    help="model file; repeat to put models side by side (default: the shipped default model)")
-    p.add_argument("--horizon", type=float, default=0.5, help="seconds between restarts of the horizon fit "
-                   "(default 0.5, as diagnose and fit)")
+    add_horizon_option(p, "the horizon fit")
     p.add_argument("--outputs", help="outputs to compare: positions of the model's plant, comma-separated (the "
                                      "default model's: {plant:positions}, or any of them; default: every output "
                                      "the data move; held or missing ones are left out with a note)")

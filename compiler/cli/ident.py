@@ -11,6 +11,7 @@ import math
 import sys
 
 from .data import add_data_options, load_datasets, load_model_and_data, note
+from .options import DEFAULT_HORIZON, add_horizon_option, horizon_of, horizon_words
 from ..errors import PendcError
 
 
@@ -54,8 +55,8 @@ def diverging_note(figures: dict) -> list:
         return []
     worst = ", ".join(f"{o} {v:.0f} %" for o, v in bad.items())
     return [f"the model's {figures.get('label', 'horizon fit')} leaves these data far behind ({worst}): its runs "
-            f"between restarts diverge (a plant unstable faster than the horizon, recorded under feedback, "
-            f"cannot be told apart this way); a candidate's score says little here"]
+            f"between restarts diverge (a plant unstable faster than the horizon, recorded under feedback); "
+            f"a shorter --horizon, a few of its time constants, lets them follow (compare --horizon shows which)"]
 
 
 DIVERGING_FIT = -100.0      # %: a horizon fit below this means the restarts diverge
@@ -87,18 +88,19 @@ def cmd_diagnose(args) -> int:
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
-    before = horizon_figures(model, datasets, outputs=outputs)
+    horizon = horizon_of(args)
+    before = horizon_figures(model, datasets, horizon, outputs=outputs)
     only = [e.strip() for e in (args.effects or "").split(",") if e.strip()] or None
-    d = diagnose(model, datasets, workers=args.workers, progress=_progress(not args.json), outputs=outputs,
-                 effects=only)
+    d = diagnose(model, datasets, segment=horizon, workers=args.workers, progress=_progress(not args.json),
+                 outputs=outputs, effects=only)
     _notes(list(d.notes) + diverging_note(before))
     out = d.to_json()
     out["fit_now"] = before
     for c, row in zip(d.candidates, out["candidates"]):
-        row["fit_after"] = (horizon_figures(model.with_effect(c.effect, c.params), datasets, outputs=outputs)
+        row["fit_after"] = (horizon_figures(model.with_effect(c.effect, c.params), datasets, horizon, outputs=outputs)
                             if c.score > 0.05 else before)
     hint = parameter_hint(model, d.correlations, fitted_parameters(args.model)) if d.unexplained else None
-    trials = try_parameters(model, datasets, hint[0].split(","), outputs=outputs) if hint else []
+    trials = try_parameters(model, datasets, hint[0].split(","), segment=horizon, outputs=outputs) if hint else []
     if hint:
         out["parameter_hint"] = {"free": hint[0].split(","), "reason": hint[1],
                                  "tested": [t.to_json() for t in trials]}
@@ -108,18 +110,23 @@ def cmd_diagnose(args) -> int:
     shown = list(before["pooled"])
     lines = _figure_lines(before, "now: ") + [""]
     heads = " ".join(f"{'fit ' + o:>9s}" for o in shown)
-    lines.append(f"{'rank':4s} {'effect':18s} {'score':>6s} {heads}  parameters (0.5 s horizon fit after adding it)")
+    lines.append(f"{'rank':4s} {'effect':18s} {'score':>6s} {heads}  parameters ({horizon:g} s horizon fit after "
+                 f"adding it)")
     for i, row in enumerate(out["candidates"], 1):
         params = ", ".join(f"{k}={v:.4g}" for k, v in row["params"].items())
         figs = " ".join(f"{row['fit_after']['pooled'].get(o, float('nan')):9.1f}" for o in shown)
-        lines.append(f"{i:<4d} {row['effect']:18s} {row['score']:6.3f} {figs}  {params}")
+        pinned = "  (at its bound)" if row["at_bound"] else ""
+        lines.append(f"{i:<4d} {row['effect']:18s} {row['score']:6.3f} {figs}  {params}{pinned}")
     lines.append("")
     ratio = ", ".join(f"{o} {r:.2f}x" for o, r in (d.noise_ratio or {}).items())
     if d.at_noise_level:
         lines.append(f"Nothing systematic left: the remaining error is at the noise level of the measurement "
                      f"chain (encoder quantisation and input noise; residual / noise-only residual: {ratio}).")
     elif d.unexplained:
-        why = "the best removes less than half of it" if d.candidates else "no candidate was tested"
+        pinned = [c for c in d.candidates if c.at_bound and c.score >= 0.5]
+        why = ("the best removes less than half of it" if d.candidates else "no candidate was tested") + "".join(
+            f"; {c.effect} removes {100 * c.score:.0f} % only with {c.at_bound}, where the data push it"
+            for c in pinned[:2])
         lines.append(f"No catalogue effect explains the error ({why}), and it is "
                      f"above the noise level ({ratio} the noise-only residual).")
         if d.correlations:
@@ -130,23 +137,23 @@ def cmd_diagnose(args) -> int:
                          "rate state, and these data have none.")
         if hint:
             lines.append(f"This points at a constant the model has: {hint[1]}.")
-            lines.append("Tested, each freed alone (a short 0.5 s horizon fit): "
+            lines.append(f"Tested, each freed alone (a short {horizon:g} s horizon fit): "
                          + "; ".join(t.words() for t in trials) + ".")
-            lines.append(f"Try: pendc fit {_data_words(args)} --model {args.model or _default_model()} "
-                         f"--free {hint[0]} -o NEW.toml")
+            lines.append(f"Try: pendc fit {_data_words(args)} --model {args.model or _default_model()}"
+                         f"{horizon_words(horizon)} --free {hint[0]} -o NEW.toml")
     elif d.tie:
         lines.append(f"Ambiguous: {d.tie['message']}")
         for name in d.tie["effects"]:
             c = next(c for c in d.candidates if c.effect == name)
             lines.append(f"  {name}: {c.evidence}")
         lines.append(f"Next: run the separating experiment, then pendc diagnose both files together; or fit each: "
-                     f"pendc fit {_data_words(args)} --model {args.model or _default_model()} "
-                     f"--add {d.tie['effects'][0]} -o NEW.toml")
+                     f"pendc fit {_data_words(args)} --model {args.model or _default_model()}"
+                     f"{horizon_words(horizon)} --add {d.tie['effects'][0]} -o NEW.toml")
     else:
         best = d.candidates[0]
         lines.append(f"Most likely missing: {best.effect}. Evidence: {best.evidence}")
-        lines.append(f"Next: pendc fit {_data_words(args)} --model {args.model or _default_model()} "
-                     f"--add {best.effect} -o NEW.toml")
+        lines.append(f"Next: pendc fit {_data_words(args)} --model {args.model or _default_model()}"
+                     f"{horizon_words(horizon)} --add {best.effect} -o NEW.toml")
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
 
@@ -172,6 +179,8 @@ def _command(args) -> str:
                         ("--outputs", args.outputs), ("--objective", getattr(args, "objective", "auto"))):
         if value:
             parts += [flag, str(value)]
+    if getattr(args, "horizon", DEFAULT_HORIZON) != DEFAULT_HORIZON:
+        parts += ["--horizon", f"{args.horizon:g}"]
     if args.validate:
         parts += ["--validate", *args.validate]
     return " ".join(parts + ["-o", str(args.output)])
@@ -209,8 +218,9 @@ def cmd_fit(args) -> int:
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
+    horizon = horizon_of(args)
     validation = load_datasets(args, args.validate, plant=model) if args.validate else datasets
-    before = horizon_figures(model, validation, outputs=outputs)   # the model as given
+    before = horizon_figures(model, validation, horizon, outputs=outputs)   # the model as given
     free_before = free_run_figures(model, validation, outputs=outputs)
     added = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     for effect in added:
@@ -222,8 +232,8 @@ def cmd_fit(args) -> int:
     free = list(dict.fromkeys([p for e in added for p in free_parameters(e, model)] + free)) or list(model.free)
     if not free:
         raise PendcError("nothing to fit: name effects with --add or parameters with --free")
-    result = fit_parameters(model, datasets, free, max_evaluations=args.max_evaluations, outputs=outputs,
-                            objective=args.objective)
+    result = fit_parameters(model, datasets, free, segment=horizon, max_evaluations=args.max_evaluations,
+                            outputs=outputs, objective=args.objective)
     _notes(result.notes)
     if not result.converged:
         raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations); "
@@ -231,7 +241,7 @@ def cmd_fit(args) -> int:
     if result.unidentifiable and not args.force:
         raise PendcError(f"the data do not identify {', '.join(result.unidentifiable)} "
                          f"({result.refused()}); no model written (--force writes it anyway)")
-    after = horizon_figures(result.model, validation, outputs=outputs)
+    after = horizon_figures(result.model, validation, horizon, outputs=outputs)
     free_after = free_run_figures(result.model, validation, outputs=outputs)
     source = Path(args.model) if args.model else default_model_path()
     meta = {**_provenance(args, free, before, after), "objective": result.objective}
@@ -286,6 +296,7 @@ def add_parsers(sub) -> None:
     add_data_options(p)
     _add_ident_options(p)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    add_horizon_option(p, "each candidate")
     p.add_argument("--effects", metavar="A,B", help="test only these catalogue effects, comma-separated "
                                                     "(default: every effect the model lacks and the data could show)")
     p.set_defaults(func=cmd_diagnose)
@@ -301,6 +312,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--validate", nargs="+", help="measurement files to report the fit on (default: the fit data)")
     p.add_argument("-o", "--output", required=True, help="new model file")
     p.add_argument("--max-evaluations", type=int, default=200, help="budget of model evaluations (default 200)")
+    add_horizon_option(p, "the fit (its first stage and its intervals)")
     p.add_argument("--objective", choices=("horizon", "free-run", "auto"), default="auto",
                    help="what the fit minimises: the 0.5 s horizon error; or, continued from it to 2 s, 8 s and "
                         "the whole record, the free run's; auto (default): the free run where it is reproducible "

@@ -10,6 +10,7 @@ import argparse
 import math
 import sys
 
+DEFAULT_HORIZON = 0.5   # s: pendc.ident.horizon.DEFAULT_HORIZON, not imported (building the parser loads no numpy)
 MODEL_HELP = "model file (default: the shipped default model, which models/DEFAULT names; '-': standard input)"
 
 
@@ -95,3 +96,25 @@ def note_offsets(model, what: str) -> None:
         print(f"pendc: note: {', '.join(names)} (a sensor offset on an encoder) is left out of {what}: an "
               f"incremental encoder counts from where it was homed; simulate --quantize and identification "
               f"apply it", file=sys.stderr)
+
+
+def horizon_of(args) -> float:
+    """``--horizon``, checked: seconds between the restarts from the measured state."""
+    from ..errors import PendcError
+
+    if not (math.isfinite(args.horizon) and args.horizon > 0):
+        raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
+    return float(args.horizon)
+
+
+def horizon_words(horizon: float) -> str:
+    """`` --horizon H`` for a suggested command when it is not the default."""
+    return "" if horizon == DEFAULT_HORIZON else f" --horizon {horizon:g}"
+
+
+def add_horizon_option(p, who: str) -> None:
+    """The ``--horizon`` option compare, diagnose and fit share."""
+    p.add_argument("--horizon", type=float, default=DEFAULT_HORIZON, metavar="SECONDS",
+                   help=f"seconds between restarts from the measured state, over which {who} judges the model "
+                        f"(default {DEFAULT_HORIZON:g}); a plant unstable faster than that, recorded under "
+                        f"feedback, needs a few of its time constants (a magnet: 0.02)")

@@ -38,7 +38,7 @@ from ..errors import PendcError
 from ..model.plant import PlantModel
 from ..sim.signals import signals_of
 from .evidence import describe_candidate, residual_correlations
-from .fit import fit_parameters
+from .fit import PINNED, fit_parameters
 from .noise import NOISE_FACTOR, noise_ratio
 from .outputs import experiment_of, plan_outputs
 from .plant_roles import engagement
@@ -62,6 +62,7 @@ class Candidate:
     seconds: float = 0.0  # time spent testing this candidate
     heldout_before: tuple = ()   # per held-out segment: cost without the candidate
     heldout_after: tuple = ()    # per held-out segment: cost with it (what ties are judged on)
+    at_bound: str = ""    # why its fitted value is not credible: a parameter pinned on its bound ('' if none)
 
     def to_json(self) -> dict:
         """A JSON-ready dict (the per-segment costs are left out: they serve the tie test)."""
@@ -263,7 +264,9 @@ def _test_candidate(args) -> Candidate:
     n = held.size
     bic = lambda cost, k: n * math.log(max(2 * cost, 1e-300) / n) + k * math.log(n)
     score = 1.0 - after / before if before > 0 else 0.0
-    return Candidate(effect=effect, params=fit.values, ci95=fit.ci95, score=float(score),
+    pinned = next((f"{p} at its {why.split(':')[0].removeprefix('it sits at its ')}"
+                   for p, why in fit.unidentifiable.items() if PINNED in why), "")
+    return Candidate(effect=effect, params=fit.values, ci95=fit.ci95, score=float(score), at_bound=pinned,
                      delta_bic=float(bic(before, 0) - bic(after, len(free))),
                      cost_fit=(fit.cost_before, fit.cost_after), cost_heldout=(before, after),
                      evidence=describe_candidate(model, fit.model, effect, datasets, score),
@@ -320,11 +323,12 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
             results.append(_test_candidate(job))
             if progress:
                 progress(i + 1, len(jobs), job[2])
-    results.sort(key=lambda c: (-c.score, c.effect))
+    # a candidate that helps only with a value pinned on its bound explains nothing: it goes last
+    results.sort(key=lambda c: (bool(c.at_bound), -c.score, c.effect))
     problem = ShootingProblem(model, datasets, [], dt=dt, segment=segment, outputs=outputs)
     base_cost = problem.cost(np.array([]))
     ratio = noise_ratio(model, datasets, dt=dt, segment=segment, outputs=outputs)
-    explained = bool(results) and results[0].score >= EXPLAINED
+    explained = bool(results) and results[0].score >= EXPLAINED and not results[0].at_bound
     floor = noise_share(model, datasets, ratio, dt, segment, outputs) if explained else 0.0
     quiet = not explained and all(r <= NOISE_FACTOR for r in ratio.values())
     unexplained = not explained and not quiet

@@ -321,6 +321,7 @@ def _at(problem: ShootingProblem, tf: "_Transform", z: np.ndarray) -> SimpleName
 
 
 BOUND_SHARE = 1e-6    # of a parameter's physical range: a fitted value this near a bound sits on it (zero excepted)
+PINNED = "the data push it past its physical range"   # that reason's words (diagnose tells a pinned candidate by them)
 
 
 def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict, null: set) -> dict:
@@ -334,8 +335,8 @@ def _unidentifiable(model: PlantModel, free: list, values: np.ndarray, ci: dict,
             why[p] = "the data do not excite it (the cost does not change when it moves)"
         elif v >= hi - BOUND_SHARE * span or (lo != 0 and v <= lo + BOUND_SHARE * span):
             side = "upper" if v >= hi - BOUND_SHARE * span else "lower"
-            why[p] = (f"it sits at its {side} bound {hi if side == 'upper' else lo:.6g}: the data push it past its "
-                      f"physical range (an effect the model lacks, or data it cannot follow over the horizon)")
+            why[p] = (f"it sits at its {side} bound {hi if side == 'upper' else lo:.6g}: {PINNED} "
+                      f"(an effect the model lacks, or data it cannot follow over the horizon)")
         elif lo >= 0 and half >= abs(v):
             why[p] = f"its 95 % interval [{ci[p][0]:.3g}, {ci[p][1]:.3g}] is wider than its value"
         elif lo < 0 and half > 0.1 * (hi - lo):
