@@ -35,6 +35,12 @@ FRICTION_SMOOTHING = 0.05     # V, width of the smoothed sign in the friction co
 # the upright, its rate and the input (each in its state's unit, the input in volts)
 LQR_Q = (1 / 0.01**2, 1 / 0.5**2, 1 / 0.02**2, 1 / 0.5**2)
 LQR_R = 1 / 1.0**2
+# an actuated coordinate that must move more than this many times as far as the pendulum it
+# balances (1 / |coupling|: a reaction wheel's 188 rad per rad; a cart's 0.22 m, a Furuta arm's
+# 1.01 rad) stores momentum rather than positions the pivot: its excursions are the lever times
+# the weights' (a 0.01 rad weight on a wheel caught at 250 rad/s spent the whole input on an angle
+# nothing depends on, and lost every catch)
+MOMENTUM_LEVER = 10.0
 # supervisor: switch to balance within CATCH_ANGLE (rad) of the upright below CATCH_RATE (rad/s),
 # back to swinging beyond DROP_ANGLE
 CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
@@ -180,25 +186,30 @@ class EnergySwingUp(_VelocityObserver):
 
 
 class LqrBalance(_VelocityObserver):
-    """Discrete LQR about the upright on (p - p_ref, v, phi, dphi): the actuated position and
-    its rate, the angle from the upright (wrapped) and its rate. The gain comes from the
+    """Discrete LQR about the upright on (p - p_ref, v, phi, dphi): the actuated position (a
+    rotor's wrapped to within half a turn) and its rate, the angle from the upright (wrapped) and
+    its rate (weights: :func:`balance_weights` unless ``q_diag``). The gain comes from the
     model's own linearisation (see :mod:`pendc.hil.controllers.linearize`). ``position_ref`` (the actuated
     coordinate's set point) may be a float or a function of time (the 4 cm step scenario)."""
 
     mode = "balance"
 
     def __init__(self, consts: PendulumConstants, period: float = 1e-3, position_ref=0.0,
-                 q_diag=LQR_Q, r: float = LQR_R):
+                 q_diag=None, r: float = LQR_R):
         self.c = consts
         self.period = period
         self.input_range = consts.input_range
-        self.lqr: DiscreteLqr = design_lqr(consts.lin, period, q_diag, r)
+        self.lqr: DiscreteLqr = design_lqr(consts.lin, period, q_diag or balance_weights(consts), r)
         self.position_ref = position_ref if callable(position_ref) else (lambda t, v=float(position_ref): v)
         super().__init__(period)
 
     def command(self, meas: Measurement, actuated_rate: float, angle_rate: float) -> float:
         """Volts for the filtered state."""
-        err = np.array([meas.position(self.c.actuated) - self.position_ref(meas.t), actuated_rate,
+        offset = meas.position(self.c.actuated) - self.position_ref(meas.t)
+        turn = self.c.roles.actuated.period
+        if turn is not None:
+            offset = wrap_upright(offset + 0.5 * turn, turn)
+        err = np.array([offset, actuated_rate,
                         self.c.upright_error(meas.position(self.c.angle)), angle_rate])
         du = -float(self.lqr.K @ err)
         # dry friction compensation: add the volts that the friction eats in the commanded direction
@@ -207,6 +218,15 @@ class LqrBalance(_VelocityObserver):
     def step(self, meas: Measurement) -> float:
         """One control period."""
         return self.command(meas, *self.observe(meas))
+
+
+def balance_weights(consts: PendulumConstants) -> tuple:
+    """The LQR weights of the balance: :data:`LQR_Q`, the actuated coordinate's excursions times
+    its lever where that exceeds :data:`MOMENTUM_LEVER` (a reaction wheel)."""
+    lever = 1.0 / abs(consts.coupling)
+    if lever <= MOMENTUM_LEVER:
+        return LQR_Q
+    return (LQR_Q[0] / lever**2, LQR_Q[1] / lever**2) + LQR_Q[2:]
 
 
 class Supervisor:
