@@ -37,7 +37,7 @@ def test_every_shipped_file_through_diagnose(capsys):
 
 
 def test_every_shipped_file_through_fit(capsys, tmp_path):
-    rc, out, err = _run(capsys, "fit", *SHIPPED, "--free", "b_theta", "--max-evaluations", "40",
+    rc, out, err = _run(capsys, "fit", *SHIPPED, "--free", "b_theta", "--max-evaluations", "40", "--objective", "horizon",
                         "-o", tmp_path / "fitted.toml")
     assert rc == 0 and _clean(err), err
     lines = out.splitlines()
