@@ -130,6 +130,8 @@ def _hostile():
          r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s, expected 1/s"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
+        ("two inputs", t.replace("[inputs.F]", '[inputs.G]\nunit = "N"\nmeaning = "a second force"\nrange = [-1.0, 1.0]\n\n'
+                                 "[inputs.F]"), r"inputs: declares 2 inputs \(G, F\); a plant has one input"),
         ("sensor of an unknown state", t.replace('state = "x"', 'state = "y"'), r"sensors\.enc_x\.state: names unknown position 'y'"),
         ("two sensors on one state", t.replace("[sensors.enc_theta]", '[sensors.enc_x2]\nstate = "x"\nband = 1e-4\n'
                                                'lines = 1000\nbands_per_rev = 2000\n\n[sensors.enc_theta]'),

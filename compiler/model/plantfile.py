@@ -100,6 +100,10 @@ def _inputs(top: TableReader) -> tuple:
             i.fail(f"neutral {neutral:g} lies outside the range [{lo:g}, {hi:g}]", "neutral")
         out.append(InputDecl(name, i.string("unit", required=True), i.string("meaning", required=True), lo, hi,
                              neutral))
+    if len(out) > 1:
+        # one input port carries the core's step; a second actuator is the next plant format's
+        r.fail(f"declares {len(out)} inputs ({', '.join(d.name for d in out)}); a plant has one input, the core's "
+               f"input port: keep the one a controller drives and make the others [constants] it holds")
     return tuple(out)
 
 
