@@ -26,6 +26,7 @@ first call, so ``import pendc`` stays light.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -119,7 +120,7 @@ class CompareReport:
         return self.text()
 
 
-def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4, method: str = "rk4",
+def compare(model, data, *, horizon: float | None = None, outputs=None, dt: float = 1e-4, method: str = "rk4",
             labels=None, band: int = 20, seed: int = 0, **reading) -> CompareReport:
     """How well does ``model`` reproduce ``data``, where and why not (``pendc compare``).
 
@@ -127,7 +128,7 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
     list of them to put side by side (a table of every figure per model with the change
     from the first; ``labels`` names them). ``data``: a file path or Measurement, or a
     list of them (a report per file). ``horizon``: seconds between restarts of the
-    horizon fit. ``outputs``: a tuple of state names to compare only those (default: every output
+    horizon fit (None: 0.5 s, longer where the data move too little in it: :func:`_horizon`). ``outputs``: a tuple of state names to compare only those (default: every output
     the data move; ``report.notes`` says what was left out). ``**reading``: :class:`~pendc.sim.readers.ReadOptions` fields for paths.
     The headline (``report.headline``) is the free-run fit where a free run is meaningful
     on the data, else the horizon fit, and says why. A model given by the file a fit wrote gets
@@ -144,9 +145,24 @@ def compare(model, data, *, horizon: float = 0.5, outputs=None, dt: float = 1e-4
     uncertainties = [load_fit_uncertainty(m) if isinstance(m, (str, os.PathLike)) and band else None for m in given]
     datasets = _datasets(data, reading, models[0] if models else None)
     with np.errstate(all="ignore"):   # undefined figures are NaN by design, never a warning
+        horizon = _horizon(horizon, datasets, models[0] if models else _model(None))
         return CompareReport(compare_models(models, datasets, dt=dt, method=method, horizon=horizon, labels=labels,
                                             outputs=None if outputs is None else tuple(_as_list(outputs)),
                                             uncertainties=uncertainties, band_samples=band, seed=seed))
+
+
+def _horizon(given, datasets: list, model) -> float:
+    """``given``, or the data's horizon (:func:`pendc.ident.horizon.horizon_for`: 0.5 s, doubled
+    while the data move less than four sensor steps in it)."""
+    from .errors import PendcError
+    from .ident.horizon import horizon_for
+    from .sim.signals import signals_of
+
+    if given is None:
+        return horizon_for(datasets, signals_of(model))[0]
+    if not (math.isfinite(given) and given > 0):
+        raise PendcError(f"horizon must be a positive number of seconds, got {given}")
+    return float(given)
 
 
 def _names(value) -> list:
@@ -157,12 +173,13 @@ def _names(value) -> list:
     return [str(v).strip() for v in items if str(v).strip()]
 
 
-def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, segment: float = 0.5,
+def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, segment: float | None = None,
              effects=None, **reading):
     """Which catalogue effect is missing from ``model``, judged on ``data`` (``pendc diagnose``).
 
     ``model``: a model file path or PlantModel (None: the default model); ``data``: a
     path or Measurement, or a list of them (each simulated under its own experiment).
+    ``segment``: the horizon in seconds (None: as :func:`compare`'s).
     ``outputs``: a tuple of state names to judge on those only; ``workers`` > 1 tests candidates in
     parallel processes; ``effects`` (``"a,b"`` or a list) tests only those catalogue effects.
     Returns a :class:`~pendc.ident.diagnose.Diagnosis`: ``candidates`` best first (``effect``,
@@ -176,7 +193,7 @@ def diagnose(model, data, *, outputs=None, workers: int = 1, dt: float = 1e-4, s
     m = _model(model)
     datasets = _datasets(data, reading, m)
     with np.errstate(all="ignore"):
-        return run(m, datasets, dt=dt, segment=segment, workers=workers,
+        return run(m, datasets, dt=dt, segment=_horizon(segment, datasets, m), workers=workers,
                    outputs=None if outputs is None else tuple(_as_list(outputs)),
                    effects=None if effects is None else _names(effects))
 
@@ -218,13 +235,14 @@ class FitReport:
 
 
 def fit(model, data, *, add=None, free=None, validate=None, output=None, force: bool = False, outputs=None,
-        max_evaluations: int = 200, **reading) -> FitReport:
+        max_evaluations: int = 200, horizon: float | None = None, **reading) -> FitReport:
     """Add effects, fit parameters and (if ``output`` is given) write the new model (``pendc fit``).
 
     ``model``: a model file path or PlantModel (None: the default model); ``data``: a
     path or Measurement, or a list of them; ``add``: effects to add (their parameters are
     fitted; an effect the model has already is fitted from its current values), ``free``: more parameters (any plant constant or effect parameter), as lists or
-    comma-separated strings; ``validate``: data to report the figures on (default: ``data``).
+    comma-separated strings; ``validate``: data to report the figures on (default: ``data``);
+    ``horizon``: seconds between restarts (None: as :func:`compare`'s).
     Raises PendcError when the fit does not converge, and, when ``output`` is given, when
     the data do not identify a fitted parameter (unless ``force``): no file is written then.
     Without ``output`` nothing is written and ``report.result.unidentifiable`` says which
@@ -242,8 +260,9 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
     datasets = _datasets(data, reading, m)
     checks = _datasets(validate, reading, m) if validate is not None else datasets
     wanted = None if outputs is None else tuple(_as_list(outputs))
+    horizon = _horizon(horizon, datasets, m)
     with np.errstate(all="ignore"):
-        before = horizon_figures(m, checks, outputs=wanted)
+        before = horizon_figures(m, checks, horizon, outputs=wanted)
         free_run_before = free_run_figures(m, checks, outputs=wanted)
         added = _names(add)
         for effect in added:
@@ -252,14 +271,14 @@ def fit(model, data, *, add=None, free=None, validate=None, output=None, force: 
         names = list(dict.fromkeys([p for e in added for p in free_parameters(e, m)] + _names(free))) or list(m.free)
         if not names:
             raise PendcError("nothing to fit: name effects with add= or parameters with free=")
-        result = fit_parameters(m, datasets, names, max_evaluations=max_evaluations, outputs=wanted)
+        result = fit_parameters(m, datasets, names, segment=horizon, max_evaluations=max_evaluations, outputs=wanted)
         if not result.converged:
             raise PendcError(f"the fit did not converge ({result.message}, {result.evaluations} evaluations)"
                              + ("; no model written" if output else ""))
         if output is not None and result.unidentifiable and not force:
             raise PendcError(f"the data do not identify {', '.join(result.unidentifiable)} "
                              f"({result.refused()}); no model written (force=True writes it anyway)")
-        after = horizon_figures(result.model, checks, outputs=wanted)
+        after = horizon_figures(result.model, checks, horizon, outputs=wanted)
         free_run_after = free_run_figures(result.model, checks, outputs=wanted)
     if output is not None:
         _write_fitted(model, result, names, data, before, after, output)

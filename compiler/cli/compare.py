@@ -30,7 +30,6 @@ def cmd_compare(args) -> int:
     from ..model.modelfile import fit_uncertainty_of, parse_model, read_model_text
     from ..sim.signals import signals_of
 
-    horizon_of(args)
     if args.band < 0 or args.band == 1:
         raise PendcError(f"--band must be 0 (no band) or at least 2 draws, got {args.band}")
     paths = args.model or [None]
@@ -42,8 +41,9 @@ def cmd_compare(args) -> int:
         raise PendcError("the models describe different plants (" + "; ".join(
             f"{name}: {', '.join(cols)}" for name, cols in columns.items()) + "): compare one plant's models at a time")
     datasets = load_datasets(args, plant=models[0])
+    horizon = horizon_of(args, models[0], datasets)
     with np.errstate(all="ignore"):   # an undefined figure is NaN by design; no warning for it
-        s = compare_models(models, datasets, horizon=args.horizon, outputs=parse_outputs(args.outputs, models[0]),
+        s = compare_models(models, datasets, horizon=horizon, outputs=parse_outputs(args.outputs, models[0]),
                            uncertainties=uncertainties, band_samples=args.band, seed=args.seed)
         for line in s.notes():
             note(line)

@@ -34,7 +34,8 @@ measurement files:
   a non-uniform one is interpolated linearly onto a uniform grid at its median step,
   unless a gap is longer than max(20 ms, 5 median steps), which is refused.
   Plausibility checks, each a one-line error naming the column or line: time sampled
-  slower than 10 Hz (milliseconds?), a position in metres beyond 1 m in many rows (a
+  slower than 10 Hz and than ten samples a period of the plant's fastest mode
+  (milliseconds? --t-unit s says seconds), a position in metres beyond 1 m in many rows (a
   rig's travel: millimetres or centimetres?), the input beyond 10 times its full scale
   (millivolts?), an angle beyond 200 or turning faster than 60 rad/s (degrees?); the
   same beyond the limits in a few rows, or an angle sample 1 rad away from both

@@ -88,7 +88,7 @@ def cmd_diagnose(args) -> int:
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
-    horizon = horizon_of(args)
+    horizon = horizon_of(args, model, datasets)
     before = horizon_figures(model, datasets, horizon, outputs=outputs)
     only = [e.strip() for e in (args.effects or "").split(",") if e.strip()] or None
     d = diagnose(model, datasets, segment=horizon, workers=args.workers, progress=_progress(not args.json),
@@ -121,7 +121,7 @@ def cmd_diagnose(args) -> int:
     ratio = ", ".join(f"{o} {r:.2f}x" for o, r in (d.noise_ratio or {}).items())
     if d.at_noise_level:
         lines.append(f"Nothing systematic left: the remaining error is at the noise level of the measurement "
-                     f"chain (encoder quantisation and input noise; residual / noise-only residual: {ratio}).")
+                     f"chain (the sensors' quantisation and input noise; residual / noise-only residual: {ratio}).")
     elif d.unexplained:
         pinned = [c for c in d.candidates if c.at_bound and c.score >= 0.5]
         why = ("the best removes less than half of it" if d.candidates else "no candidate was tested") + "".join(
@@ -179,7 +179,7 @@ def _command(args) -> str:
                         ("--outputs", args.outputs), ("--objective", getattr(args, "objective", "auto"))):
         if value:
             parts += [flag, str(value)]
-    if getattr(args, "horizon", DEFAULT_HORIZON) != DEFAULT_HORIZON:
+    if getattr(args, "horizon", None) is not None:
         parts += ["--horizon", f"{args.horizon:g}"]
     if args.validate:
         parts += ["--validate", *args.validate]
@@ -218,7 +218,7 @@ def cmd_fit(args) -> int:
 
     model, datasets = load_model_and_data(args)
     outputs = parse_outputs(args.outputs, model)
-    horizon = horizon_of(args)
+    horizon = horizon_of(args, model, datasets)
     validation = load_datasets(args, args.validate, plant=model) if args.validate else datasets
     before = horizon_figures(model, validation, horizon, outputs=outputs)   # the model as given
     free_before = free_run_figures(model, validation, outputs=outputs)

@@ -98,8 +98,17 @@ def note_offsets(model, what: str) -> None:
               f"apply it", file=sys.stderr)
 
 
-def horizon_of(args) -> float:
-    """``--horizon``, checked: seconds between the restarts from the measured state."""
+def horizon_of(args, model=None, datasets=()) -> float:
+    """``--horizon``, checked: seconds between the restarts from the measured state; not given,
+    the data's (:func:`pendc.ident.horizon.horizon_for`, with a note when it is not 0.5 s)."""
+    if args.horizon is None:
+        from ..ident.horizon import horizon_for
+        from ..sim.signals import signals_of
+
+        horizon, why = horizon_for(list(datasets), signals_of(model))
+        if why:
+            print(f"pendc: note: {why}", file=sys.stderr)
+        return horizon
     from ..errors import PendcError
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
@@ -114,7 +123,8 @@ def horizon_words(horizon: float) -> str:
 
 def add_horizon_option(p, who: str) -> None:
     """The ``--horizon`` option compare, diagnose and fit share."""
-    p.add_argument("--horizon", type=float, default=DEFAULT_HORIZON, metavar="SECONDS",
+    p.add_argument("--horizon", type=float, metavar="SECONDS",
                    help=f"seconds between restarts from the measured state, over which {who} judges the model "
-                        f"(default {DEFAULT_HORIZON:g}); a plant unstable faster than that, recorded under "
+                        f"(default {DEFAULT_HORIZON:g}, doubled while the data move less than four sensor steps "
+                        f"in it: a heater's minutes); a plant unstable faster than that, recorded under "
                         f"feedback, needs a few of its time constants (a magnet: 0.02)")

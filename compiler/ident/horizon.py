@@ -108,3 +108,46 @@ def _segment_fit(y, yhat) -> float:
     if spread == 0.0:
         return float("nan")
     return 100.0 * (1.0 - float(np.linalg.norm(y[keep] - yhat[keep])) / spread)
+
+
+VISIBLE_STEPS = 4.0   # sensor steps a typical segment must move for the horizon to see the dynamics
+
+
+def horizon_for(datasets: list, signals) -> tuple[float, str]:
+    """The horizon diagnose, fit and compare use unless told: :data:`DEFAULT_HORIZON`, doubled
+    while the measured positions move less than :data:`VISIBLE_STEPS` sensor steps in a typical
+    (median) segment and a record still holds eight segments; with the reason when it is not the
+    default. A pendulum moves hundreds of encoder counts in half a second; a heater's sink
+    (a 93 s time constant) less than one 0.32 K converter code, so every candidate scored the
+    same on 0.5 s and diagnose called the error noise."""
+    horizon = DEFAULT_HORIZON
+    longest = max((float(d.t[-1] - d.t[0]) for d in datasets if len(d.t) > 1), default=0.0)
+    moved = _median_movement(datasets, signals, horizon)
+    while moved < VISIBLE_STEPS and 2 * horizon * 8 <= longest:
+        horizon *= 2
+        moved = _median_movement(datasets, signals, horizon)
+    if horizon == DEFAULT_HORIZON:
+        return horizon, ""
+    return horizon, (f"the horizon is {horizon:g} s, not {DEFAULT_HORIZON:g} s: in {DEFAULT_HORIZON:g} s these data "
+                     f"move less than {VISIBLE_STEPS:g} sensor steps, too little to tell models apart "
+                     f"(--horizon sets it)")
+
+
+def _median_movement(datasets: list, signals, horizon: float) -> float:
+    """The largest, over the measured positions, median of (max - min) / sensor step per segment."""
+    best = 0.0
+    for d in datasets:
+        if len(d.t) < 3:
+            continue
+        per = max(1, int(round(horizon / float(np.median(np.diff(d.t))))))
+        for name in signals.positions:
+            step = d.resolution.get(name) or signals.resolution(name)
+            if name not in d.columns or name in d.missing or not step:
+                continue
+            y = d.columns[name]
+            n = len(y) // per
+            if n == 0:
+                continue
+            blocks = y[:n * per].reshape(n, per)
+            best = max(best, float(np.median(blocks.max(axis=1) - blocks.min(axis=1))) / float(step))
+    return best

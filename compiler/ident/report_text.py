@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ..model.sensors import ConverterStep
 from ..sim.signals import signals_of
 from . import headline as hl
 from .compare import WORST_WINDOW, Comparison, model_name
@@ -119,7 +120,7 @@ def _analyses(c: Comparison) -> list:
         lines.append(f"  ({'; '.join(notes)})")
     wrapped = f", {c.angle} wrapped" if c.angle in c.outputs else ""
     lines += ["", f"Is what is left noise? (free-run residual{wrapped}), 99 % bands, residual sampled every "
-              f"{1e3 * c.whiteness[c.outputs[0]]['lag_seconds']:.3g} ms"]
+              f"{duration_text(c.whiteness[c.outputs[0]]['lag_seconds'])}"]
     if h_is_horizon(c):
         lines.append("  caution: the free run is not meaningful on these data (see the headline), so these "
                      "verdicts describe its divergence more than the model")
@@ -130,30 +131,36 @@ def _analyses(c: Comparison) -> list:
     return lines
 
 
+def duration_text(seconds: float) -> str:
+    """A lag in words: milliseconds below a second, seconds from there (a heater's minutes)."""
+    return f"{1e3 * seconds:.3g} ms" if abs(seconds) < 1.0 else f"{seconds:.3g} s"
+
+
 def whiteness_words(k: str, a: dict, xc: dict, rms: float, plant=None) -> list:
     """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``xc``
     (``plant``: whose encoder count on ``k`` says what is rounding; default the default model)."""
-    step = 1e3 * a["lag_seconds"]
+    step = a["lag_seconds"]
     if a["white"]:
         out = [f"  {k:5s} residual looks white: only noise is left to explain"]
     else:
         lag = max(a["outside"] or a["lags"][1:], key=lambda j: abs(a["acf"][j]))
         out = [f"  {k:5s} residual is not white: {len(a['outside'])} of {len(a['lags']) - 1} lags outside the band "
-               f"(r = {a['acf'][lag]:+.2f} at {lag * step:.3g} ms): the error is systematic, the model misses or "
+               f"(r = {a['acf'][lag]:+.2f} at {duration_text(lag * step)}): the error is systematic, the model misses or "
                "mis-sets some dynamics"]
         count = signals_of(plant).resolution(k)
-        counts = rms / count if count else math.inf
+        counts = rms / float(count) if count else math.inf
+        sensor = "converter" if isinstance(count, ConverterStep) else "encoder"
         if counts < FEW_COUNTS:   # a whiteness test sees structure far below what matters
-            out.append(f"        but it is only {counts:.1f} encoder counts rms: at this level the structure may be "
-                       "the encoder's rounding or the integration step")
+            out.append(f"        but it is only {counts:.1f} {sensor} {'codes' if sensor == 'converter' else 'counts'} "
+                       f"rms: at this level the structure may be the {sensor}'s rounding or the integration step")
     if not xc.get("tested", True):
         return out + [f"  {k:5s} residual against the input: not tested: {xc['reason']}"]
     if xc["independent"]:
         return out + [f"  {k:5s} residual shows no significant correlation with the input"]
     mid = len(xc["lags"]) // 2
     lag = max(xc["outside"] or xc["lags"], key=lambda j: abs(xc["ccf"][j + mid]))
-    when = (f"the input {lag * step:.3g} ms earlier" if lag >= 0
-            else f"the input {-lag * step:.3g} ms later, i.e. feedback or a slow drift")
+    when = (f"the input {duration_text(lag * step)} earlier" if lag >= 0
+            else f"the input {duration_text(-lag * step)} later, i.e. feedback or a slow drift")
     return out + [f"  {k:5s} residual follows the input: {len(xc['outside'])} of {len(xc['lags'])} lags outside the "
                   f"band (r = {xc['ccf'][lag + mid]:+.2f} with {when}): the drive, friction or delay is wrong"]
 

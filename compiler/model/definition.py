@@ -203,7 +203,11 @@ class IdentificationNotes:
         one, else each effect's experiment."""
         if len(names) == 2 and frozenset(names) in self.pair_separated_by:
             return self.pair_separated_by[frozenset(names)]
-        how = {n: self.separated_by.get(n, f"an experiment that excites {n} alone") for n in names}
+        if not any(n in self.separated_by for n in names):
+            return (f"the plant file names no experiment for them (its catalogue's separated_by); a longer "
+                    f"--horizon, a few periods of the motion they act on, lets effects that act differently "
+                    f"over time (damping and dry friction) show it, as does a free decay of that motion")
+        how = {n: self.separated_by.get(n, f"the plant file names none for {n} (separated_by)") for n in names}
         ways = list(dict.fromkeys(how.values()))
         if len(ways) == 1:
             return ways[0]

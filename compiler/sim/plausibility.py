@@ -20,7 +20,8 @@ typical bench rig's: a 750 mm track, a 0-10 V drive, an angle encoder designed f
   degrees are caught by :func:`check_radians`;
 - a swing lasts about a second, so sampling slower than ``MIN_RATE`` (10 Hz) cannot
   record one: a median time step of 0.1 or more is taken as milliseconds (or
-  microseconds) rather than seconds.
+  microseconds) rather than seconds, unless the plant's fastest mode is slow enough for it
+  (ten samples a period: a heater's 0.002 Hz is recorded at 1 Hz) or ``--t-unit`` says seconds.
 """
 
 from __future__ import annotations
@@ -77,18 +78,26 @@ def check_time(table: Table, t: np.ndarray, label: str = "t") -> None:
     raise PendcError(f"{table.source}: {table.where(k)}: {kind}; {label} must be strictly increasing")
 
 
-def check_time_unit(table: Table, t: np.ndarray, given: bool) -> None:
-    """Sampling slower than MIN_RATE: the times are not in seconds."""
-    if len(t) < 3:
+def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest_hz=None) -> None:
+    """Sampling slower than MIN_RATE, and slower than ten samples a period of the plant's fastest
+    mode (``fastest_hz()``, Hz, when a model is known): the times are not in seconds. A unit the
+    user gave (``given``) is taken at its word."""
+    if len(t) < 3 or given:
         return
     stride = max(1, len(t) // 1_000_000)
     step = float(np.median(np.diff(t[::stride]))) / stride  # spread over the run, no full-length copy
     if step < 1.0 / MIN_RATE:
         return
+    mode = fastest_hz() if fastest_hz is not None else 0.0
+    need = MIN_RATE if not mode > 0 else min(MIN_RATE, 10.0 * mode)
+    if step < 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
+        return
     unit = "milliseconds" if step * 1e-3 < 1.0 / MIN_RATE else "microseconds"
-    fix = "check --t-unit" if given else f"use --t-unit {'ms' if unit == 'milliseconds' else 'us'}"
+    why = (f"ten samples a period of the plant's fastest mode, {mode:.3g} Hz, need {need:.3g} Hz" if mode > 0
+           else f"sampling slower than {MIN_RATE:g} Hz cannot record a swing")
     raise PendcError(f"{table.source}: t looks like {unit} (median step {step:g}, last t = {float(t[-1]):g}; "
-                     f"sampling slower than {MIN_RATE:g} Hz cannot record a swing): {fix}")
+                     f"{why}): use --t-unit {'ms' if unit == 'milliseconds' else 'us'}, or --t-unit s if it is "
+                     f"seconds")
 
 
 def check_bounded(table: Table, name: str, values: np.ndarray, limit: float, unit: str, why: str,

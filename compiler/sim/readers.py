@@ -328,7 +328,7 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
         if name not in options.units:     # a unit given for the column is taken at its word
             plaus.check_radians(table, t, columns[name], False, name, declared_rate(sig, sig.rate(name)))
     if options.plausible and any(p in columns for p in sig.positions):  # an input alone may be sparse steps
-        plaus.check_time_unit(table, t, TIME in options.units)
+        plaus.check_time_unit(table, t, TIME in options.units, lambda: _fastest_mode(options.plant))
 
 
 def _unit_hint(options: ReadOptions, name: str, suggestion: str) -> str:
