@@ -34,9 +34,12 @@ LONG_RUN_STEPS = 5_000_000   # beyond 5 s at 1 us, run sample by sample instead 
 class OverflowStop(PendcError):
     """A node left its format's range: the hardware's sticky flag, as an error naming node and time."""
 
-    def __init__(self, node: str, step: int, dt: float, count: int = 1, signals=None):
+    def __init__(self, node: str, step: int, dt: float, overflows: dict | None = None, signals=None):
         self.node, self.step, self.time = node, int(step), step * dt
-        others = f" ({count - 1} more node(s) overflowed too)" if count > 1 else ""
+        rest = sorted((k for k in (overflows or {}) if k != node), key=lambda k: (overflows[k], k))
+        # each is named: a range set by hand on the first alone left the next to fail on the next run
+        others = (f" (also {', '.join(rest[:4])}" + (f" and {len(rest) - 4} more" if len(rest) > 4 else "")
+                  + "; [hardware.ranges] sizes a node by hand)") if rest else ""
         super().__init__(f"node '{node}' left its Q-format range at t = {self.time:.6g} s (step {step}){others}; "
                          f"the fixed-point results from there on would be wrapped values"
                          + (overflow_hint(node, signals) if signals is not None else ""))
@@ -152,7 +155,7 @@ class GoldenModel:
         result = SimResult(t=t, u=u, states=states, signals=self.signals)
         first = first_overflow(trace.overflows, self.graph)
         if first is not None and on_overflow == "error":
-            raise OverflowStop(first[0], first[1], self.dt, len(trace.overflows), self.signals)
+            raise OverflowStop(first[0], first[1], self.dt, trace.overflows, self.signals)
         return GoldenRun(result=result, raw={k: np.asarray(v) for k, v in trace.outputs.items()},
                          overflows=dict(trace.overflows), rows=rows)
 
@@ -173,7 +176,7 @@ class GoldenModel:
             rows[i + 1] = stepper.advance(int(ints[i]), int(n), every_step=False)[-1, cols]
         first = first_overflow(stepper.overflows, self.graph)
         if first is not None and on_overflow == "error":
-            raise OverflowStop(first[0], first[1], self.dt, len(stepper.overflows), self.signals)
+            raise OverflowStop(first[0], first[1], self.dt, stepper.overflows, self.signals)
         states = {s: rows[:, j] * self.graph.output(s).qformat.lsb for j, s in enumerate(self.states)}
         return GoldenRun(result=SimResult(t=t, u=u, states=states, signals=self.signals), raw={s: rows[:, j] for j, s in enumerate(self.states)},
                          overflows=dict(stepper.overflows), rows=np.concatenate([[0], np.cumsum(steps)]))

@@ -215,7 +215,7 @@ def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, 
             for q in levels:
                 value, found = drift_start(stepper, graph, pos, edge, q)
                 if value is None:
-                    tried.append(f"{pos} at the {side} of its range ({edge:g}) with {iface.input.name} = "
+                    tried.append(f"{pos} at the {side} of its register's format ({edge:g}) with {iface.input.name} = "
                                  f"{with_unit(f'{volts[q]:g}', unit)}: {found}")
                     continue
                 start_real = {pos: value}
@@ -236,9 +236,9 @@ def _overflow_from_drift(golden, graph, iface, ports, state_names, q_full: int, 
                         f"{sorted(n for n, s in compiled.items() if s == first)}")
                 return {"from_reset": False, "k_star": k_star, "nodes": nodes, "all": dict(ovf), "k0": 0,
                         "state": rtl_state(graph, start), "u_win": u_win, "rows": rows, "start": start_real,
-                        "how": f"{pos} drifting out of the {side} of its range from {value:.12g} with "
-                               f"{iface.input.name} = {with_unit(f'{volts[q]:g}', unit)} ({before}; the full push "
-                               "stays in range)"}
+                        "how": f"{pos} started at {value:.12g}, near the {side} of its register's format, with "
+                               f"{iface.input.name} = {with_unit(f'{volts[q]:g}', unit)}, first overflowing "
+                               f"{', '.join(nodes)} ({before}; the full push stays in range)"}
     return {"unreachable": f"no overflow can be provoked: the full push ({iface.input.name} = "
                            f"{with_unit(f'{volts[q_full]:g}', unit)} for 4 s from reset) stays in range, "
                            f"{before}, and no reported state leaves its range by its own drift under a constant "

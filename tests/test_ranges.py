@@ -1,5 +1,7 @@
 """Range analysis (pendc.passes.ranges): per-node maxima from simulating the untyped graph."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -313,3 +315,20 @@ def test_states_with_a_range_start_at_their_ends_together():
     starts = {name: (g["T1"].params.reset, g["T2"].params.reset) for name, g, _ in envelope_runs(graph)}
     assert starts["envelope:range_low"] == (250.0, 223.15) and starts["envelope:range_high"] == (500.0, 553.15)
     assert sum(name.startswith("envelope:range") for name in starts) == 2
+
+
+def test_a_held_input_parts_slow_coupled_states():
+    """Round F's TCLab (two sinks, one heater, ranges and hold_seconds = 60): training from ends the
+    sinks share never parted them by more than 3 K, so the heat flow between them overflowed at
+    its own operating point (14 K apart) and after 18 s of a full heater. With ``hold``, the input is
+    also held at its top for that long from the low ends, and at its bottom from the high ends."""
+    from pendc.model.modelfile import load_model
+    from pendc.passes.lower import lower_model
+    graph = lower_model(load_model(Path(__file__).parent / "data" / "tclab1.toml"))
+    assert not [n for n, _, _ in envelope_runs(graph) if "hold" in n]
+    runs = {name: (g, tu) for name, g, tu in envelope_runs(graph, hold=60.0)}
+    g, (t, u) = runs["envelope:hold_high"]
+    assert (g["T1"].param("reset"), g["T2"].param("reset")) == (290.0, 290.0)
+    assert t.tolist() == [0.0, 60.0] and u.tolist() == [100.0, 100.0]
+    g, (t, u) = runs["envelope:hold_low"]
+    assert (g["T1"].param("reset"), g["T2"].param("reset")) == (380.0, 380.0) and u.tolist() == [0.0, 0.0]

@@ -294,7 +294,7 @@ def test_a_state_form_plant_without_rates_drifts_out_of_range(tanks_build, tb_mo
     fmt = tanks_build.graph[pos].qformat
     assert o["rows"][0][col] == fmt.from_float(value)
     assert o["rows"][o["k_star"]][col] > o["rows"][0][col]
-    assert "drifting out" in o["how"]
+    assert "near the top of its register's format" in o["how"] and "first overflowing" in o["how"]
 
 
 def test_a_plant_nothing_drives_out_says_so_and_its_overflow_tests_skip(tanks_build, tb_modules, monkeypatch):
@@ -307,7 +307,7 @@ def test_a_plant_nothing_drives_out_says_so_and_its_overflow_tests_skip(tanks_bu
     text = o["unreachable"]
     assert "no overflow can be provoked" in text and "no reported state has a rate state" in text
     for pos in ("h_1", "h_2"):
-        assert f"{pos} at the top of its range" in text and f"{pos} at the bottom of its range" in text
+        assert f"{pos} at the top of its register's format" in text and f"{pos} at the bottom of its register's format" in text
     assert "V_p = 22 V" in text and "V_p = 0 V" in text
     pytest.importorskip("cocotb")
     import simlib

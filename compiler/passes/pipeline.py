@@ -227,7 +227,7 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     _require_nodes(graph, opt.ranges, "range")
     _require_nodes(graph, opt.qformats, "Q-format")
     ranges = analyze_ranges(graph, training_stimuli(model.interface.input, opt.training_scale), opt.dt, overrides=opt.ranges,
-                            engine=opt.engine)
+                            engine=opt.engine, hold=opt.hold_seconds)
     graph = _checked(tabulate_luts(graph, ranges, margin=opt.lut_margin, addr_bits=opt.lut_addr_bits),
                      "tabulate_luts")
 

@@ -78,13 +78,16 @@ def drive_to_both_ends(hold: float = 1.5, fs: float = 1000.0, levels: tuple = (0
     return t, np.where(t < hold, float(levels[1]), float(levels[0]))
 
 
-def envelope_runs(graph: Graph) -> list:
+def envelope_runs(graph: Graph, hold: float = 0.0) -> list:
     """Training runs at the corners a controller can reach, beyond the identification stimuli:
     full-scale switching, driving into both track ends, and, for each state whose plant interface
     gives a ``training_rate`` (a pendulum spinning beyond its encoder's limit), a run with that
     register reset to the rate, and, when states declare a ``working_range`` (a thermal mass whose
     minutes-long time constant the seconds of training never span), a run from the low ends of
-    all of them together and one from the high ends.
+    all of them together and one from the high ends; with ``hold`` (``[hardware] hold_seconds``)
+    as well, the input held at its top for ``hold`` seconds from the low ends and at its bottom from
+    the high ends (what a held input makes of coupled slow states: a heater at full power for a
+    minute parts two sinks by 20 K, which seconds of switching from ends they share never do).
     Full scale is the plant input's range (0 and 10 V for a graph without a plant interface).
     (name, graph, (t, u)) triples."""
     iface = graph_interface(graph)
@@ -106,11 +109,15 @@ def envelope_runs(graph: Graph) -> list:
         started = graph.map_nodes(lambda n, i=i: n.with_params(reset=float(ranged[n.name][i]))
                                   if n.name in ranged else n)
         runs.append((f"envelope:range_{end}", started, full_scale_switching(3.0, seed=11, levels=levels)))
+        if hold > 0:
+            t = np.array([0.0, float(hold)])
+            held = levels[0] if end == "high" else levels[1]
+            runs.append((f"envelope:hold_{'low' if end == 'high' else 'high'}", started, (t, np.full(2, held))))
     return runs
 
 
 def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | None = None,
-                   engine: str = "compiled", envelope: bool | None = None) -> Ranges:
+                   engine: str = "compiled", envelope: bool | None = None, hold: float = 0.0) -> Ranges:
     """Record each node's max |value| over ``stimuli`` (name -> (t, u)) in float semantics.
 
     ``engine`` is "compiled" (numba kernel, for real runs) or "interpreter" (slow,
@@ -128,7 +135,7 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     hi = {name: -np.inf for name in lut_inputs}
     runs = [(name, graph, tu) for name, tu in stimuli.items()]
     if envelope:
-        runs += envelope_runs(graph)
+        runs += envelope_runs(graph, hold)
     port = input_port(graph)
 
     def training_run(runner, t, u):

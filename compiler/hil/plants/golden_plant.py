@@ -128,7 +128,7 @@ class GoldenPlant:
         new = {k: s for k, s in self.stepper.overflows.items() if k not in known}
         if new and self.on_overflow == "error":
             node, step = first_overflow(new, self.build.graph)
-            raise OverflowStop(node, step, self.dt, len(new), signals_of(self.model))
+            raise OverflowStop(node, step, self.dt, new, signals_of(self.model))
         c = self._col
         for i, e in enumerate(self.ports.encoders):
             self._counts[i] += x4_count_delta(out[:, c[e.channel_a]], out[:, c[e.channel_b]])
