@@ -158,7 +158,7 @@ def test_a_stopped_run_gets_no_hold_verdict(tmp_path, capsys):
     out = tmp_path / "run"
     rc, printed, err = run_cli(capsys, "hil", "--model", path, "--plant", "golden", "--controller", "lqr",
                                "--start", "glowing", "--seconds", "1", "--out", out)
-    assert rc == 2 and err.startswith("pendc: error: the run stopped at t = 0 s: node ") and "overflowed" in err
+    assert rc == 2 and err.startswith("pendc: error: the run stopped at t = 0 s: node ") and "(also d_T" in err
     assert "no verdict on holding operating point" in printed and "over the last 1 s" not in printed
     ports = CorePorts.of_interface(load_model(str(path)).interface)
     assert ports.input == "Q" and ports.input_unit == "1"

@@ -97,14 +97,16 @@ def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
         source = getattr(data, "source", "<data>")
         missing = set(getattr(data, "missing", ()) or ())
         held = irrelevant_axes(model, exp)
-        used = []
+        used, why = [], {}
         for o in positions:
             if requested is not None and o not in requested:
                 continue
             if o in missing:
                 notes.append(f"{source}: no {o} column: {o} is not compared")
+                why[o] = "missing"
                 continue
             if o in held:
+                why[o] = f"held in experiment {exp}"
                 continue
             y = np.asarray(data.column(o), float)
             res = resolution_of(data, o)
@@ -112,13 +114,14 @@ def plan_outputs(datasets: list, requested=None, model=None) -> OutputPlan:
                 hint = _held_hint(model, o) if exp == DEFAULT_EXPERIMENT else ""
                 notes.append(f"{source}: {o} does not move beyond {HELD_STEPS:g} resolution steps "
                              f"({res:.3g}): {o} is not compared{hint}")
+                why[o] = f"moves less than {HELD_STEPS:g} resolution steps"
                 continue
             used.append(o)
             values[o].append(y)
             resolution[o] = min(res, resolution.get(o, np.inf))
         if not used:
-            raise PendcError(f"{source}: no output left to compare (experiment {exp}; "
-                             f"{' and '.join(positions)} are held, missing or not asked for)")
+            reasons = "; ".join(f"{o} {why.get(o, 'not asked for')}" for o in positions)
+            raise PendcError(f"{source}: no output left to compare (experiment {exp}: {reasons})")
         per_set.append(tuple(used))
     scales = {o: max(float(np.std(np.concatenate(v))), resolution[o]) for o, v in values.items() if v}
     return OutputPlan(outputs=tuple(per_set), scales=scales, resolution=resolution, notes=tuple(notes))

@@ -213,8 +213,11 @@ def _validate_plant(plant: dict, source: str, rigid: PlantDefinition) -> dict:
     constants = rigid.constants
     unknown = set(plant) - set(constants)
     if unknown:
+        from .plantfile import PLANT_META
+
         raise PendcError(f"{pre}[plant] has unknown constant(s) {', '.join(sorted(unknown))} "
-                         f"(known for plant '{rigid.name}': {' '.join(constants)})")
+                         f"(known for plant '{rigid.name}': {' '.join(constants)}; and the keys "
+                         f"{', '.join(PLANT_META)})")
     missing = [k for k in constants if k not in plant]
     if missing:
         raise PendcError(f"{pre}[plant] lacks {', '.join(missing)} (plant '{rigid.name}': "

@@ -353,7 +353,7 @@ def format_synth_report(r: SynthReport) -> str:
     fmax = f"{bound}{r.fmax_mhz:.1f} MHz" if r.fmax_mhz else "-"
     step = f"{'>= ' if bound else ''}{r.step_ns:.1f} ns" if r.step_ns else "-"
     lines = [f"Synthesis of {r.top} for {tgt.description}", "",
-             f"{'':28s} {'synthesis':>12s} {'estimate':>10s} {'thesis':>10s}",
+             f"{'':28s} {'synthesis':>12s} {'estimate':>10s} {'SCT thesis':>10s}",
              f"{'LUTs':28s} {r.lut:>12d} {_s(est.get('lut4_scheduled', est.get('lut4_est'))):>10s} {th['lut']:>10d}",
              f"{'flip-flops':28s} {r.ff:>12d} {_s(est.get('register_bits')):>10s} {'':>10s}",
              f"{'carry cells':28s} {r.carry:>12d} {_s(est.get('carry_est')):>10s} {'':>10s}",
@@ -385,7 +385,9 @@ def format_synth_report(r: SynthReport) -> str:
                                                             for c in r.critical_path))
     if r.pnr_note:
         lines.append(f"note: {r.pnr_note}")
-    lines.append(f"thesis: {th['device']}, {th['slices']} slices; estimate: `pendc report resources`")
+    lines.append(f"SCT thesis: the thesis' cart-pendulum core on a {th['device']}, {th['slices']} slices, a "
+                 f"reference for scale (another plant's core computes other equations); estimate: "
+                 f"`pendc report resources`")
     return "\n".join(lines) + "\n"
 
 

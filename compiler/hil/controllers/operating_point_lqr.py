@@ -53,6 +53,7 @@ CONTROLLABLE_TOLERANCE = 1e-9
 VELOCITY_TAU = 0.02        # s: the rate filter (a coarse encoder's one count must not kick the input)
 START_OFFSET = {"m": 0.01, "rad": 0.05}   # --start: the offset of the moved state (start_moved)
 START_SPAN_SHARE = 0.05                     # of a converter's span, the largest --start offset of a state it reads
+START_CODES = 4                             # converter codes, the smallest --start offset of a state it reads
 START_OFFSET_OTHER = 0.01
 
 
@@ -351,8 +352,9 @@ def start_state(model: PlantModel, point: str) -> tuple:
     if moved is not None:
         offset = START_OFFSET.get(iface.state(moved).unit, START_OFFSET_OTHER)
         adc = ports.adc_of(moved)
-        if adc is not None:       # within its converter's span (1 cm would leave a 14 mm maglev gap)
-            offset = min(offset, START_SPAN_SHARE * (adc.hi - adc.lo))
+        if adc is not None:       # within its converter's span (1 cm would leave a 14 mm maglev gap),
+            # and a move it can read (0.01 K is a thirtieth of a heater sensor's code)
+            offset = max(min(offset, START_SPAN_SHARE * (adc.hi - adc.lo)), START_CODES * adc.resolution)
         values[moved] += offset
     missing = [s for s in ports.states if s not in values]
     if missing:
