@@ -43,7 +43,7 @@ from .noise import NOISE_FACTOR, noise_ratio
 from .outputs import experiment_of, plan_outputs
 from .plant_roles import engagement
 from .shooting import ShootingProblem
-from .ties import find_tie
+from .ties import find_tie, free_run_separation
 
 EXPLAINED = 0.5     # a candidate that removes at least half the held-out error explains it
 NEAR_END = 0.8      # a threshold force is tested only when the data come this close to its threshold
@@ -332,7 +332,16 @@ def diagnose(model: PlantModel, datasets: list, dt: float = 1e-4, segment: float
     floor = noise_share(model, datasets, ratio, dt, segment, outputs) if explained else 0.0
     quiet = not explained and all(r <= NOISE_FACTOR for r in ratio.values())
     unexplained = not explained and not quiet
+    tie = find_tie(results, floor, model.rigid_body.notes) if explained else None
+    separation = ()
+    if tie is not None:   # what the segments cannot tell apart, a meaningful free run may
+        tied = [c for c in results if c.effect in tie["effects"]]
+        found = free_run_separation(model, datasets, tied, outputs=outputs, dt=dt)
+        if found is not None:
+            winner, words = found
+            results.sort(key=lambda c: c.effect != winner)      # stable: the rest keep their order
+            tie, separation = None, (words,)
     return Diagnosis(candidates=tuple(results), unexplained=unexplained,
                      correlations=residual_correlations(model, datasets) if unexplained else [],
                      baseline_cost=base_cost, noise_ratio=ratio, at_noise_level=quiet,
-                     notes=tuple(problem.notes) + tuple(skipped), tie=find_tie(results, floor, model.rigid_body.notes) if explained else None)
+                     notes=tuple(problem.notes) + tuple(skipped) + separation, tie=tie)
