@@ -88,7 +88,9 @@ function panel(name, values, top, colour) {
   const box = document.createElementNS(svgNS, "rect");
   Object.entries({x: 50, y: top, width: 360, height: h, fill: "none", stroke: "#ccc"}).forEach(([a, b]) => box.setAttribute(a, b));
   traces.appendChild(box);
-  [[name, 2, top + 10], [hi.toPrecision(3), 2, top + 22], [lo.toPrecision(3), 2, top + h]].forEach(([s, lx, ly]) => {
+  // digits enough to tell the ends apart (a sink at 322.89..323.21 K read "323" at both)
+  const dig = Math.min(12, Math.max(3, Math.ceil(Math.log10(Math.max(Math.abs(hi), Math.abs(lo)) / (hi - lo))) + 2));
+  [[name, 2, top + 10], [hi.toPrecision(dig), 2, top + 22], [lo.toPrecision(dig), 2, top + h]].forEach(([s, lx, ly]) => {
     const t = document.createElementNS(svgNS, "text");
     Object.entries({x: lx, y: ly, class: "label"}).forEach(([a, b]) => t.setAttribute(a, b));
     t.textContent = s;
