@@ -310,3 +310,20 @@ def test_the_lqr_weights_can_be_set_by_name(ball_beam, capsys):
     rc, out, _ = run_cli(capsys, "hil", "--model", BALL_BEAM, "--controller", "lqr", "--excursion", "x=0.002,u=5",
                          "--start", "centred", "--seconds", "2")
     assert rc == 0 and "from operating point centred" in out
+
+
+def test_a_run_from_a_point_is_judged_on_holding_it_whoever_controls_it(tmp_path, monkeypatch, capsys):
+    """Round F: a socket client held the crane's load hanging from --start hanging, and the run
+    said 'not upright at the end of the run'. A run from a point reports how closely it held the
+    point, whatever the controller (here a user's, pushing nothing)."""
+    (tmp_path / "idle.py").write_text("class Idle:\n    def __init__(self, model, period):\n        pass\n\n"
+                                      "    def reset(self):\n        pass\n\n    def step(self, meas):\n"
+                                      "        return 0.0\n")
+    monkeypatch.chdir(tmp_path)
+    crane = Path(__file__).parent / "data" / "gantry_crane.toml"
+    rc, printed, err = run_cli(capsys, "hil", "--model", crane, "--controller", "idle:Idle", "--start", "hanging",
+                               "--seconds", "1", "--out", "run")
+    assert rc == 0, err
+    assert "from operating point hanging: max |x - 0|" in printed and "upright" not in printed
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["operating_point"] == "hanging" and summary["hold_phi_rad"] > 0.04   # it swings, 0.05 rad off

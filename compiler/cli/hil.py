@@ -53,7 +53,8 @@ def _check_out_folder(out: str) -> None:
 def cmd_hil(args) -> int:
     from ..hil.controllers.controller_spec import make_controller
     from ..hil.loop import run_closed_loop
-    from ..hil.controllers.operating_point_lqr import OperatingPointLqr, hold_keys, hold_summary, start_state
+    from ..hil.controllers.operating_point_lqr import (OperatingPointLqr, hold_keys, hold_summary, point_hold,
+                                                       start_state)
     from ..hil.plants.plant import make_plant, start_counts
     from ..hil.records import write_run
     from ..model.modelfile import load_model
@@ -79,6 +80,7 @@ def cmd_hil(args) -> int:
     if address is not None:
         from ..hil.server import serve_loop
 
+        controller = None
         run = serve_loop(plant, address, args.seconds, period=args.period, plant_name=args.plant,
                          timeout=args.timeout, progress=progress, count_origin=origin,
                          announce=lambda text: print(text, file=sys.stderr, flush=True))
@@ -86,8 +88,11 @@ def cmd_hil(args) -> int:
         controller = make_controller(args.controller, model, args.period, excursions=_excursions(args.excursion))
         run = run_closed_loop(plant, controller, args.seconds, period=args.period, plant_name=args.plant,
                               progress=progress, count_origin=origin)
-        if isinstance(controller, OperatingPointLqr):
-            run.extra.update(hold_summary(run, controller))
+    # a run from a point is judged on holding it, whoever controls it (a crane's load kept hanging)
+    holder = controller if isinstance(controller, OperatingPointLqr) else (
+        point_hold(model, args.start) if args.start else None)
+    if holder is not None:
+        run.extra.update(hold_summary(run, holder))
     summary = write_run(args.out, run, meta) if args.out else run.summary()
     if args.json:
         json.dump(summary, sys.stdout, indent=2)
@@ -109,7 +114,7 @@ def cmd_hil(args) -> int:
             window = "the last 1 s" if summary["seconds"] >= 1.0 else f"the whole {summary['seconds']:g} s"
             print(f"over {window}, from operating point {held}: " + ", ".join(
                 f"max |{c.position} - {c.target:.4g}| = {summary[k]:.4g} {c.unit}".rstrip()
-                for c, k in zip(controller.coords, hold_keys(controller)) if summary.get(k) is not None))
+                for c, k in zip(holder.coords, hold_keys(holder)) if summary.get(k) is not None))
         if args.out:
             print(f"wrote {args.out}/run.csv, summary.json, run.png")
     if run.stopped is not None:

@@ -362,10 +362,29 @@ def start_state(model: PlantModel, point: str) -> tuple:
     return tuple(values[s] for s in ports.states)
 
 
-def hold_summary(run, controller: OperatingPointLqr, last_seconds: float = 1.0) -> dict:
-    """How closely a run held the operating point: for each measured position, the largest
-    distance from the point's value (wrapped for a periodic one) over the run's last
-    ``last_seconds`` (``hold_<state>_<unit>``), with the point's name."""
+@dataclass(frozen=True)
+class PointHold:
+    """An operating point and its measured coordinates, for :func:`hold_summary` of a run some
+    other controller made from it (a socket client holding a crane's load hanging)."""
+
+    point: str
+    coords: tuple
+
+
+def point_hold(model: PlantModel, point: str) -> PointHold | None:
+    """The :class:`PointHold` of ``point``, or None where its coordinates are not all measured."""
+    name, state = operating_state(model, point)
+    try:
+        return PointHold(name, measured_coordinates(model, state, name))
+    except PendcError:
+        return None
+
+
+def hold_summary(run, controller, last_seconds: float = 1.0) -> dict:
+    """How closely a run held the operating point of ``controller`` (an :class:`OperatingPointLqr`
+    or a :class:`PointHold`): for each measured position, the largest distance from the point's
+    value (wrapped for a periodic one) over the run's last ``last_seconds``
+    (``hold_<state>_<unit>``), with the point's name."""
     out = {"operating_point": controller.point}
     tail = run.t >= (run.t[-1] if run.t.size else 0.0) - last_seconds
     for c, key in zip(controller.coords, hold_keys(controller)):
@@ -375,7 +394,7 @@ def hold_summary(run, controller: OperatingPointLqr, last_seconds: float = 1.0) 
     return out
 
 
-def hold_keys(controller: OperatingPointLqr) -> tuple:
+def hold_keys(controller) -> tuple:
     """The keys of :func:`hold_summary`'s distances, one per measured position (``hold_<state>_<unit>``)."""
     return tuple(f"hold_{c.position}_{c.unit.replace('/', '_per_')}".rstrip("_") for c in controller.coords)
 
