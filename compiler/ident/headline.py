@@ -119,7 +119,8 @@ def choose(twin: dict, horizon: float, controller: str | None = None, signals=No
         k = min(bad, key=bad.get)
         reason = (f"a free run is not meaningful on these data: the same model started {step} away "
                   f"scores only {bad[k]:.1f} % free-run fit of {k} against itself (below {threshold:g} %), so the "
-                  f"free-run figure measures the plant's sensitivity, not the model")
+                  f"free-run figure measures what {step} at the start grows to (a sensitive plant, or data that "
+                  f"move only a few steps), not the model")
         return Headline(HORIZON, horizon_label(horizon), reason, dict(twin))
     worst = min(defined.values()) if defined else float("nan")
     reason = (f"a free run is meaningful on these data: the same model started {step} away still "
