@@ -17,7 +17,8 @@ from pendc.hil.controllers.measurement import Measurement
 from pendc.hil.controllers.pendulum import Supervisor
 from pendc.hil.plants.core_ports import CorePorts
 from pendc.hil.loop import run_closed_loop
-from pendc.hil.controllers.operating_point_lqr import OperatingPointLqr, hold_summary, start_state
+from pendc.hil.controllers.operating_point_lqr import OperatingPointLqr
+from pendc.hil.controllers.start_point import hold_summary, start_state
 from pendc.hil.plants.plant import PlantState, make_plant, start_counts
 from pendc.hil.records import read_run
 from pendc.model.modelfile import load_model

@@ -197,7 +197,7 @@ def test_the_summary_and_the_reports_follow_the_pendulum_not_the_declaration_ord
     assert parts["wheel motion"][0] == "|dphi| < 0.05 rad/s"
     run = run_closed_loop(plant, make_controller("lqr", model), 0.05)
     assert run.angle == "theta"
-    from pendc.hil.controllers.operating_point_lqr import start_moved
+    from pendc.hil.controllers.start_point import start_moved
     assert start_moved(model, plant.ports) == "theta"        # --start moved the wheel
 
 

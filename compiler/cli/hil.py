@@ -53,8 +53,8 @@ def _check_out_folder(out: str) -> None:
 def cmd_hil(args) -> int:
     from ..hil.controllers.controller_spec import make_controller
     from ..hil.loop import run_closed_loop
-    from ..hil.controllers.operating_point_lqr import (OperatingPointLqr, hold_keys, hold_summary, point_hold,
-                                                       start_state)
+    from ..hil.controllers.operating_point_lqr import OperatingPointLqr
+    from ..hil.controllers.start_point import hold_keys, hold_summary, point_hold, start_state
     from ..hil.plants.plant import make_plant, start_counts
     from ..hil.records import write_run
     from ..model.modelfile import load_model

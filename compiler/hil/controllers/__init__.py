@@ -5,6 +5,7 @@
 * :mod:`.pendulum` - the reference controllers of a pendulum plant: energy swing-up, LQR
   balance, the supervisor (``builtin``, ``swing-up``, ``balance``);
 * :mod:`.operating_point_lqr` - an LQR about any plant file's operating point (``lqr:NAME``);
+* :mod:`.start_point` - where ``--start NAME`` starts a run, and how closely a run held the point;
 * :mod:`.position_hold` - a PD hold of one measured position, for any plant (``hold``);
 * :mod:`.controller_spec` - ``--controller SPEC`` to a controller (also ``package.module:Class``);
 * :mod:`.linearize`, :mod:`.numeric_model`, :mod:`.pendulum_roles` - the model's own
