@@ -230,3 +230,19 @@ def test_a_reaction_wheel_is_balanced_as_a_momentum_store():
     err = np.array([0.0, 20.0, 0.1, 0.0])
     assert abs(float(LqrBalance(wheel).lqr.K @ err)) < 60.0
     assert abs(float(LqrBalance(wheel, q_diag=LQR_Q).lqr.K @ err)) > 2000.0
+
+
+def test_the_builtin_controller_brings_a_reaction_wheel_pendulum_up():
+    """The check's wheel pendulum (its stall torque 0.6 of the pendulum's gravity torque): the
+    pivot's pump ran the wheel into its no-load speed at every swing's end and the pendulum came
+    up by luck, if at all; the wheel's paced speed brings it up, and the balance holds it."""
+    from pendc.hil.controllers.pendulum import PACE_SPEED, wheel_pace
+    model = load_model(Path(__file__).parent / "data" / "reaction_wheel.toml")
+    consts = PendulumConstants.from_model(model)
+    speed, servo = wheel_pace(consts)
+    assert speed == pytest.approx(PACE_SPEED * 276.0, rel=0.03)            # 0.9 of the motor's no-load speed
+    qube = load_model(Path(__file__).parents[1] / "models" / "furuta_qube.toml")
+    assert wheel_pace(PendulumConstants.from_model(qube)) is None
+    run = run_closed_loop(make_plant("float", model), make_controller("builtin", model), 5.0)
+    summary = run.summary()
+    assert summary["upright_at_s"] is not None and summary["upright_at_s"] < 4.5, summary

@@ -50,6 +50,10 @@ CATCH_ANGLE, CATCH_RATE, DROP_ANGLE = 0.4, 5.0, 0.8
 # m L is 0.581 kg x 0.138867 m (the values the swing-up was first tuned with)
 SWING_PIVOT_ACCEL = 5.0 / 9.80665
 SWING_GAIN = 100 * 0.581 * 0.138867
+# a momentum store pumps by its speed (see EnergySwingUp): at PACE_SPEED of its no-load speed,
+# full while PACE_SHARE x the missing share of the energy reaches 1, through a speed servo of
+# PACE_SERVO x the pendulum's natural frequency
+PACE_SPEED, PACE_SHARE, PACE_SERVO = 0.9, 5.0, 10.0
 
 
 @dataclass(frozen=True)
@@ -148,7 +152,12 @@ class EnergySwingUp(_VelocityObserver):
     ``SWING_GAIN`` and ``SWING_PIVOT_ACCEL`` times gravity as the pivot feels it,
     omega0² / |coupling|). The acceleration is turned into the input by the model's own
     equations (:meth:`PendulumConstants.input_for`: the pendulum's reaction on a light rotary
-    arm matters as much as the drive), so the gains mean the same on any drive."""
+    arm matters as much as the drive), so the gains mean the same on any drive.
+
+    A momentum store (a reaction wheel: :data:`MOMENTUM_LEVER`) pumps by its speed instead
+    (:func:`wheel_pace`): a speed target of sign(coupling) sign(sin a) times its pace, scaled by
+    the missing energy, which the servo reaches in tens of milliseconds: the wheel's speed turns
+    where the pendulum passes the bottom, fastest, so each turn gives it the most energy."""
 
     mode = "swing"
 
@@ -162,6 +171,7 @@ class EnergySwingUp(_VelocityObserver):
         self.gain = SWING_GAIN * gravity if gain is None else gain
         self.accel_max = SWING_PIVOT_ACCEL * gravity if accel_max is None else accel_max
         self.centre_k, self.centre_d = centre_k, centre_d
+        self.pace = wheel_pace(consts)
         super().__init__(period)
 
     def energy(self, angle: float, rate: float) -> float:
@@ -176,6 +186,15 @@ class EnergySwingUp(_VelocityObserver):
         # at rest (no angle rate) push anyway: energy pumping needs a first swing to work on
         direction = -1.0 if self.c.coupling * angle_rate * c < 0 else 1.0
         missing = 1.0 - self.energy(angle, angle_rate) / self.c.omega0_sq
+        if self.pace is not None:
+            # a wheel reaches its no-load speed in tens of ms, so a push that turns at the swing's ends
+            # (where the rate is zero) is spent before it can pump; its speed turns at the bottom
+            # instead, where the swing is fastest, and shrinks with the missing energy, so the wheel
+            # is slow, and the balance has torque, when the pendulum arrives at the top
+            speed, servo = self.pace
+            side = 1.0 if math.sin(2 * math.pi * angle / self.c.roles.pendulum.period) >= 0 else -1.0
+            target = math.copysign(speed, self.c.coupling) * side * max(-1.0, min(1.0, PACE_SHARE * missing))
+            return self.c.input_for(servo * (target - actuated_rate), position, actuated_rate, angle, angle_rate)
         pump = max(-self.accel_max, min(self.accel_max, self.gain * missing * direction))
         accel = pump - self.centre_k * position - self.centre_d * actuated_rate
         return self.c.input_for(accel, position, actuated_rate, angle, angle_rate)
@@ -218,6 +237,18 @@ class LqrBalance(_VelocityObserver):
     def step(self, meas: Measurement) -> float:
         """One control period."""
         return self.command(meas, *self.observe(meas))
+
+
+def wheel_pace(consts: PendulumConstants) -> tuple | None:
+    """(speed, servo gain) of a momentum store's pumping (None for a pivot the input positions):
+    :data:`PACE_SPEED` of the speed at which the drive's back-EMF takes the input's whole reach,
+    and a speed servo of :data:`PACE_SERVO` times the pendulum's natural frequency (1/s)."""
+    if 1.0 / abs(consts.coupling) <= MOMENTUM_LEVER:
+        return None
+    lo, hi = consts.input_range
+    reach = min(abs(hi - consts.lin.u0), abs(lo - consts.lin.u0))
+    per_rate = abs(consts.input_for(0.0, 0.0, 1.0, 0.0, 0.0) - consts.input_for(0.0, 0.0, 0.0, 0.0, 0.0))
+    return PACE_SPEED * reach / max(per_rate, 1e-12), PACE_SERVO * math.sqrt(consts.omega0_sq)
 
 
 def balance_weights(consts: PendulumConstants) -> tuple:
