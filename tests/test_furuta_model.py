@@ -68,7 +68,7 @@ def test_naming_the_default_body_changes_nothing():
     (PLANT.replace('"furuta"', '"double_pendulum"'), r"plant.body = 'double_pendulum' is not a shipped plant .*known: .*cart_pendulum, .*furuta"),
     (PLANT.replace('"furuta"', "3"), "plant.body must be a string"),
     (PLANT.replace("L_p = 0.129\n", ""), r"\[plant\] lacks L_p \(plant 'furuta': L_p, pendulum length"),
-    (PLANT + "M = 100.0\n", r"unknown constant\(s\) M \(known for plant 'furuta': g J_r L_r m_p L_p\)"),
+    (PLANT + "M = 100.0\n", r"unknown constant\(s\) M \(known for plant 'furuta': g J_r L_r m_p L_p; and the keys name, core"),
     ('[plant]\nbody = "furuta"\ng=9.8\nM=100.0\nm=0.5\nL=0.1\nI=0.006\n', "unknown constant"),
     (PLANT + "[effects.drive]\nalpha = 1.0\nV_off = 5.0\n", r"unknown effect 'drive' for plant 'furuta' \(known: motor_drive"),
     (PLANT + "[effects.motor_drive]\nR_m = 8.4\nk_t = 0.042\n", r"\[effects.motor_drive\] lacks parameter 'k_m'"),

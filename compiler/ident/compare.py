@@ -286,7 +286,7 @@ def _free_run(model, data, dt, method, outputs, horizon) -> tuple:
     outputs = plan.outputs[0]
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
-    sim = Simulator(model, dt=integration_step(dt, t), method=method)
+    sim = Simulator(model, dt=integration_step(dt, t, model), method=method)
     position, velocity = measured_motion(data, model)
     x0 = sim.true_state(sim.initial_vector(position, velocity, 0))
     # a coarse sensor's rate at the first sample: from the first samples, with the model

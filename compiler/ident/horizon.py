@@ -73,7 +73,7 @@ def horizon_run(model, data, outputs=None, horizon: float = DEFAULT_HORIZON, dt:
     if len(t) < 3:
         raise PendcError(f"{data.source}: too short for a horizon fit ({len(t)} samples)")
     measured, velocity = motion if motion is not None else measured_motion(data, model)
-    sim = Simulator(model, dt=integration_step(dt, t), method=method)
+    sim = Simulator(model, dt=integration_step(dt, t, model), method=method)
     positions = sim.signals.positions
     outputs = positions if outputs is None else tuple(outputs)
     p = sim.vector(params)

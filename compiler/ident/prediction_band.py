@@ -79,7 +79,7 @@ def prediction_band(model: PlantModel, data, uncertainty: FitUncertainty, sample
     if experiment != model.experiment:
         model = model.for_experiment(experiment)
     t, u = np.asarray(data.t, dtype=np.float64), np.asarray(data.u, dtype=np.float64)
-    sim = Simulator(model, dt=integration_step(dt, t), method=method)
+    sim = Simulator(model, dt=integration_step(dt, t, model), method=method)
     outputs = tuple(outputs) if outputs is not None else sim.signals.positions
     y = {k: np.asarray(data.column(k), dtype=np.float64) for k in outputs}
     position, velocity = measured_motion(data, model)

@@ -33,17 +33,30 @@ from .start_rates import estimated_rates, run_segment, start_fit
 
 HISTORY = 0.1          # s of input history handed to each segment (longest delay it can see)
 STEPS_PER_SAMPLE = 10  # integration steps per data sample, at least
+MODE_STEPS = 1000      # integration steps per time constant of the plant's fastest mode, at least
+MAX_STEP = 1e-2        # s: the simulator's largest step
 
 
-def integration_step(dt: float, t) -> float:
-    """The step identification integrates at: ``dt`` (its largest, 0.1 ms by default), or a
-    tenth of the data's sample period when that is finer. Data fast enough to show a mode are
-    integrated finely enough to follow it: RK4 at 0.1 ms lags a 1.2 kHz resonance by 8 % a period
-    (an RLC ladder sampled at 10 kHz scored 87 % against its own exact run; at 10 us, 100 %)."""
+def integration_step(dt: float, t, model: PlantModel | None = None) -> float:
+    """The step identification integrates at: ``dt`` (0.1 ms by default), or a tenth of the
+    data's sample period when that is finer. Data fast enough to show a mode are integrated
+    finely enough to follow it: RK4 at 0.1 ms lags a 1.2 kHz resonance by 8 % a period (an RLC
+    ladder sampled at 10 kHz scored 87 % against its own exact run; at 10 us, 100 %). A slow
+    ``model`` on slow data is integrated coarser, up to a tenth of a sample, a thousandth of its
+    fastest mode's time constant and 10 ms: a heater sampled at 1 Hz (a 93 s time constant) took
+    ten million steps of 0.1 ms for 12 minutes."""
     t = np.asarray(t, dtype=np.float64)
     if len(t) < 2:
         return float(dt)
-    return float(min(dt, float(np.median(np.diff(t))) / STEPS_PER_SAMPLE))
+    sample = float(np.median(np.diff(t))) / STEPS_PER_SAMPLE
+    step = min(dt, sample)
+    if model is not None and sample > dt:
+        from ..model.modes import fastest_eigenvalue
+
+        rate = abs(fastest_eigenvalue(model))
+        slow = MAX_STEP if rate == 0 else min(MAX_STEP, 1.0 / (MODE_STEPS * rate))
+        step = max(step, min(sample, slow))
+    return float(step)
 
 
 @dataclass(frozen=True)
@@ -155,7 +168,7 @@ class ShootingProblem:
         self.records = [_subset(prepare(d, segment, o, model), subset) for d, o in zip(datasets, plan.outputs)]
         self.sims = {}          # (experiment, step) -> its simulator: one kernel each, shared by the records
         for r in self.records:
-            key = (r.experiment, integration_step(dt, r.t))
+            key = (r.experiment, integration_step(dt, r.t, model))
             if key not in self.sims:
                 self.sims[key] = Simulator(model.for_experiment(r.experiment), method=method, dt=key[1])
         self.sim = next(iter(self.sims.values()))
@@ -168,7 +181,7 @@ class ShootingProblem:
         h = float(np.median(np.diff(self.records[0].t)))
         self.history = int(np.ceil(HISTORY / h))   # input samples before a segment, for delays
         # found once: the step's median over the record would otherwise be taken at every evaluation
-        self._sim_of = {id(r): self.sims[(r.experiment, integration_step(dt, r.t))] for r in self.records}
+        self._sim_of = {id(r): self.sims[(r.experiment, integration_step(dt, r.t, model))] for r in self.records}
         self.start_fits = [start_fit(self.sim_for(r), r.t, r.positions, r.estimated, r.outputs, self.resolution,
                                      self.scales) for r in self.records]
         self.limits = [self.sim_for(r).limits_reached(r.positions) for r in self.records]
