@@ -93,3 +93,11 @@ def test_build_debug_status_lists_the_node_of_every_status_bit(tmp_path, capsys)
     # a plain folder is not what the debug build writes, and --check says so
     assert main(["build", "-o", str(plain), "--debug-status", "--check"]) == 2
     assert "differs" in capsys.readouterr().err
+
+
+def test_the_qformat_report_prints_units_not_words():
+    """Round G: a tank file's meanings end in "(Torricelli)" and "(L1)", which the report printed
+    as units; a parenthesis that is no unit is not one."""
+    from pendc.cli.report import _unit
+    assert [_unit(m) for m in ("cart acceleration (m/s^2)", "flow (Torricelli)", "table (L1)", "x (F_in)")] == \
+        ["m/s^2", "", "", ""]

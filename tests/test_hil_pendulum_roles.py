@@ -246,3 +246,14 @@ def test_the_builtin_controller_brings_a_reaction_wheel_pendulum_up():
     run = run_closed_loop(make_plant("float", model), make_controller("builtin", model), 5.0)
     summary = run.summary()
     assert summary["upright_at_s"] is not None and summary["upright_at_s"] < 4.5, summary
+
+
+def test_a_pendubot_is_not_a_pendulum_on_a_pivot():
+    """Round G: the builtin controller took the Pendubot (a driven shoulder link, a passive elbow)
+    for one pendulum on a driven pivot and its swing-up threw the upright arm down. Gravity holds
+    its driven shoulder too: the builtin controller is the LQR at its operating point."""
+    from pendc.hil.controllers.operating_point_lqr import OperatingPointLqr
+    model = load_model(Path(__file__).parent / "data" / "pendubot.toml")
+    with pytest.raises(PendcError, match="gravity holds the driven q1 too"):
+        pendulum_roles(model)
+    assert isinstance(make_controller("builtin", model), OperatingPointLqr)

@@ -334,3 +334,16 @@ def test_a_plant_that_declares_a_fast_wheel_is_read_at_its_speed(tmp_path):
     given = read_measurements(str(path), options=ReadOptions(plant=model, uniform=True, plausible=True,
                                                                units={"theta": 1.0}))
     assert float(np.max(given.column("theta"))) > 100.0
+
+
+def test_a_whirling_angle_pendc_wrote_is_radians():
+    """Round G: pendc simulate's own run of a Pendubot whose elbow whirled nine turns was refused
+    as degrees (max |q2| = 55.7, faster than a bench rig between samples), and the error offered
+    only --q2-unit deg. A file pendc wrote is in radians; the error names both units."""
+    t = np.arange(2000) * 1e-3
+    theta = np.cumsum(np.full(len(t), 0.07))      # 70 rad/s: 140 rad in 2 s
+    text = format_csv({"t": t, "u": t * 0 + 5, "x": t * 0, "theta": theta})
+    with pytest.raises(PendcError, match=r"looks like degrees.*--theta-unit rad if they are radians"):
+        parse_measurements(text, options=opts(plausible=True))
+    ours = format_csv({"t": t, "u": t * 0 + 5, "x": t * 0, "theta": theta}, meta={"generator": "pendc simulate"})
+    assert parse_measurements(ours, options=opts(plausible=True)).theta.max() == pytest.approx(theta.max())

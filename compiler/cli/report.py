@@ -23,8 +23,19 @@ DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0)
 
 
 def _unit(meaning: str) -> str:
-    m = re.search(r"\(([A-Za-z/^*0-9.]+)\)\s*$", meaning or "")  # "(m/s^2)", not "(F_in)"
-    return m.group(1) if m else ""
+    """The unit a node's meaning ends with, "(m/s^2)"; not "(F_in)" nor a word that is no unit
+    ("(Torricelli)", "(L1)": a tank file's own words, printed as units)."""
+    from ..errors import PendcError
+    from ..model.units import parse_unit
+
+    m = re.search(r"\(([A-Za-z/^*0-9.]+)\)\s*$", meaning or "")
+    if not m:
+        return ""
+    try:
+        parse_unit(m.group(1), "meaning")
+    except PendcError:
+        return ""
+    return m.group(1)
 
 
 def qformat_report(build: BuildResult) -> dict:
@@ -39,6 +50,10 @@ def qformat_report(build: BuildResult) -> dict:
     definition = build.model.definition
     reference = definition.reference_formats
     errors = build.error.node_errors if build.error else {}
+    iface = build.model.interface
+    declared = {name: unit for name, _, unit, _ in definition.intermediates if unit}
+    declared.update({st.name: st.unit for st in iface.states})
+    declared.update({i.name: i.unit for i in iface.inputs})
     nodes = []
     for n in g.nodes:
         if n.kind is Kind.CONST:
@@ -46,7 +61,8 @@ def qformat_report(build: BuildResult) -> dict:
         row = {
             "name": n.name, "kind": n.kind.value, "meaning": n.meaning,
             "max": build.ranges.max_abs.get(n.name), "format": str(n.qformat),
-            "lsb": n.qformat.lsb, "unit": _unit(n.meaning), "error_vs_float": errors.get(n.name),
+            "lsb": n.qformat.lsb, "unit": declared.get(n.name) or _unit(n.meaning),
+            "error_vs_float": errors.get(n.name),
         }
         if n.name in reference:
             row["reference"] = reference[n.name]

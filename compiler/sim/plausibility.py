@@ -173,7 +173,8 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
     rate's velocity bound or training rate: a reaction wheel's 250 rad/s) raises the rate limit
     to ``DECLARED_MARGIN`` times that rate, and an angle that turns that fast may be any size (a
     wheel's thousands of radians). A ``<name>_unit: deg``
-    metadata entry is refused unless the unit was given (``--<name>-unit``).
+    metadata entry is refused unless the unit was given (``--<name>-unit``). A file pendc wrote
+    (``# generator: pendc ...``) is in radians.
     """
     rate_limit = max(MAX_RAD_RATE, DECLARED_MARGIN * declared)
     unit = table.meta.get(f"{name}_unit", "").strip().lower()
@@ -186,13 +187,16 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
     # a large angle that turns faster than a bench rig, within what the file declares, is a
     # spinning wheel's, not degrees: its magnitude follows from its speed
     spinning = MAX_RAD_RATE < rate <= rate_limit
+    # pendc writes radians: its own simulation of a link that whirls is not a unit mistake
+    ours = table.meta.get("generator", "").strip().startswith("pendc")
     if unit in _DEG_UNITS and not given:
         why = f"metadata {name}_unit: {unit}"
-    elif (peak > 200.0 and not spinning) or (peak > 2 * math.pi and rate > rate_limit):
+    elif not ours and ((peak > 200.0 and not spinning) or (peak > 2 * math.pi and rate > rate_limit)):
         why = f"max |{name}| = {peak:.4g}, max |d{name}/dt| = {rate:.4g} between samples"
     else:
         return
-    fix = f"check --{name}-unit" if given else f"convert the angles to radians, or give --{name}-unit deg"
+    fix = (f"check --{name}-unit" if given else
+           f"convert the angles to radians, or give --{name}-unit deg (--{name}-unit rad if they are radians)")
     raise PendcError(f"{table.source}: column '{name}' looks like degrees ({why}): {fix}")
 
 

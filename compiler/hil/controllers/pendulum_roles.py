@@ -23,6 +23,7 @@ from ...model.plant import PlantModel
 from .numeric_model import NumericModel
 
 PROBE = 1e-4   # a small displacement (in the position's unit) for the stiffness at rest
+PIVOT_STIFFNESS = 0.01   # of the pendulum's: the most gravity may hold the driven coordinate (a cart, a level arm: 0)
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,14 @@ def pendulum_roles(model: PlantModel, numeric: NumericModel | None = None) -> Pe
     pendulums = [c for c in measured if c.period is not None and c.position not in driven
                  and restoring_stiffness(numeric, c) > 0]
     others = [c for c in measured if c not in pendulums]
+    # the input must move a pivot gravity does not hold (a cart, a level arm, a wheel): a Pendubot's
+    # driven shoulder is a pendulum itself, and the swing-up threw its upright arm down
+    if len(measured) == 2 and len(pendulums) == 1:
+        held = restoring_stiffness(numeric, others[0])
+        if abs(held) > PIVOT_STIFFNESS * restoring_stiffness(numeric, pendulums[0]):
+            raise PendcError(f"the swing-up and balance controllers drive one pendulum on a coordinate gravity does "
+                             f"not hold; in plant '{iface.name}' gravity holds the driven {others[0].position} too "
+                             f"(a second pendulum, not a cart or a level arm)")
     if len(measured) != 2 or len(pendulums) != 1:
         what = ", ".join(c.position for c in measured) or "nothing"
         raise PendcError(f"the swing-up and balance controllers drive one pendulum (a measured angle that gravity "
