@@ -143,5 +143,7 @@ def test_without_a_drive_offset_the_input_rests_mid_range(sct, qube):
 
     assert input_centre(sct) == sct.effects["drive"]["V_off"]
     undriven = parse_model("[plant]\n" + "\n".join(f"{k} = {v!r}" for k, v in sct.plant.items()) + "\n", "rigid.toml")
-    assert input_centre(undriven) == 5.0       # Table 3's nominal V_off: 0-10 V's middle
+    # no drive law: the input's neutral, which the file declares (the drive's 5.2646 V; round G's
+    # tanks split the drive regime at their range's middle, 11 V, not at their neutral 9.26 V)
+    assert input_centre(undriven) == undriven.interface.input.neutral == 5.2646
     assert input_centre(qube) == 0.0

@@ -42,7 +42,7 @@ def wrap_angle(angle, period: float = 2 * math.pi):
 def input_centre(model) -> float:
     """The input the plant rests at: where the model's drive law pushes nothing at rest
     (:func:`~pendc.ident.plant_roles.drive_offset`: a drive's offset parameter, 0 for a law
-    without one), else the middle of the range its actuator takes."""
+    without one), else the input's ``neutral`` (the file's, else 0 or the middle of its range)."""
     return centre_and_name(model)[0]
 
 
@@ -54,7 +54,7 @@ def centre_and_name(model) -> tuple:
     found = drive_offset(model)
     if found is not None:
         return found[0], found[1] or CENTRE_NAME
-    return model.interface.input.range.centre, CENTRE_NAME
+    return model.interface.input.neutral, CENTRE_NAME
 
 
 def saturation_limits(drive) -> tuple:
