@@ -132,3 +132,6 @@ def check_names(d: PlantDefinition, source: str) -> None:
     for name, pairs in d.operating_points.items():
         for k, text in pairs:
             check(text, f"{source}: operating_points.{name}.{k}")
+    for name, vector in (d.drawing or {}).get("points", {}).items():   # checked here, not first by animate
+        for i, text in enumerate(vector):
+            check(str(text), f"{source}: drawing.points.{name}[{i}]")

@@ -140,6 +140,10 @@ def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
     if unknown:
         raise PendcError(f"[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
                          f"(known: {', '.join(sorted(known))})")
+    try:   # the file's own values first, so a mistake there names the file
+        validate_options(dict(table))
+    except PendcError as exc:
+        raise PendcError(f"{model.source}: {exc}" if model.source else str(exc)) from None
     extra = _budget_aliases({k: v for k, v in overrides.items() if v is not None})
     if isinstance(extra.get("budget"), dict) and isinstance(table.get("budget"), dict):
         extra["budget"] = {**table["budget"], **extra["budget"]}     # an override adds to the file's
