@@ -130,8 +130,7 @@ def _hostile():
          r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s, expected 1/s"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
-        ("drawing of an unknown symbol", t.replace('[drawing]\npoints = { rail_left = [-0.4, 0], rail_right = [0.4, 0], cart = ["x", 0]',
-                                                   '[drawing]\npoints = { rail_left = [-0.4, 0], rail_right = [0.4, 0], cart = ["xx", 0]'),
+        ("drawing of an unknown symbol", t.replace('points = { cart = ["x", 0]', 'points = { cart = ["xx", 0]'),
          r"drawing\.points\.cart\[0\]: unknown symbol 'xx'"),
         ("two inputs", t.replace("[inputs.F]", '[inputs.G]\nunit = "N"\nmeaning = "a second force"\nrange = [-1.0, 1.0]\n\n'
                                  "[inputs.F]"), r"inputs: declares 2 inputs \(G, F\); a plant has one input"),
