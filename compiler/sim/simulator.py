@@ -196,7 +196,7 @@ class Simulator:
             raise PendcError(f"initial state must be {len(names)} finite numbers ({', '.join(names)})")
         out, valid = self.raw(t, u, s0, self.vector(params))
         if valid < t.size:
-            raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s")
+            raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s{_last_finite(self, out, valid)}")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
         off = self.offset_values(self.vector(params))
         outputs = {p: self.reading(p, states[p] + off[p], self.reading_limits if quantize else None)
@@ -221,6 +221,17 @@ def converter_limits(signals) -> dict:
             half = 0.5 * (sensor.hi - sensor.lo) / (1 << sensor.bits)
             out[p] = (sensor.lo + half, sensor.hi - half)
     return out
+
+
+def _last_finite(sim: "Simulator", out: np.ndarray, valid: int) -> str:
+    """The states at the last finite sample, and what commonly breaks there: a square root or a
+    logarithm of a state that went negative (a tank run dry: sqrt(Max(L, 0)) holds it at zero)."""
+    if valid == 0:
+        return ""
+    row = out[valid - 1]
+    values = ", ".join(f"{name} = {float(v):.4g}" for name, v in zip(sim.state_names, row))
+    return (f"; last finite state {values} (a square root or a logarithm of a state that went below "
+            f"zero? write sqrt(Max(x, 0)))")
 
 
 def sensor_offsets(model: PlantModel) -> dict:
