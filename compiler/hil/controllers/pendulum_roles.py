@@ -64,7 +64,9 @@ def _coordinate(iface, numeric: NumericModel, position: str) -> Coordinate:
     spec = iface.state(position)
     rate = next((s for s in iface.states if s.derivative_of == position), None)
     if rate is None:
-        raise PendcError(f"the plant interface names no rate of '{position}'")
+        raise PendcError(f"the swing-up and balance controllers drive a pendulum, and plant '{iface.name}' has "
+                         f"no rate of its measured '{position}' (not a mechanism): use --controller lqr at an "
+                         f"operating point, or hold")
     return Coordinate(position, rate.name, spec.unit, rate.unit, spec.period,
                       numeric.index(position), numeric.index(rate.name))
 
