@@ -157,7 +157,7 @@ def test_keyword_overrides_win_and_none_is_ignored():
 def test_table_size_outside_the_ir_limit_is_one_line(bits):
     # 2**100 segments would be tabulated before any verifier ran
     m = with_hardware(f"[hardware]\nlut_addr_bits = {bits}\n")
-    with pytest.raises(PendcError, match=rf"^\[hardware\] lut_addr_bits must be 1\.\.20 .*got {bits}$"):
+    with pytest.raises(PendcError, match=rf"^hw\.toml: \[hardware\] lut_addr_bits must be 1\.\.20 .*got {bits}$"):
         options_from_model(m)
 
 
