@@ -107,9 +107,10 @@ def pendulum_roles(model: PlantModel, numeric: NumericModel | None = None) -> Pe
     pendulums = [c for c in measured if c.period is not None and c.position not in driven
                  and restoring_stiffness(numeric, c) > 0]
     others = [c for c in measured if c not in pendulums]
-    # the input must move a pivot gravity does not hold (a cart, a level arm, a wheel): a Pendubot's
-    # driven shoulder is a pendulum itself, and the swing-up threw its upright arm down
-    if len(measured) == 2 and len(pendulums) == 1:
+    # the input must turn a link gravity does not hold (a level arm, a wheel): a Pendubot's driven
+    # shoulder is a pendulum itself, and the swing-up threw its upright arm down (a translation is
+    # a pivot whatever holds it: a cart on a centring spring is still a cart)
+    if len(measured) == 2 and len(pendulums) == 1 and others[0].period is not None:
         held = restoring_stiffness(numeric, others[0])
         if abs(held) > PIVOT_STIFFNESS * restoring_stiffness(numeric, pendulums[0]):
             raise PendcError(f"the swing-up and balance controllers drive one pendulum on a coordinate gravity does "
