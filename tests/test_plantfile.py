@@ -272,3 +272,13 @@ def test_a_converter_on_a_rate_state_gives_it_half_an_lsb_of_budget():
     model = parse_model(text + '\n[sensors.tacho]\nkind = "adc"\nstate = "omega"\nbits = 12\nrange = [-512.0, 512.0]\n',
                         "motor.toml")
     assert model.interface.state("omega").budget == pytest.approx(0.5 * 1024 / 4096)
+
+
+def test_an_energy_of_the_wrong_unit_is_named_at_its_key():
+    """Round G: a unit slip in [mechanics] potential was reported against the derived acceleration
+    ddq1; the energies are checked as written."""
+    text = (Path(__file__).parent / "data" / "pendubot.toml").read_text()
+    bad = text.replace('potential = "-g*(th4*cos(q1) + th5*cos(q1 + q2))"', 'potential = "-(th4*cos(q1) + th5*cos(q1 + q2))"')
+    assert bad != text
+    with pytest.raises(PendcError, match=r"mechanics\.potential: the potential energy has units of kg\*m, expected"):
+        parse_model(bad, source="pendubot.toml").equations

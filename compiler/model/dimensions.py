@@ -45,6 +45,7 @@ def check_dimensions(model, equations) -> None:
     for name, unit, _ in d.quantities or ():
         if unit and name not in expected:
             expected[name] = (parse_unit(unit, f"{src}: quantities.{name}.unit"), f"quantity {name}")
+    _check_energies(d, src, dims)
     first_lag = len(equations.states) - len(equations.initial)
     lags = list(zip(equations.states[first_lag:], equations.derivatives[first_lag:]))
     for state, _ in lags:          # a lag state has the unit of what it lags: declared, or its drive's
@@ -72,3 +73,22 @@ def check_dimensions(model, equations) -> None:
             if state.name in dims:
                 check_same(dims[state.name] * per_second, derivative, dims, f"{src}: states.{state.name}.derivative",
                            f"d/dt {state.name}")
+
+
+def _check_energies(d, src: str, dims: dict) -> None:
+    """[mechanics] kinetic and potential are energies: checked as written, so a unit slip there
+    is named at its key, not at the acceleration derived from it (round G's ddq1)."""
+    import sympy as sp
+
+    from .expressions import parse_expression
+
+    symbols = {name: sp.Symbol(name, real=True) for name in dims}
+    energy = parse_unit(ENERGY, "")
+    for key in ("kinetic", "potential"):
+        text = getattr(d, key, None)
+        if not text:
+            continue
+        where = f"{src}: mechanics.{key}"
+        expr = parse_expression(text, symbols, where)
+        if expr.free_symbols <= set(symbols.values()):   # intermediates are checked where they are assigned
+            check_same(energy, expr, dims, where, f"the {key} energy")
