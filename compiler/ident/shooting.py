@@ -167,8 +167,9 @@ class ShootingProblem:
         self.resolution = plan.resolution
         self.records = [_subset(prepare(d, segment, o, model), subset) for d, o in zip(datasets, plan.outputs)]
         self.sims = {}          # (experiment, step) -> its simulator: one kernel each, shared by the records
+        steps = {id(r): integration_step(dt, r.t, model) for r in self.records}   # each record's, once
         for r in self.records:
-            key = (r.experiment, integration_step(dt, r.t, model))
+            key = (r.experiment, steps[id(r)])
             if key not in self.sims:
                 self.sims[key] = Simulator(model.for_experiment(r.experiment), method=method, dt=key[1])
         self.sim = next(iter(self.sims.values()))
@@ -181,7 +182,7 @@ class ShootingProblem:
         h = float(np.median(np.diff(self.records[0].t)))
         self.history = int(np.ceil(HISTORY / h))   # input samples before a segment, for delays
         # found once: the step's median over the record would otherwise be taken at every evaluation
-        self._sim_of = {id(r): self.sims[(r.experiment, integration_step(dt, r.t, model))] for r in self.records}
+        self._sim_of = {id(r): self.sims[(r.experiment, steps[id(r)])] for r in self.records}
         self.start_fits = [start_fit(self.sim_for(r), r.t, r.positions, r.estimated, r.outputs, self.resolution,
                                      self.scales) for r in self.records]
         self.limits = [self.sim_for(r).limits_reached(r.positions) for r in self.records]
