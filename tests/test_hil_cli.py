@@ -69,6 +69,7 @@ def test_user_controller_class_plugs_in(user_dir, capsys):
     x = [float(r[2]) for r in rows]
     assert x[200] > 0.005                    # u > V_off pushes the cart left (+x)
     assert summary["max_abs_x_m"] == pytest.approx(max(abs(v) for v in x))
+    assert summary["max_abs_theta_rad"] == pytest.approx(max(abs(float(r[3])) for r in rows))   # the angle too
     assert summary["switches"] == 1 and summary["plant"] == "float"
     assert (user_dir / "out" / "run.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in (user_dir / "out").iterdir()) == ["run.csv", "run.png", "summary.json"]

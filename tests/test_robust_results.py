@@ -19,7 +19,7 @@ SPEC = SweepSpec(model_text="", design_text="", model_source="m.toml", design_so
 def _row(i, passed, worst, error=""):
     return {"index": i, "a": 0.1 * i, "b": 1.0 + i, "passed": passed, "failures": "" if passed else "too far",
             "error": error, **{f: None for f in FIGURES}, "worst_last_3s_rad": worst, "switches": 1,
-            "max_abs_x_m": 0.1}
+            "travel_ratio": 0.1 / 0.3, "max_abs_x_m": 0.1, "max_abs_theta_rad": 3.3}
 
 
 ROWS = [_row(3, True, 0.01), _row(0, False, 0.2), _row(2, False, None, "RuntimeError: boom"), _row(1, False, 3.1)]
@@ -66,7 +66,8 @@ def test_the_summary(tmp_path):
 
 def test_limit_ratio():
     from pendc.robust.results import limit_ratio
-    assert limit_ratio({"worst_last_3s_rad": 0.01, "max_abs_x_m": 0.15}) == pytest.approx(0.5)
-    assert limit_ratio({"worst_last_3s_rad": 0.04, "max_abs_x_m": 0.15}) == pytest.approx(0.8)
-    assert limit_ratio({"worst_last_3s_rad": 3.1, "max_abs_x_m": 0.15}) == 2.0
+    assert limit_ratio({"worst_last_3s_rad": 0.01, "travel_ratio": 0.5, "max_abs_theta_rad": 3.2}) == pytest.approx(0.5)
+    assert limit_ratio({"worst_last_3s_rad": 0.04, "travel_ratio": 0.5}) == pytest.approx(0.8)
+    assert limit_ratio({"worst_last_3s_rad": 3.1, "travel_ratio": 0.5}) == 2.0
+    assert math.isnan(limit_ratio({"worst_last_3s_rad": 0.01, "max_abs_x_m": 0.15}))
     assert math.isnan(limit_ratio({"worst_last_3s_rad": None}))

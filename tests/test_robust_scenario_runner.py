@@ -21,6 +21,7 @@ def test_the_nominal_plant_passes_and_a_weak_drive_fails(spec):
     assert row["index"] == 3 and row["alpha"] == 260.78841 and row["passed"] and row["error"] == ""
     assert set(FIGURES) <= set(row) and row["settle_s"] == row["upright_at_s"] < 3.0
     assert row["max_abs_x_m"] < 0.3 and row["worst_last_3s_rad"] < 0.05
+    assert row["travel_ratio"] == pytest.approx(row["max_abs_x_m"] / 0.3) and row["max_abs_theta_rad"] > 3.0
     weak = run_row(spec, 4, {"alpha": 150.0}, cache)   # the swing-up cannot pump enough energy in 6 s
     assert not weak["passed"] and "in the last 3 s" in weak["failures"] and weak["error"] == ""
 

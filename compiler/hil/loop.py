@@ -80,8 +80,6 @@ class HilRun:
             "balance_rms_rad": rms,
         }
         for state, column in self.positions:
-            if state == self.angle:
-                continue
             key = f"max_abs_{state}_{units.get(state, '').replace('/', '_per_')}".rstrip("_")
             out[key] = float(np.max(np.abs(column))) if column.size else None
         out.update({

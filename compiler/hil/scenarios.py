@@ -58,6 +58,31 @@ def _common_failures(run: HilRun, consts: PendulumConstants) -> list:
     return out
 
 
+def travel_ratio(run: HilRun, consts: PendulumConstants) -> float | None:
+    """The driven position's largest |value| over the track limit (1: at the limit)."""
+    travel = run.column(consts.actuated)
+    return float(np.max(np.abs(travel)) / TRACK_LIMIT) if travel.size else None
+
+
+def judge_swing_up(run: HilRun, consts: PendulumConstants) -> tuple:
+    """The swing-up-and-balance criterion on ``run``, whatever controlled it: its figures
+    (the run's summary, ``worst_last_3s_rad``, ``travel_ratio``) and the criteria it failed."""
+    phi = _phi(run, consts)
+    last = run.t >= run.t[-1] - HOLD_SECONDS + 1e-9 if run.t.size else np.zeros(0, bool)
+    worst = float(np.max(np.abs(phi[last]))) if last.any() else float("inf")
+    failures = _common_failures(run, consts)
+    if worst >= UPRIGHT_TOLERANCE:
+        failures.append(f"{_upright(consts)} reached {worst:.3f} rad in the last {HOLD_SECONDS:g} s")
+    figures = {**run.summary(), "worst_last_3s_rad": worst, "travel_ratio": travel_ratio(run, consts)}
+    return figures, tuple(failures)
+
+
+def swing_up_criterion(consts: PendulumConstants) -> str:
+    """The swing-up-and-balance criterion in words, with the plant's names."""
+    return (f"{_upright(consts)} < {UPRIGHT_TOLERANCE} rad for the last {HOLD_SECONDS:g} s of the run, "
+            f"{_travel(consts)} throughout")
+
+
 def _upright(consts: PendulumConstants) -> str:
     """|angle - upright| in words, with the plant's angle."""
     return f"|{consts.angle} - pi|"
@@ -76,16 +101,8 @@ def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design
     designed on (default: the plant's own model); ``consts``: its constants, if already made."""
     consts = consts or PendulumConstants.from_model(design or model)
     run = run_closed_loop(plant, Supervisor(consts, period), seconds, period=period, plant_name=plant_name)
-    phi = _phi(run, consts)
-    last = run.t >= run.t[-1] - HOLD_SECONDS + 1e-9 if run.t.size else np.zeros(0, bool)
-    worst = float(np.max(np.abs(phi[last]))) if last.any() else float("inf")
-    failures = _common_failures(run, consts)
-    if worst >= UPRIGHT_TOLERANCE:
-        failures.append(f"{_upright(consts)} reached {worst:.3f} rad in the last {HOLD_SECONDS:g} s")
-    figures = {**run.summary(), "worst_last_3s_rad": worst}
-    return ScenarioResult("swing-up and balance (Fig. IV.23)",
-                          f"{_upright(consts)} < 0.05 rad for the last 3 s of the run, {_travel(consts)} throughout",
-                          run, figures, tuple(failures))
+    figures, failures = judge_swing_up(run, consts)
+    return ScenarioResult("swing-up and balance (Fig. IV.23)", swing_up_criterion(consts), run, figures, failures)
 
 
 def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float = 1e-3,
@@ -106,7 +123,7 @@ def swing_up_only(plant, model: PlantModel, seconds: float = 8.0, period: float 
         failures.append(f"the pendulum first came within {CATCH_ANGLE} rad of the upright at "
                         f"t = {run.t[near[0]]:.3f} s (limit {within:g} s)")
     figures = {**run.summary(), "first_near_upright_s": float(run.t[near[0]]) if near.size else None,
-               "closest_rad": float(phi.min())}
+               "closest_rad": float(phi.min()), "travel_ratio": travel_ratio(run, consts)}
     return ScenarioResult("swing-up alone (Fig. IV.22)",
                           f"within 0.4 rad of the upright (the catch window) by t = 5 s, {_travel(consts)} throughout",
                           run, figures, tuple(failures))
@@ -138,7 +155,8 @@ def step_disturbance(plant, model: PlantModel, period: float = 1e-3, plant_name:
     if settle > SETTLE_LIMIT:
         failures.append(f"settled {settle:.3f} s after the step (limit {SETTLE_LIMIT:g} s)")
     overshoot = float(np.max(travel[after]) - STEP_SIZE) if after.any() else None
-    figures = {**run.summary(), "settle_s": settle, "overshoot_m": overshoot}
+    figures = {**run.summary(), "settle_s": settle, "overshoot_m": overshoot,
+               "travel_ratio": travel_ratio(run, consts)}
     return ScenarioResult("4 cm set-point step while balancing (Fig. IV.21)",
                           f"settled (|{consts.actuated} - set point| < 4 mm, {_upright(consts)} < 0.05 rad) "
                           "within 2 s of the step",

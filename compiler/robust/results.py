@@ -141,17 +141,15 @@ def rank_rows(rows: list, spec: SweepSpec, plan: SamplePlan):
 
 def limit_ratio(row: dict) -> float:
     """How close a swing-up-and-balance run came to its criterion's limits: the larger of its worst
-    angle from the upright over the last 3 s / the tolerance and its largest travel / the track
-    limit (1: at a limit), capped at 2 so that a pendulum that never came up does not outweigh
-    every other run; NaN for a run that raised."""
+    angle from the upright over the last 3 s / the tolerance and its ``travel_ratio`` (the driven
+    position's largest |value| / the track limit; 1: at a limit), capped at 2 so that a pendulum
+    that never came up does not outweigh every other run; NaN for a run that raised."""
     from ..hil.loop import UPRIGHT_TOLERANCE
-    from ..hil.scenarios import TRACK_LIMIT
 
-    worst = row.get("worst_last_3s_rad")
-    travel = [v for k, v in row.items() if k.startswith("max_abs_") and v is not None]
-    if worst is None or not travel:
+    worst, travel = row.get("worst_last_3s_rad"), row.get("travel_ratio")
+    if worst is None or travel is None:
         return math.nan
-    return min(2.0, max(worst / UPRIGHT_TOLERANCE, max(travel) / TRACK_LIMIT))
+    return min(2.0, max(worst / UPRIGHT_TOLERANCE, travel))
 
 
 def write_results(folder, rows: list, spec: SweepSpec, plan: SamplePlan, outcome=None) -> dict:

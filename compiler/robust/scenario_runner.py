@@ -25,7 +25,8 @@ PLANTS = ("float", "golden")
 # the figure a scenario's criterion reads, so the worst runs can be ranked among themselves
 CRITERION_FIGURE = {"swing_up_balance": "worst_last_3s_rad", "balance_step": "settle_s",
                     "swing_up_only": "closest_rad"}
-FIGURES = ("upright_at_s", "settle_s", "balance_rms_rad", "worst_last_3s_rad", "closest_rad", "switches")
+FIGURES = ("upright_at_s", "settle_s", "balance_rms_rad", "worst_last_3s_rad", "closest_rad", "travel_ratio",
+           "switches")
 
 
 @dataclass(frozen=True)
