@@ -61,6 +61,14 @@ def random_levels(duration=5.0, hold=0.05, amplitude=4.5, fs=1000.0, seed=2):
     return t, levels[(t / hold).astype(int)]
 
 
+def tap(duration=5.0, level=0.01, width=0.02, fs=1000.0):
+    """A small tap and then the neutral input: ``level`` for ``width`` s, then 0. The plant moves
+    freely by little, where a sweeping or large input would average rounding away (a small
+    acceleration rounded to zero is a velocity that never changes)."""
+    t = _time(duration, fs)
+    return t, np.where(t < width, level, 0.0)
+
+
 def switching(duration=5.0, hold=(0.01, 0.1), seed=3, fs=1000.0):
     """The input's two ends in turn (levels of a whole span either way, clipped to the range on an
     input): a bang-bang drive, switching after random holds drawn uniformly from ``hold`` s."""
@@ -111,6 +119,10 @@ class Stimuli:
     def switching(self, **kw):
         """:func:`switching` on this input."""
         return self._put(switching(**kw))
+
+    def tap(self, **kw):
+        """:func:`tap` on this input."""
+        return self._put(tap(**kw))
 
     def named(self) -> dict:
         """The standard set used to train ranges and to test: name -> (t, u)."""
