@@ -21,7 +21,10 @@ typical bench rig's: a 750 mm track, a 0-10 V drive, an angle encoder designed f
 - a swing lasts about a second, so sampling slower than ``MIN_RATE`` (10 Hz) cannot
   record one: a median time step of 0.1 or more is taken as milliseconds (or
   microseconds) rather than seconds, unless the plant's fastest mode is slow enough for it
-  (ten samples a period: a heater's 0.002 Hz is recorded at 1 Hz) or ``--t-unit`` says seconds.
+  (ten samples a period: a heater's 0.002 Hz is recorded at 1 Hz) or ``--t-unit`` says seconds;
+- whatever the unit, fewer than two samples a period of the plant's fastest oscillation (Nyquist:
+  a buck converter's 3.4 kHz at 1 kHz) cannot be fitted and is refused; times that would sample
+  it in milliseconds (a 100 kHz record with t in ms read as 100 Hz) are taken as milliseconds.
 """
 
 from __future__ import annotations
@@ -44,6 +47,8 @@ RATE_LIMIT = {"m/s": 10.0,      # a bench rig's carriage moves well below 1 m/s
               "rad/s": 200.0}
 UNIT_FRACTION = 0.01   # more than this fraction of rows out of range -> a unit mistake
 DECLARED_MARGIN = 2.0  # x the rate a plant file declares (velocity bound, training rate): still plausible
+MODE_PERIODS = 10      # a record spans at least this many periods of the fastest mode (else it identifies nothing)
+_SPELLED_T = {"ms": "milliseconds", "us": "microseconds"}
 _DEG_UNITS = {"deg", "degree", "degrees", "°"}
 
 
@@ -78,26 +83,50 @@ def check_time(table: Table, t: np.ndarray, label: str = "t") -> None:
     raise PendcError(f"{table.source}: {table.where(k)}: {kind}; {label} must be strictly increasing")
 
 
-def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest_hz=None) -> None:
-    """Sampling slower than MIN_RATE, and slower than ten samples a period of the plant's fastest
-    mode (``fastest_hz()``, Hz, when a model is known): the times are not in seconds. A unit the
-    user gave (``given``) is taken at its word."""
-    if len(t) < 3 or given:
+def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest=None) -> None:
+    """Refuse times that cannot be seconds. ``fastest()`` is the plant's fastest eigenvalue (1/s,
+    complex; when a model is known). Sampling slower than MIN_RATE, and slower than ten samples a
+    period of that mode, is taken as another unit unless the user gave one (``given``); sampling
+    below Nyquist for its oscillation is refused even then (see :func:`check_nyquist`)."""
+    if len(t) < 3:
         return
     stride = max(1, len(t) // 1_000_000)
     step = float(np.median(np.diff(t[::stride]))) / stride  # spread over the run, no full-length copy
-    if step < 1.0 / MIN_RATE:
-        return
-    mode = fastest_hz() if fastest_hz is not None else 0.0
+    lam = complex(fastest()) if fastest is not None else 0j
+    mode = abs(lam) / (2 * math.pi)
     need = MIN_RATE if not mode > 0 else min(MIN_RATE, 10.0 * mode)
-    if step < 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
+    if not given and step >= 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
+        unit = "milliseconds" if step * 1e-3 < 1.0 / MIN_RATE else "microseconds"
+        why = (f"ten samples a period of the plant's fastest mode, {mode:.3g} Hz, need {need:.3g} Hz" if mode > 0
+               else f"sampling slower than {MIN_RATE:g} Hz cannot record a swing")
+        raise PendcError(f"{table.source}: t looks like {unit} (median step {step:g}, last t = {float(t[-1]):g}; "
+                         f"{why}): use --t-unit {'ms' if unit == 'milliseconds' else 'us'}, or --t-unit s if it is "
+                         f"seconds")
+    check_nyquist(table, t, step, given, lam)
+
+
+def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: complex) -> None:
+    """Fewer than two samples a period of the fastest mode's oscillation (eigenvalue ``lam``): it
+    aliases, and no model can be fitted; a real pole has no period (a motor's 2 kHz electrical
+    corner is recorded at 1 kHz as an instant). When milliseconds or microseconds would sample
+    it and still span ``MODE_PERIODS`` periods, the times are taken for that unit, unless given."""
+    from .resample import hertz
+
+    ring = abs(lam.imag) / (2 * math.pi)
+    if not 2.0 * ring * step > 1.0:
         return
-    unit = "milliseconds" if step * 1e-3 < 1.0 / MIN_RATE else "microseconds"
-    why = (f"ten samples a period of the plant's fastest mode, {mode:.3g} Hz, need {need:.3g} Hz" if mode > 0
-           else f"sampling slower than {MIN_RATE:g} Hz cannot record a swing")
-    raise PendcError(f"{table.source}: t looks like {unit} (median step {step:g}, last t = {float(t[-1]):g}; "
-                     f"{why}): use --t-unit {'ms' if unit == 'milliseconds' else 'us'}, or --t-unit s if it is "
-                     f"seconds")
+    span = float(t[-1] - t[0])
+    unit = next((u for u, f in (("ms", 1e-3), ("us", 1e-6)) if 2.0 * ring * step * f <= 1.0 and
+                 span * f * ring >= MODE_PERIODS), None)
+    mode = (f"fewer than 2 samples a period of the plant's fastest mode, a {ring:.4g} Hz oscillation (Nyquist "
+            f"{hertz(2 * ring)}, ten samples a period {hertz(10 * ring)})")
+    if unit is not None and not given:
+        raise PendcError(f"{table.source}: t looks like {_SPELLED_T[unit]} (median step {step:g}, last t = "
+                         f"{float(t[-1]):g}; in seconds it is sampled at {hertz(1 / step)}, {mode}): use --t-unit "
+                         f"{unit}, or a faster record if it is seconds")
+    fix = "check --t-unit, or record faster" if given else "record faster, or give --t-unit ms if t is in milliseconds"
+    raise PendcError(f"{table.source}: t is sampled at {hertz(1 / step)} (median step {step:g} s"
+                     f"{', with the --t-unit given' if given else ''}), {mode}: {fix}")
 
 
 def check_bounded(table: Table, name: str, values: np.ndarray, limit: float, unit: str, why: str,

@@ -256,15 +256,21 @@ def _input_warning(source: str, sig: PlantSignals, columns: dict) -> list:
 def _regrid(table: Table, t, columns: dict, options: ReadOptions):
     from .resample import regrid
 
-    return regrid(t, columns, table.source, table.where, options.rate, fastest=lambda: _fastest_mode(options.plant))
+    return regrid(t, columns, table.source, table.where, options.rate, fastest=lambda: _fastest_mode(options.plant),
+                  held=(options.signals.input,))
 
 
 def _fastest_mode(plant) -> float:
     """The fastest mode (Hz) of ``plant`` if it is a model (an interface alone has no equations)."""
-    from ..model.modes import fastest_mode_hz
+    return abs(_fastest_eigenvalue(plant)) / (2 * math.pi)
+
+
+def _fastest_eigenvalue(plant) -> complex:
+    """The fastest eigenvalue (1/s) of ``plant`` if it is a model, else 0."""
+    from ..model.modes import fastest_eigenvalue
     from ..model.plant import PlantModel
 
-    return fastest_mode_hz(plant) if isinstance(plant, PlantModel) else 0.0
+    return complex(fastest_eigenvalue(plant)) if isinstance(plant, PlantModel) else 0j
 
 
 def _frozen(values) -> np.ndarray:
@@ -328,7 +334,7 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
         if name not in options.units:     # a unit given for the column is taken at its word
             plaus.check_radians(table, t, columns[name], False, name, declared_rate(sig, sig.rate(name)))
     if options.plausible and any(p in columns for p in sig.positions):  # an input alone may be sparse steps
-        plaus.check_time_unit(table, t, TIME in options.units, lambda: _fastest_mode(options.plant))
+        plaus.check_time_unit(table, t, TIME in options.units, lambda: _fastest_eigenvalue(options.plant))
 
 
 def _unit_hint(options: ReadOptions, name: str, suggestion: str) -> str:

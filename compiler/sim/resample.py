@@ -14,6 +14,12 @@ at the hardware's 1 kHz. So (:func:`regrid`):
   the anti-aliasing filter (first null at the output rate): unlike an FIR low-pass
   (scipy.signal.decimate/resample_poly) it cannot overshoot on the input's steps or
   the encoders' counts, and it adds no delay;
+- the plant's input (``held``) is not a sample but a level held from its time stamp to the
+  next, and the simulator holds the resampled one the same way: its value at grid time c is
+  the mean of the original held input over [c, c + h_out], so each output interval sees the
+  same drive (impulse) as the plant did. A centred mean would apply it half an output
+  interval late: 10 us at 50 kHz, 12 degrees of a buck converter's 3.4 kHz mode, which cost
+  its exact model 9 points of fit;
 - a non-uniform file is interpolated linearly onto a grid at its median step (or
   ``--rate``), unless a gap is longer than ``max(MAX_GAP_S, MAX_GAP_STEPS median
   steps)``: across 20 ms a linear interpolation of a 10 Hz cart step response is off
@@ -32,7 +38,12 @@ UNIFORM_TOLERANCE = 0.01
 DEFAULT_MAX_RATE = 1000.0  # Hz, the HIL core's rate
 MAX_GAP_S = 0.02
 MAX_GAP_STEPS = 5
-MODE_SAMPLES = 10          # samples a period of the plant's fastest mode that decimation keeps
+# Samples a period of the plant's fastest mode that decimation keeps. The boxcar takes
+# 1 - sinc(pi/N) of that mode's amplitude: an exact buck model (3.4 kHz, damping 0.09, its
+# ringing most of i_L) on its own 2 MHz response, averaged to N samples a period, scored i_L
+# 97.4 % at 10, 98.7 % at 15, 99.3 % at 20, 99.6 % at 30: 20 keeps an exact model above 99 % for
+# twice the samples of 10 (which a fit's time follows), not three times.
+MODE_SAMPLES = 20
 
 
 def hertz(rate: float) -> str:
@@ -46,10 +57,12 @@ def median_step(steps: np.ndarray, most: int = 1_000_000) -> float:
     return float(np.median(steps[::stride]))
 
 
-def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None, fastest=None):
+def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None = None, fastest=None,
+           held=()):
     """``(t, columns, note)`` on a uniform grid (see the module docstring); note is None
     when nothing was done. ``where(k)`` names row k in messages; ``fastest()`` is the plant's
-    fastest mode in Hz (asked only of a file faster than 1 kHz)."""
+    fastest mode in Hz (asked only of a file faster than 1 kHz); ``held`` names the columns
+    that are zero-order-hold inputs."""
     if len(t) < 3:
         return t, columns, None
     steps = np.diff(t)
@@ -80,29 +93,35 @@ def regrid(t: np.ndarray, columns: dict, source: str, where, rate: float | None 
         h_out = h
     if uniform and abs(h_out - h) <= UNIFORM_TOLERANCE * h:
         return t, columns, None
+    inputs = [n for n in columns if n in held]
+    held_words = f"; {', '.join(inputs)}, held from each time to the next, averaged over the interval it is held on"
+    held_words = held_words if inputs else ""
     if h_out > h * (1 + UNIFORM_TOLERANCE):
         q = h_out / h
+        sampled = {n: v for n, v in columns.items() if n not in held}
         if uniform and abs(q - round(q)) < 1e-6:
-            new_t, new_cols = _block_means(t, columns, int(round(q)))
+            new_t, new_cols = _block_means(t, sampled, int(round(q)))
             how = f"by averaging blocks of {int(round(q))} samples"
         else:
-            new_t, new_cols = _interval_means(t, columns, h_out)
+            new_t, new_cols = _interval_means(t, sampled, h_out)
             how = "by averaging the linearly interpolated signal over each output interval"
+        new_cols = _with_held(t, columns, held, new_t, h_out, new_cols)
         what = "decimated" if uniform else "non-uniform sampling"
         frm = f"from {hertz(1 / h)}" if uniform else f"(median step {h:.3g} s, longest {float(steps.max()):.3g} s)"
         note = (f"{source}: {what} {frm}: resampled to a uniform {hertz(1 / h_out)} grid {how} (a boxcar "
                 f"anti-aliasing filter: no overshoot on input steps or encoder counts; each mean sits at the "
-                f"centre of its interval), {len(t)} -> {len(new_t)} samples")
+                f"centre of its interval{held_words}), {len(t)} -> {len(new_t)} samples")
         return new_t, new_cols, note
     new_t = t[0] + h_out * np.arange(int(np.floor((t[-1] - t[0]) / h_out * (1 + 1e-12))) + 1)
-    new_cols = {n: np.interp(new_t, t, v) for n, v in columns.items()}
+    new_cols = {n: np.interp(new_t, t, v) for n, v in columns.items() if n not in held}
+    new_cols = _with_held(t, columns, held, new_t, h_out, new_cols)
     if uniform:
         note = (f"{source}: upsampled from {hertz(1 / h)} to {hertz(1 / h_out)} by linear interpolation "
-                f"(adds no information)")
+                f"(adds no information{held_words})")
     else:
         note = (f"{source}: non-uniform sampling (steps {float(steps.min()):.3g} s to {float(steps.max()):.3g} s, "
-                f"median {h:.3g} s): resampled onto a uniform {hertz(1 / h_out)} grid by linear interpolation, "
-                f"{len(t)} -> {len(new_t)} samples")
+                f"median {h:.3g} s): resampled onto a uniform {hertz(1 / h_out)} grid by linear interpolation"
+                f"{f' ({held_words[2:]})' if held_words else ''}, {len(t)} -> {len(new_t)} samples")
     return new_t, new_cols, note
 
 
@@ -132,3 +151,22 @@ def _integral_at(points: np.ndarray, t: np.ndarray, v: np.ndarray, area: np.ndar
     dt = points - t[k]
     slope = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
     return area[k] + v[k] * dt + 0.5 * slope * dt * dt
+
+
+def _with_held(t: np.ndarray, columns: dict, held, new_t: np.ndarray, h_out: float, resampled: dict) -> dict:
+    """``resampled`` with the held columns added, in ``columns``' order."""
+    return {n: _held_means(t, v, new_t, h_out) if n in held else resampled[n] for n, v in columns.items()}
+
+
+def _held_means(t: np.ndarray, v: np.ndarray, starts: np.ndarray, h_out: float) -> np.ndarray:
+    """Mean over [c, c + h_out], for each c in ``starts``, of v held from each t[k] to t[k + 1]
+    (the last value on past t[-1], as the record's last interval has no end)."""
+    offset = float(v[0])    # integrate v - v[0], so the running integral stays small
+    w = v - offset
+    area = np.concatenate(([0.0], np.cumsum(w[:-1] * np.diff(t))))
+
+    def integral(points):
+        k = np.clip(np.searchsorted(t, points, side="right") - 1, 0, len(t) - 1)
+        return area[k] + w[k] * (points - t[k])
+
+    return (integral(starts + h_out) - integral(starts)) / h_out + offset

@@ -1,0 +1,62 @@
+"""Time units and sample rates of a fast plant's record (the blind check's buck converter, its
+fastest mode a 3.4 kHz oscillation): a record at 1 kHz (0.3 samples a period) scored -8 % without
+a word, and one with t in milliseconds was read as seconds at 100 Hz, where a mechanical plant's
+was refused. Now fewer than two samples a period of the fastest oscillation (Nyquist) is refused
+in one line, unit given or not, and times that would sample it in milliseconds are named so.
+
+The records are the buck's response integrated by scipy (tests/test_resample.py), not by pendc."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from cli_capture import run_cli
+from test_resample import write_buck
+
+
+def _error(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("pendc: error: "), err
+    return lines[0]
+
+
+def test_a_record_below_nyquist_is_refused_with_both_rates(tmp_path, capsys):
+    model, data = write_buck(tmp_path, every=100)              # 1 kHz
+    rc, out, err = run_cli(capsys, "compare", data, "--model", model)
+    line = _error(err)
+    assert rc != 0 and not out
+    assert "t is sampled at 1 kHz" in line and "a 3384 Hz oscillation" in line and "Nyquist 6.769 kHz" in line
+    assert "record faster, or give --t-unit ms if t is in milliseconds" in line
+    assert "looks like milliseconds" not in line     # in ms it would last a tenth of a period
+    rc, out, err = run_cli(capsys, "compare", data, "--model", model, "--t-unit", "s")
+    line = _error(err)
+    assert "with the --t-unit given" in line and "check --t-unit, or record faster" in line
+
+
+def test_milliseconds_of_a_fast_plant_are_named(tmp_path, capsys):
+    model, data = write_buck(tmp_path, t_scale=1e3)            # 100 kHz, t in ms
+    rc, out, err = run_cli(capsys, "compare", data, "--model", model)
+    line = _error(err)
+    assert "t looks like milliseconds (median step 0.01, last t = 29.99; in seconds it is sampled at 100 Hz" in line
+    assert "use --t-unit ms" in line
+    rc, out, err = run_cli(capsys, "compare", data, "--model", model, "--t-unit", "ms")
+    assert rc == 0, err
+    fits = [float(f) for f in re.findall(r"(-?[\d.]+) %", out.splitlines()[0])]
+    assert len(fits) == 2 and min(fits) > 99.9, out.splitlines()[0]
+
+
+def test_a_fast_real_pole_needs_no_samples_a_period():
+    """A DC motor's armature (a 2.3 kHz corner, no oscillation) recorded at 1 kHz is read: the
+    current settles within a sample, it does not alias."""
+    from pendc.model.modelfile import load_model
+    from pendc.sim.measurements import format_csv, parse_measurements
+    from pendc.sim.readers import ReadOptions
+
+    model = load_model(Path(__file__).parent / "plant_dc_motor.toml")
+    t = np.arange(0, 0.5 + 1e-9, 1e-3)
+    m = parse_measurements(format_csv({"t": t, "v": np.sin(t), "phi": 0.1 * t}),
+                           options=ReadOptions(plant=model, plausible=True))
+    assert len(m.t) == len(t)
