@@ -153,13 +153,13 @@ def compare(model, data, *, horizon: float | None = None, outputs=None, dt: floa
 
 def _horizon(given, datasets: list, model) -> float:
     """``given``, or the data's horizon (:func:`pendc.ident.horizon.horizon_for`: 0.5 s, doubled
-    while the data move less than four sensor steps in it)."""
+    while the data move less than four sensor steps in it, shortened for a fast plant's short record)."""
     from .errors import PendcError
     from .ident.horizon import horizon_for
     from .sim.signals import signals_of
 
     if given is None:
-        return horizon_for(datasets, signals_of(model))[0]
+        return horizon_for(datasets, signals_of(model), model)[0]
     if not (math.isfinite(given) and given > 0):
         raise PendcError(f"horizon must be a positive number of seconds, got {given}")
     return float(given)

@@ -105,7 +105,7 @@ def horizon_of(args, model=None, datasets=()) -> float:
         from ..ident.horizon import horizon_for
         from ..sim.signals import signals_of
 
-        horizon, why = horizon_for(list(datasets), signals_of(model))
+        horizon, why = horizon_for(list(datasets), signals_of(model), model)
         if why:
             print(f"pendc: note: {why}", file=sys.stderr)
         return horizon
@@ -126,5 +126,7 @@ def add_horizon_option(p, who: str) -> None:
     p.add_argument("--horizon", type=float, metavar="SECONDS",
                    help=f"seconds between restarts from the measured state, over which {who} judges the model "
                         f"(default {DEFAULT_HORIZON:g}, doubled while the data move less than four sensor steps "
-                        f"in it: a heater's minutes); a plant unstable faster than that, recorded under "
-                        f"feedback, needs a few of its time constants (a magnet: 0.02)")
+                        f"in it: a heater's minutes; shortened to 0.2, 0.1, 0.05, ... where the records hold "
+                        f"fewer than eight segments and a segment still spans ten time constants of the plant's "
+                        f"fastest mode: a converter's milliseconds); a plant unstable faster than that, recorded "
+                        f"under feedback, needs a few of its time constants (a magnet: 0.02)")

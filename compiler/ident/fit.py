@@ -297,13 +297,27 @@ def _fit_horizon(model, datasets, free, start, dt, segment, max_evaluations, sea
     segments = len(problem.segment_blocks())
     if segments < SEGMENTS_PER_PARAMETER * len(free):
         short = (f"only {segments} independent {segment:g} s segment(s) of data for {len(free)} parameter(s) "
-                 f"(at least {SEGMENTS_PER_PARAMETER} per parameter are needed)")
+                 f"(at least {SEGMENTS_PER_PARAMETER} per parameter are needed"
+                 f"{_shorter_words(model, datasets, segment, SEGMENTS_PER_PARAMETER * len(free))})")
         why = {p: why.get(p, short) for p in free}
     fitted = model.with_params(dict(zip(free, values)))
     return FitResult(model=fitted, values=dict(zip(free, map(float, values))), ci95=ci,
                      cost_before=cost_before, cost_after=float(sol.cost), n_residuals=problem.size,
                      evaluations=int(sol.nfev), converged=bool(sol.status > 0), message=str(sol.message),
                      unidentifiable=why, notes=problem.notes, covariance=cov)
+
+
+def _shorter_words(model: PlantModel, datasets: list, segment: float, need: int) -> str:
+    """``; --horizon H gives N`` when a shorter horizon the plant and data allow (the automatic
+    horizon's rule, :func:`pendc.ident.horizon.shorter_horizon`) gives ``need`` segments, aiming at
+    the automatic horizon's eight; '' when none does (a slow plant, or data that barely move)."""
+    from ..sim.signals import signals_of
+    from .horizon import MIN_SEGMENTS, shorter_horizon
+
+    if segment >= WHOLE_RECORD:
+        return ""
+    h, count = shorter_horizon(datasets, signals_of(model), model, segment, max(need, MIN_SEGMENTS))
+    return f"; --horizon {h:g} gives {count}" if h is not None and count >= need else ""
 
 
 def _at(problem: ShootingProblem, tf: "_Transform", z: np.ndarray) -> SimpleNamespace:

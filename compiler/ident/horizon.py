@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
+from ..model.modes import fastest_eigenvalue
+from ..model.plant import PlantModel
 from ..sim.simulator import Simulator
 from .shooting import HISTORY, integration_step, measured_motion  # noqa: F401 (measured_motion re-exported)
 from .start_rates import data_start_fit, run_segment
@@ -111,26 +113,103 @@ def _segment_fit(y, yhat) -> float:
 
 
 VISIBLE_STEPS = 4.0   # sensor steps a typical segment must move for the horizon to see the dynamics
+MIN_SEGMENTS = 8      # segments the records must hold: diagnose fits on four and scores on four
+MODE_SPANS = 10.0     # time constants (1/|eigenvalue|) of the plant's fastest mode a segment must span
 
 
-def horizon_for(datasets: list, signals) -> tuple[float, str]:
-    """The horizon diagnose, fit and compare use unless told: :data:`DEFAULT_HORIZON`, doubled
-    while the measured positions move less than :data:`VISIBLE_STEPS` sensor steps in a typical
-    (median) segment and a record still holds eight segments; with the reason when it is not the
-    default. A pendulum moves hundreds of encoder counts in half a second; a heater's sink
-    (a 93 s time constant) less than one 0.32 K converter code, so every candidate scored the
-    same on 0.5 s and diagnose called the error noise."""
+def horizon_for(datasets: list, signals, model=None) -> tuple[float, str]:
+    """The horizon diagnose, fit and compare use unless told, with the reason when it is not
+    :data:`DEFAULT_HORIZON`.
+
+    Slow plants: doubled while the measured positions move less than :data:`VISIBLE_STEPS` sensor
+    steps in a typical (median) segment and a record still holds eight segments. A pendulum moves
+    hundreds of encoder counts in half a second; a heater's sink (a 93 s time constant) less than
+    one 0.32 K converter code, so every candidate scored the same on 0.5 s and diagnose called the
+    error noise.
+
+    Fast plants on short records: where the records hold fewer than :data:`MIN_SEGMENTS` segments,
+    shortened along 0.2, 0.1, 0.05, 0.02, ... s for as long as a segment still spans
+    :data:`MODE_SPANS` time constants of ``model``'s fastest mode (the restart's start state then
+    no longer decides the prediction: the model's dynamics do) and the data still move
+    :data:`VISIBLE_STEPS` sensor steps in it; to the first that holds eight segments, else the
+    shortest that qualified. A 0.3 s record of a buck converter (3.4 kHz, 47 us) is one 0.5 s
+    segment, which no parameter can be fitted on, and fifteen of 0.02 s. The shipped mechanical
+    plants' ten time constants are 0.2 s or more (a ball on a beam's: 0.21 s), so their records
+    keep the half second whatever their length."""
     horizon = DEFAULT_HORIZON
     longest = max((float(d.t[-1] - d.t[0]) for d in datasets if len(d.t) > 1), default=0.0)
     moved = _median_movement(datasets, signals, horizon)
     while moved < VISIBLE_STEPS and 2 * horizon * 8 <= longest:
         horizon *= 2
         moved = _median_movement(datasets, signals, horizon)
-    if horizon == DEFAULT_HORIZON:
+    if horizon != DEFAULT_HORIZON:
+        return horizon, (f"the horizon is {horizon:g} s, not {DEFAULT_HORIZON:g} s: in {DEFAULT_HORIZON:g} s these "
+                         f"data move less than {VISIBLE_STEPS:g} sensor steps, too little to tell models apart "
+                         f"(--horizon sets it)")
+    have = segment_count(datasets, horizon)
+    if model is None or not datasets or have >= MIN_SEGMENTS:
         return horizon, ""
-    return horizon, (f"the horizon is {horizon:g} s, not {DEFAULT_HORIZON:g} s: in {DEFAULT_HORIZON:g} s these data "
-                     f"move less than {VISIBLE_STEPS:g} sensor steps, too little to tell models apart "
-                     f"(--horizon sets it)")
+    shorter, count = shorter_horizon(datasets, signals, model, horizon, MIN_SEGMENTS)
+    if shorter is None or count <= have:
+        return horizon, ""
+    return shorter, (f"the horizon is {shorter:g} s, not {DEFAULT_HORIZON:g} s: these data hold {have} segment(s) "
+                     f"of {DEFAULT_HORIZON:g} s, too few to fit a parameter on; {count} of {shorter:g} s "
+                     f"still span {MODE_SPANS:g} time constants of the plant's fastest mode ({_mode_hz(model):.4g} Hz) "
+                     f"and see the data move (--horizon sets it)")
+
+
+def shorter_horizon(datasets: list, signals, model, horizon: float, need: int) -> tuple:
+    """``(h, segments)``: the longest horizon below ``horizon`` (along 0.2, 0.1, 0.05, ... s) whose
+    segments number ``need`` or more across ``datasets``, else the shortest qualifying one; each
+    candidate must span :data:`MODE_SPANS` time constants of ``model``'s fastest mode and see the
+    data move :data:`VISIBLE_STEPS` sensor steps. ``(None, 0)`` when none qualifies (a slow
+    plant, data that hardly move, a model without dynamics at its start state)."""
+    rate = _mode_rate(model)
+    if rate == 0.0:
+        return None, 0
+    best, have = (None, 0), segment_count(datasets, horizon)
+    for h in _one_two_five_below(horizon):
+        if h * rate < MODE_SPANS:
+            break
+        count = segment_count(datasets, h)
+        if count <= have:     # still longer than the records: no segment to measure movement in
+            continue
+        if _median_movement(datasets, signals, h) < VISIBLE_STEPS:
+            break
+        best, have = (h, count), count
+        if count >= need:
+            break
+    return best
+
+
+def segment_count(datasets: list, horizon: float) -> int:
+    """How many segments of ``horizon`` s the shooting fit cuts ``datasets`` into
+    (:func:`pendc.ident.shooting.prepare`'s rule, without its velocity estimates)."""
+    count = 0
+    for d in datasets:
+        t = np.asarray(d.t, dtype=np.float64)
+        if len(t) < 3:
+            continue
+        n = max(2, int(round(horizon / float(np.median(np.diff(t))))))
+        count += sum(1 for a in range(0, len(t) - 1, n) if min(a + n, len(t) - 1) - a >= 2)
+    return count
+
+
+def _one_two_five_below(horizon: float) -> list:
+    """0.2, 0.1, 0.05, ... s below ``horizon``, down to a microsecond: values a command line shows
+    as typed (halving 0.5 s would suggest --horizon 0.03125)."""
+    values = [float(f"{m}e{e}") for e in range(1, -7, -1) for m in (5, 2, 1)]
+    return [v for v in values if v < horizon * (1 - 1e-9)]
+
+
+def _mode_rate(model) -> float:
+    """|eigenvalue| (1/s) of ``model``'s fastest mode at its start state; 0 when unknown."""
+    # an interface alone has no equations to linearise
+    return float(abs(fastest_eigenvalue(model))) if isinstance(model, PlantModel) else 0.0
+
+
+def _mode_hz(model) -> float:
+    return _mode_rate(model) / (2 * np.pi)
 
 
 def _median_movement(datasets: list, signals, horizon: float) -> float:

@@ -240,13 +240,23 @@ def _body(c: Comparison, state: str) -> str:
     return signals_of(c.model).body_of(state) if state else ""
 
 
+def _acf_verdict(c: Comparison, k: str, a: dict) -> str:
+    """'white' / 'not white', with the bias the whiteness test cannot see (it removes the mean)."""
+    from .whiteness import biased
+
+    verdict = "white" if a["white"] else "not white"
+    if biased(a, signals_of(c.model).resolution(k)):
+        return f"biased by {a['mean']:+.3g} (noise cannot explain it); {verdict} about it"
+    return verdict
+
+
 def _whiteness_table(c: Comparison) -> str:
     rows = []
     for k in c.outputs:
         a, x = c.whiteness[k], c.whiteness["xcorr"][k]
         rows.append(f"<tr><td class=l>{k}</td><td class=l>autocorrelation, lags 1..{len(a['lags']) - 1}</td>"
                     f"<td>{a['band']:.3f}</td><td>{len(a['outside'])} (≤ {a['allowed']} allowed)</td>"
-                    f"<td class=l>{'white' if a['white'] else 'not white'}</td></tr>")
+                    f"<td class=l>{_acf_verdict(c, k, a)}</td></tr>")
         if not x.get("tested", True):
             rows.append(f"<tr><td class=l>{k}</td><td class=l>cross-correlation with u</td><td>–</td><td>–</td>"
                         f"<td class=l>not tested: {html.escape(x['reason'])}</td></tr>")

@@ -14,6 +14,7 @@ from . import headline as hl
 from ..sim.signals import signals_of
 from .compare import Comparison, worst_windows, wrap_angle, wrap_difference
 from .units import small_scale, trajectory_scale, unit_of
+from .whiteness import biased
 from .report_text import short
 from .sidebyside import SideBySide
 
@@ -254,6 +255,8 @@ def figure_correlations(c: Comparison):
             ax.axhline(0.0, color="k", lw=0.5)
             verdict = ("white" if d["white"] else "not white") if key == "acf" else \
                 ("independent" if d["independent"] else "correlated")
+            if key == "acf" and biased(d, signals_of(c.model).resolution(k)):
+                verdict = f"biased by {d['mean']:+.3g}, {verdict} about it"
             ax.set_title(f"{k} residual {what}: {verdict} (99 % band ±{d['band']:.3f})", fontsize=10)
             ax.set_xlabel("lag (ms)" + ("; > 0: input earlier" if key == "ccf" else ""))
             ax.grid(alpha=0.3)

@@ -19,6 +19,7 @@ from . import headline as hl
 from .compare import WORST_WINDOW, Comparison, model_name
 from .sidebyside import SideBySide, as_side_by_side
 from .units import amount_in, unit_of
+from .whiteness import biased
 
 FEW_COUNTS = 5           # rms residual (encoder counts) below which structure may be rounding
 ALWAYS = 0.99            # a regime covering this much of the run tells nothing; the text skips it
@@ -140,19 +141,25 @@ def whiteness_words(k: str, a: dict, xc: dict, rms: float, plant=None) -> list:
     """The verdicts of one output's autocorrelation ``a`` and input cross-correlation ``xc``
     (``plant``: whose encoder count on ``k`` says what is rounding; default the default model)."""
     step = a["lag_seconds"]
+    count = signals_of(plant).resolution(k)
+    sensor = "converter" if isinstance(count, ConverterStep) else "encoder"
+    unit = "codes" if sensor == "converter" else "counts"
+    bias = biased(a, count)
+    out = [_bias_line(k, a, count, f"{sensor} {unit}", plant)] if bias else []
     if a["white"]:
-        out = [f"  {k:5s} residual looks white: only noise is left to explain"]
+        out.append("        around that bias the residual looks white" if out else
+                   f"  {k:5s} residual looks white: only noise is left to explain")
     else:
         lag = max(a["outside"] or a["lags"][1:], key=lambda j: abs(a["acf"][j]))
-        out = [f"  {k:5s} residual is not white: {len(a['outside'])} of {len(a['lags']) - 1} lags outside the band "
-               f"(r = {a['acf'][lag]:+.2f} at {duration_text(lag * step)}): the error is systematic, the model misses or "
-               "mis-sets some dynamics"]
-        count = signals_of(plant).resolution(k)
-        counts = rms / float(count) if count else math.inf
-        sensor = "converter" if isinstance(count, ConverterStep) else "encoder"
+        out.append(f"  {k:5s} residual is not white: {len(a['outside'])} of {len(a['lags']) - 1} lags outside the band "
+                   f"(r = {a['acf'][lag]:+.2f} at {duration_text(lag * step)}): the error is systematic, the model misses "
+                   "or mis-sets some dynamics")
+        # the test sees the scatter about the mean, which a bias would hide in the rms
+        scatter = math.sqrt(max(rms * rms - float(a["mean"]) ** 2, 0.0)) if bias else rms
+        counts = scatter / float(count) if count else math.inf
         if counts < FEW_COUNTS:   # a whiteness test sees structure far below what matters
-            out.append(f"        but it is only {counts:.1f} {sensor} {'codes' if sensor == 'converter' else 'counts'} "
-                       f"rms: at this level the structure may be the {sensor}'s rounding or the integration step")
+            out.append(f"        but it is only {counts:.1f} {sensor} {unit} rms{' about that bias' if bias else ''}: "
+                       f"at this level the structure may be the {sensor}'s rounding or the integration step")
     if not xc.get("tested", True):
         return out + [f"  {k:5s} residual against the input: not tested: {xc['reason']}"]
     if xc["independent"]:
@@ -163,6 +170,17 @@ def whiteness_words(k: str, a: dict, xc: dict, rms: float, plant=None) -> list:
             else f"the input {duration_text(-lag * step)} later, i.e. feedback or a slow drift")
     return out + [f"  {k:5s} residual follows the input: {len(xc['outside'])} of {len(xc['lags'])} lags outside the "
                   f"band (r = {xc['ccf'][lag + mid]:+.2f} with {when}): the drive, friction or delay is wrong"]
+
+
+def _bias_line(k: str, a: dict, count, steps: str, plant) -> str:
+    """The verdict on a residual :func:`biased` calls biased: its size, in sensor steps and in
+    standard errors of the mean, and which side of the model the data sit."""
+    mean, se = float(a["mean"]), float(a["mean_se"])
+    sizes = ([f"{abs(mean) / float(count):.1f} {steps}"] if count else []) + \
+        ([f"{abs(mean) / se:.0f} standard errors of its mean"] if se > 0 else ["constant"])
+    return (f"  {k:5s} residual has a bias of {amount(k, mean, plant)} ({', '.join(sizes)}) that the model does not "
+            f"explain: the data sit {'above' if mean > 0 else 'below'} the model, which noise does not do (an offset, "
+            f"a gain, or a missing effect that shifts the working point)")
 
 
 def short(label: str) -> str:

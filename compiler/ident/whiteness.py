@@ -2,7 +2,9 @@
 
 Used by :mod:`pendc.ident.compare` on whichever residual it analyses. Each test returns
 plain JSON-ready dicts: the correlation at every lag, the 99 % band, the lags outside it
-and a verdict that keeps the false-alarm rate of the whole test below 5 %.
+and a verdict that keeps the false-alarm rate of the whole test below 5 %. The tests remove
+the mean, so the residual's mean and its standard error come with them: :func:`biased` says
+when a steady bias, which no correlation test sees, is beyond what the noise explains.
 """
 
 from __future__ import annotations
@@ -67,14 +69,48 @@ def autocorrelation(e, lags: int = LAGS) -> dict:
 
     ``band`` is ±2.58/sqrt(N), the 99 % interval of a white sequence; ``white`` is the
     :func:`_verdict` over lags 1..``lags``. A residual that is exactly constant has no
-    structure and counts as white."""
-    e = np.asarray(e, dtype=np.float64) - np.mean(e)
+    structure and counts as white. The test removes the mean, so it is blind to a bias:
+    ``mean``, ``std`` and ``mean_se`` (the mean's standard error) are there for :func:`biased`."""
+    raw = np.asarray(e, dtype=np.float64)
+    mean = float(np.mean(raw)) if raw.size else 0.0
+    e = raw - mean
     n = len(e)
     lags = max(0, min(lags, n - 1))
     acf = _acf(e, lags)
     v = _verdict(range(1, lags + 1), acf[1:], Z99 / math.sqrt(n))
     white = v.pop("passed")
-    return {"lags": list(range(lags + 1)), "acf": acf.tolist(), **v, "white": white, "samples": n}
+    return {"lags": list(range(lags + 1)), "acf": acf.tolist(), **v, "white": white, "samples": n,
+            "mean": mean, "std": float(np.std(e)) if n else 0.0, "mean_se": _mean_error(e, acf)}
+
+
+BIAS_SE = 5.0       # standard errors a residual's mean must reach to be no chance of the noise
+BIAS_STEPS = 1.0    # sensor steps it must also reach: a reading's rounding shifts it half a step at most
+BIAS_SHARE = 0.5    # with no sensor step known: the share of the residual's rms the mean must reach
+
+
+def _mean_error(e: np.ndarray, acf: np.ndarray) -> float:
+    """Standard error of the mean of a correlated sequence (Bartlett: s^2/N (1 + 2 sum (1 - k/N) r_k)
+    over the tested lags), never taken below a white sequence's s/sqrt(N): a residual's samples
+    are not independent, and a slow error must not pass for a precise mean."""
+    n = len(e)
+    if n == 0:
+        return 0.0
+    k = np.arange(1, len(acf))
+    factor = max(1.0, 1.0 + 2.0 * float(np.sum((1.0 - k / n) * acf[1:])))
+    return float(np.std(e)) * math.sqrt(factor / n)
+
+
+def biased(a: dict, step: float | None) -> bool:
+    """Whether the residual whose :func:`autocorrelation` is ``a`` has a bias the noise cannot
+    explain: a mean beyond :data:`BIAS_SE` standard errors and beyond :data:`BIAS_STEPS` sensor
+    steps (``step``; without one, beyond :data:`BIAS_SHARE` of the rms). A steady offset passes
+    the whiteness test, which removes the mean (a hidden dead zone left 16 converter codes)."""
+    mean = abs(float(a.get("mean", 0.0)))
+    if mean == 0.0 or mean <= BIAS_SE * float(a.get("mean_se", 0.0)):
+        return False
+    if step:
+        return mean > BIAS_STEPS * float(step)
+    return mean >= BIAS_SHARE * math.hypot(mean, float(a.get("std", 0.0)))
 
 
 def cross_correlation(e, v, lags: int = LAGS) -> dict:
