@@ -94,6 +94,14 @@ def _hostile():
         ("syntax error", t.replace('"-L*cos(theta)"', '"-L*cos(theta"'), r"bodies\.bob\.position\[1\]"),
         ("vector of mixed size", t.replace('position = ["x", 0]', 'position = ["x", 0, 0]'), "all 2-D or all 3-D"),
         ("mass without position", t.replace('position = ["x", 0]\n', ""), r"bodies\.cart\.position: a mass needs"),
+        ("body without mass or inertia", t.replace("[bodies.bob]\n", '[bodies.hub]\nrotation = "theta"\n\n[bodies.bob]\n'),
+         r"bodies\.hub: has neither a mass nor an inertia"),
+        ("constant of 0 a state equation divides by", m.replace("L_a = 1.8e-4", "L_a = 0.0").replace(
+            'meaning = "armature inductance" }', 'meaning = "armature inductance", bounds = [0.0, 1.0] }'),
+         r"plant\.L_a = 0\.0: d/dt i divides by L_a, which is then 0"),
+        ("masses of 0 that empty the determinant", t.replace("M = 2.0", "M = 0.0").replace(
+            "bounds = [0.1, 100.0]", "bounds = [0.0, 100.0]"),
+         r"plant\.M = 0\.0: ddx divides by det, which is then 0 at the start state"),
         ("inertia without rotation", t.replace('mass = "M"', 'mass = "M"\ninertia = "m"'), "rotation"),
         ("unknown body kind", t.replace("[bodies.bob]\n", '[bodies.bob]\nkind = "blob"\n'), "unknown body kind 'blob'"),
         ("gravity beside the energies", t.split("[bodies.cart]")[0].replace(
@@ -282,3 +290,88 @@ def test_an_energy_of_the_wrong_unit_is_named_at_its_key():
     assert bad != text
     with pytest.raises(PendcError, match=r"mechanics\.potential: the potential energy has units of kg\*m, expected"):
         parse_model(bad, source="pendubot.toml").equations
+
+
+# a buck converter's averaged equations: a dimensionless input (the duty cycle) and a resistance
+# an ideal switch makes 0 (the blind check's buck.toml, cut to what the tests below read)
+BUCK = """
+[plant]
+name = "buck"
+V_g = 12.0
+L_f = 22e-6
+C_f = 100e-6
+R_L = 0.02
+R_o = 2.5
+
+[constants]
+V_g = { unit = "V", meaning = "input voltage", bounds = [1.0, 60.0] }
+L_f = { unit = "H", meaning = "filter inductance", bounds = [1e-7, 1e-2] }
+C_f = { unit = "F", meaning = "output capacitance", bounds = [1e-7, 1e-1] }
+R_L = { unit = "ohm", meaning = "winding and switch resistance", bounds = [0.0, 1.0] }
+R_o = { unit = "ohm", meaning = "load resistance", bounds = [0.1, 1000.0] }
+
+[states.i_L]
+unit = "A"
+meaning = "inductor current (A)"
+derivative = "(d*V_g - v_C - R_L*i_L)/L_f"
+initial = 2.0
+
+[states.v_C]
+unit = "V"
+meaning = "output voltage (V)"
+derivative = "(i_L - v_C/R_o)/C_f"
+initial = 5.0
+
+[inputs.d]
+unit = "-"
+meaning = "duty cycle"
+range = [0.0, 1.0]
+neutral = 0.42
+
+[sensors.adc_v]
+kind = "adc"
+state = "v_C"
+bits = 12
+range = [0.0, 20.0]
+"""
+
+
+def test_a_constant_whose_bounds_start_at_0_may_be_0():
+    """Bounds [0, 1] take 0 as bounds [-1, 1] do (a value lies within its bounds, ends included);
+    the bounds alone say what sympy may assume, so both give the same equations, and a copy
+    moved to 0 keeps the equations derived for the bounds."""
+    zero = BUCK.replace("R_L = 0.02", "R_L = 0.0")
+    model = parse_model(zero, "buck.toml")
+    straddling = parse_model(zero.replace("bounds = [0.0, 1.0]", "bounds = [-1.0, 1.0]"), "b.toml")
+    assert str(model.equations.derivatives) == str(straddling.equations.derivatives)
+    (r_l,) = [p for p in model.equations.params if p.name == "R_L"]
+    assert r_l.is_nonnegative and r_l.is_positive is None
+    assert model.interface.state("i_L").initial == 2.0
+    moved = parse_model(BUCK, "buck.toml").with_params({"R_L": 0.0})
+    assert moved.plant["R_L"] == 0.0 and moved.interface.input.name == "d"
+    with pytest.raises(PendcError, match=r"buck\.toml: plant\.R_L = -0\.1 is outside its bounds \[0, 1\] ohm$"):
+        parse_model(BUCK.replace("R_L = 0.02", "R_L = -0.1"), "buck.toml")
+
+
+def test_a_refused_0_says_why_and_what_to_do():
+    """Without bounds a constant is positive: the line says so and how to allow 0; with bounds
+    above 0 it quotes them."""
+    motor = (Path(__file__).parent / "plant_dc_motor.toml").read_text(encoding="utf-8")
+    with pytest.raises(PendcError) as info:
+        parse_model(motor.replace("R = 2.6", "R = 0.0"), "m.toml")
+    assert str(info.value) == ("m.toml: plant.R must be positive, got 0.0: a constant declared without bounds is "
+                               "positive; to allow 0, declare its bounds (constants.R.bounds = [low, high])")
+    with pytest.raises(PendcError, match=r"^b\.toml: plant\.C_f must be positive, got 0\.0: its bounds are "
+                                         r"\[1e-07, 0\.1\] F$"):
+        parse_model(BUCK.replace("C_f = 100e-6", "C_f = 0.0"), "b.toml")
+
+
+def test_plant_check_prints_a_dimensionless_input_without_a_dash(tmp_path, capsys):
+    from pendc.cli import main
+
+    path = tmp_path / "buck.toml"
+    path.write_text(BUCK, encoding="utf-8")
+    assert main(["plant", "check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "  d [dimensionless] duty cycle; range 0-1\n" in out, out
+    assert "  v_C [V] output voltage (V)" in out and " -\n" not in out and "[-]" not in out

@@ -197,3 +197,22 @@ def test_the_unit_table_is_sympys_and_is_kept_between_processes(tmp_path):
         kept.write_text(torn)
         assert unit_table(folder) == resolved
         assert json.loads(kept.read_text()).keys() == resolved.keys()
+
+
+@pytest.mark.parametrize("unit", ["-", "1", "", " - "])
+def test_a_dimensionless_unit_is_not_printed_after_a_value(unit):
+    """The spellings parse_unit reads as dimensionless print as nothing after a value ("d = 1",
+    not "d = 1 -") and as a word where the unit stands alone ("[dimensionless]", not "[-]")."""
+    from pendc.model.interface import InputRange, unit_name, with_unit
+
+    assert parse_unit(unit, "w") == DIMENSIONLESS
+    assert with_unit("0.5033", unit) == "0.5033" and unit_name(unit) == "dimensionless"
+    assert InputRange(0.0, 1.0, unit).describe() == "0-1" and InputRange(-1.0, 1.0, unit).describe() == "±1"
+
+
+def test_a_unit_is_printed_after_a_value():
+    from pendc.model.interface import InputRange, unit_name, with_unit
+
+    assert with_unit("2", "V") == "2 V" and with_unit("[0, 1]", " ohm ") == "[0, 1] ohm" and unit_name("N*m") == "N*m"
+    assert InputRange(0.0, 10.0, "V").describe() == "0-10 V"
+    assert InputRange(-2.0, 10.0, "V").describe() == "-2 to 10 V"      # "-2-10 V" reads as a subtraction

@@ -174,6 +174,7 @@ def _latex_printer(eq, iface):
 def cmd_plant_check(args) -> int:
     import sympy as sp
 
+    from ..model.interface import unit_name
     from ..model.modelfile import load_model
     from ..model.modes import euler_note
     from ..passes.pipeline import options_from_model
@@ -189,9 +190,9 @@ def cmd_plant_check(args) -> int:
                  f"budget {s.budget:g}" if s.budget else "", f"starts at {s.initial:g}" if s.initial else "",
                  f"works in [{s.working_range[0]:g}, {s.working_range[1]:g}]" if s.working_range else "",
                  "" if s.output else "internal"]
-        out.append(f"  {s.name} [{s.unit}] {s.meaning}" + "".join(f"; {e}" for e in extra if e))
+        out.append(f"  {s.name} [{unit_name(s.unit)}] {s.meaning}" + "".join(f"; {e}" for e in extra if e))
     out.append("inputs:")
-    out += [f"  {i.name} [{i.unit}] {i.meaning}; range {i.range.describe()}" for i in iface.inputs]
+    out += [f"  {i.name} [{unit_name(i.unit)}] {i.meaning}; range {i.range.describe()}" for i in iface.inputs]
     out.append("sensors:")
     out += [f"  {s.describe()}" for s in iface.sensors] \
         or ["  (none)"]

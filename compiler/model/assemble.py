@@ -19,6 +19,7 @@ from .equations import Equations
 from .expressions import parse_expression
 from .interface import PlantInterface, QuantitySpec, StateSpec, input_spec
 from .mechanics import derive
+from .zero_divisors import check_zero_divisors
 
 DEFAULT_TURNS = 256      # whole periods either way a periodic register holds when the file does not say
 
@@ -31,7 +32,9 @@ class _Context:
         self.d, self.model, self.where = d, model, model.source or d.name
         self.symbols = {}
         for name, p in d.constants.items():
-            self.symbols[name] = sp.Symbol(name, positive=True) if p.lo >= 0 else sp.Symbol(name, real=True)
+            # from the bounds alone, never the value: with_params keeps the derived equations
+            self.symbols[name] = (sp.Symbol(name, positive=True) if p.lo > 0 or p.positive else
+                                  sp.Symbol(name, nonnegative=True) if p.lo == 0 else sp.Symbol(name, real=True))
         self.params = list(self.symbols.values())
         for values in model.effects.values():
             for p in values:
@@ -327,6 +330,7 @@ def build_interface(model) -> PlantInterface:
     for sym in eq.states[len(states):]:          # lag states: internal, not reported
         unit, meaning = meanings.get(sym.name, ("", sym.name))
         states.append(StateSpec(sym.name, unit, meaning, output=False))
+    check_zero_divisors(model, eq, {s.name: s.initial for s in states})
     names = {s.name for s in states}
     return PlantInterface(
         name=d.name, core=d.core, states=tuple(states),

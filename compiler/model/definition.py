@@ -16,7 +16,9 @@ from functools import cached_property
 @dataclass(frozen=True)
 class Param:
     """One parameter: SI unit, default (a fit's starting value) and physical bounds ``lo`` ..
-    ``hi``. ``optional`` parameters may be left out of a file's values (the default holds)."""
+    ``hi``, ends included. ``optional`` parameters may be left out of a file's values (the
+    default holds). ``positive``: a constant declared without bounds, whose value must be above
+    ``lo`` = 0 (a file allows 0 by declaring bounds that hold it)."""
 
     name: str
     unit: str
@@ -25,6 +27,7 @@ class Param:
     hi: float
     description: str
     optional: bool = False
+    positive: bool = False
 
 
 @dataclass(frozen=True)

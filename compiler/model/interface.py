@@ -116,10 +116,11 @@ class InputRange:
         return 0.5 * (self.lo + self.hi)
 
     def describe(self) -> str:
-        """``0-10 V``, or ``±10 V`` for a range symmetric about zero."""
+        """``0-10 V``, ``±10 V`` for a range symmetric about zero, ``-2 to 10 V`` from below zero
+        (where a dash would read as a minus)."""
         if self.lo == -self.hi:
             return with_unit(f"±{self.hi:g}", self.unit)
-        return with_unit(f"{self.lo:g}-{self.hi:g}", self.unit)
+        return with_unit(f"{self.lo:g}{' to ' if self.lo < 0 else '-'}{self.hi:g}", self.unit)
 
 
 @dataclass(frozen=True)
@@ -146,7 +147,8 @@ class InputSpec:
         hi = self.full_scale if self.hi is None else self.hi
         lo, hi = check_input_range(lo, hi, where)
         if max(abs(lo), abs(hi)) > self.full_scale:
-            raise PendcError(f"{where} [{lo:g}, {hi:g}] {self.unit} exceeds its full scale ±{self.full_scale:g}")
+            raise PendcError(f"{where} {with_unit(f'[{lo:g}, {hi:g}]', self.unit)} exceeds its full scale "
+                             f"{with_unit(f'±{self.full_scale:g}', self.unit)}")
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
         object.__setattr__(self, "neutral", neutral_input(lo, hi, self.neutral, f"the neutral of input '{self.name}'"))
@@ -268,9 +270,24 @@ class PlantInterface:
         return default
 
 
+DIMENSIONLESS_SPELLINGS = ("", "-", "1")   # what a plant file writes for "no unit" (units.parse_unit)
+
+
+def is_dimensionless(unit: str) -> bool:
+    """Whether ``unit`` is one of the spellings of "no unit"."""
+    return (unit or "").strip() in DIMENSIONLESS_SPELLINGS
+
+
 def with_unit(value: str, unit: str) -> str:
-    """``value`` followed by ``unit``, or alone for a dimensionless one ("1"): "0.4", not "0.4 1"."""
-    return value if unit in ("", "1") else f"{value} {unit}"
+    """``value`` followed by ``unit``, or alone for a dimensionless one: "0.4", not "0.4 -" or
+    "0.4 1". Every message that prints a value with its unit goes through here."""
+    return value if is_dimensionless(unit) else f"{value} {unit.strip()}"
+
+
+def unit_name(unit: str) -> str:
+    """``unit`` where it is named on its own ("[V]", "(kg)"): the word "dimensionless" for none,
+    not a bare "-" or an empty "[]"."""
+    return "dimensionless" if is_dimensionless(unit) else unit.strip()
 
 
 def graph_interface(graph) -> PlantInterface | None:

@@ -20,7 +20,7 @@ from ..errors import PendcError
 from .assemble import build_equations, build_interface
 from .definition import PlantDefinition
 from .equations import Equations
-from .interface import PlantInterface, check_input_range
+from .interface import PlantInterface, check_input_range, unit_name, with_unit
 from .plantfile import DEFAULT_EXPERIMENT
 
 
@@ -221,15 +221,20 @@ def _validate_plant(plant: dict, source: str, rigid: PlantDefinition) -> dict:
     missing = [k for k in constants if k not in plant]
     if missing:
         raise PendcError(f"{pre}[plant] lacks {', '.join(missing)} (plant '{rigid.name}': "
-                         + "; ".join(f"{k}, {constants[k].description} ({constants[k].unit})" for k in missing) + ")")
+                         + "; ".join(f"{k}, {constants[k].description} ({unit_name(constants[k].unit)})"
+                                     for k in missing) + ")")
     out = {}
     for k in constants:
         v = _check_value(f"{pre}plant.{k}", plant[k])
-        lo, hi = constants[k].lo, constants[k].hi
-        if lo >= 0 and v <= 0:
-            raise PendcError(f"{pre}plant.{k} must be positive, got {v}")
-        if not lo <= v <= hi:
-            raise PendcError(f"{pre}plant.{k} = {v} is outside its bounds [{lo}, {hi}] {constants[k].unit}")
+        c = constants[k]
+        bounds = with_unit(f"[{c.lo:g}, {c.hi:g}]", c.unit)
+        if c.positive and v <= 0:
+            raise PendcError(f"{pre}plant.{k} must be positive, got {v}: a constant declared without bounds is "
+                             f"positive; to allow {v:g}, declare its bounds (constants.{k}.bounds = [low, high])")
+        if v <= 0 < c.lo:
+            raise PendcError(f"{pre}plant.{k} must be positive, got {v}: its bounds are {bounds}")
+        if not c.lo <= v <= c.hi:
+            raise PendcError(f"{pre}plant.{k} = {v} is outside its bounds {bounds}")
         out[k] = v
     return out
 
@@ -258,12 +263,14 @@ def _validate_effects(effects: dict, source: str, rigid: PlantDefinition) -> dic
         for p in cls.params:
             if p.name not in given:
                 if not p.optional:
-                    raise PendcError(f"{pre}[effects.{name}] lacks parameter '{p.name}' ({p.description}, {p.unit})")
+                    raise PendcError(f"{pre}[effects.{name}] lacks parameter '{p.name}' "
+                                     f"({p.description}, {unit_name(p.unit)})")
                 values[p.name] = p.default
                 continue
             v = _check_value(f"{pre}{name}.{p.name}", given[p.name])
             if not p.lo <= v <= p.hi:
-                raise PendcError(f"{pre}{name}.{p.name} = {v} is outside its physical range [{p.lo}, {p.hi}] {p.unit}")
+                raise PendcError(f"{pre}{name}.{p.name} = {v} is outside its physical range "
+                                 f"{with_unit(f'[{p.lo:g}, {p.hi:g}]', p.unit)}")
             values[p.name] = v
         out[name] = values
     for a, b, what in rigid.conflicts:

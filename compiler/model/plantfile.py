@@ -185,6 +185,9 @@ def _mechanics(top: TableReader):
                 b.only(("kind", "mass", "inertia", "rotation", "position"))
                 body = BodyDecl(name, kind, mass=b.text("mass", ""), inertia=b.text("inertia", ""),
                                 rotation=b.text("rotation", ""), position=read_vector(b, "position"))
+                if not body.mass and not body.inertia:
+                    b.fail("has neither a mass nor an inertia, so it adds nothing to the motion: give it mass = "
+                           "\"...\" (with a position) and/or inertia = \"...\" (with a rotation), or remove it")
                 if body.inertia and not body.rotation:
                     b.fail("an inertia needs the angle it turns with: rotation = \"...\"", "rotation")
                 if body.mass and not body.position:

@@ -132,7 +132,7 @@ def read_param(r: TableReader, name: str, positive_default: bool) -> Param:
     optional = p.table.get("optional", False)
     if not isinstance(optional, bool):
         p.fail("must be true or false", "optional")
-    return Param(name, unit, default, lo, hi, meaning, optional)
+    return Param(name, unit, default, lo, hi, meaning, optional, positive=bounds is None and positive_default)
 
 
 def read_period(r: TableReader):

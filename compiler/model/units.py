@@ -32,6 +32,7 @@ import sympy as sp
 from ..atomic import write_atomic
 from ..codegen import cache_dir
 from ..errors import PendcError
+from .interface import DIMENSIONLESS_SPELLINGS
 
 # Written form of each SI base dimension (sympy's names), in the order __str__ prints them.
 BASE_UNITS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",
@@ -168,7 +169,7 @@ def parse_unit(text: str, where: str) -> Dim:
         raise PendcError(f"{where}: a unit is a string such as \"kg*m^2\", "
                          f"got {type(text).__name__}")
     stripped = text.strip()
-    if stripped in ("", "-", "1"):
+    if stripped in DIMENSIONLESS_SPELLINGS:
         return DIMENSIONLESS
     if len(stripped) > _MAX_TEXT:
         raise PendcError(f"{where}: unit is {len(stripped)} characters long; "
