@@ -67,6 +67,7 @@ SLOWEST_FIRST = (
     "test_pipeline.py",             # 25 s
     "test_fit.py",                  # 24 s
     "test_start_rates.py",          # 16 s: a coarse encoder's compare and fit (independent data)
+    "test_hardware_dt.py",          # ~45 s: a small plant with [hardware] dt, one cold build, golden HIL and robust
     "test_fast_plants.py",          # 13 s: an RLC ladder at 10 kHz: compare, diagnose, fit, plant check
     "test_sim_debug_status.py",     # 24 s
     "test_fuzz_backend.py",         # 20 s

@@ -203,3 +203,79 @@ def test_a_run_animates_from_any_folder_with_its_own_model(tmp_path, capsys, mon
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"pendc: error: {lost}: the run's model 'gone.toml' (its header) is not found; give --model"]
     assert main(["animate", str(lost), "--model", str(home / "my_cart.toml"), "-o", "c.html"]) == 0
+
+
+def fast_run(tmp_path, seconds=0.05, period=1e-5):
+    """A fast plant's record: ``seconds`` at a ``period`` control period (a converter's 50 ms at 10 us)."""
+    t = np.arange(0, seconds + 0.5 * period, period)
+    run = HilRun(t=t, u=np.zeros_like(t), positions=(("x", 2 * t), ("theta", 60 * t)), mode=("",) * t.size,
+                 plant="golden", wall_s=0.0, seconds=seconds, input_name="u", units=(("x", "m"), ("theta", "rad")),
+                 angle="theta")
+    path = tmp_path / "fast.csv"
+    path.write_text(run_csv_text(run))
+    return path
+
+
+def page_data(path) -> dict:
+    import json
+    import re
+
+    return json.loads(re.search(r"const D = (.*?);\n", path.read_text()).group(1))
+
+
+def test_a_short_run_is_slowed_down_with_a_note(tmp_path, capsys):
+    """50 ms at 10 us was 6 frames 10 ms apart (the start transient never drawn): by default a run
+    shorter than 1 s plays slowed to last at least 5 s, and says so; --slow-motion sets the factor."""
+    src, out = fast_run(tmp_path), tmp_path / "fast.html"
+    assert main(["animate", str(src), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "pendc: note: the run lasts 0.05 s, too short to watch in real time: it plays 100x slower (5 s)" in err
+    d = page_data(out)
+    assert len(d["t"]) == 501 and d["slow"] == 100 and d["t"][1] == pytest.approx(1e-4) and d["decimals"] == 4
+    for factor, frames in (("1", 6), ("10", 51), ("1000", 5001)):   # never more frames than the run has rows
+        assert main(["animate", str(src), "-o", str(out), "--slow-motion", factor]) == 0
+        assert "note" not in capsys.readouterr().err and len(page_data(out)["t"]) == frames
+    assert main(["animate", str(synthetic_run(tmp_path)), "-o", str(out)]) == 0     # 2 s: real time
+    assert "note" not in capsys.readouterr().err and page_data(out)["slow"] == 1
+
+
+def test_a_short_run_as_gif_and_too_many_frames(tmp_path, capsys):
+    src, out = fast_run(tmp_path, seconds=0.02, period=1e-4), tmp_path / "fast.gif"
+    assert main(["animate", str(src), "-o", str(out), "--fps", "2"]) == 0      # 500x slower: 10 s at 2 frames/s
+    assert "plays 500x slower (10 s)" in capsys.readouterr().err
+    from PIL import Image
+
+    with Image.open(out) as img:
+        assert img.n_frames == 21
+    assert main(["animate", str(synthetic_run(tmp_path)), "-o", str(out), "--slow-motion", "1000"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["pendc: error: 2 s at 1000x slower and 25 frames/s is 50001 frames, more than 10000: lower "
+                   "--slow-motion or --fps, or write .html"]
+    assert main(["animate", str(src), "-o", str(out), "--slow-motion", "0"]) == 2
+    assert "--slow-motion: must be positive" in capsys.readouterr().err
+
+
+def test_slowed_and_slow_speed_pages_play(browser, tmp_path, capsys):
+    """The slowed page plays and says by how much; a speed below 1 plays too (it stood still: each
+    tick's advance, under one frame, was dropped)."""
+    src, out = fast_run(tmp_path), tmp_path / "fast.html"
+    assert main(["animate", str(src), "-o", str(out)]) == 0
+    page, errors = open_page(browser, out)
+    assert page.inner_text("#pace") == "played 100\u00d7 slower than real time" and page.inner_text("#clock") == \
+        "t = 0.0000 s"
+    page.click("#play")
+    page.wait_for_timeout(500)
+    assert 10 < page.evaluate("window.pendc.frame") < 200      # ~50 frames (5 ms) in 0.5 s
+    page.click("#play")
+    page.close()
+    slow = tmp_path / "slow.html"
+    assert main(["animate", str(synthetic_run(tmp_path)), "-o", str(slow)]) == 0
+    page, errors2 = open_page(browser, slow)
+    assert page.inner_text("#pace") == ""
+    page.select_option("#speed", "0.25")
+    page.click("#play")
+    page.wait_for_timeout(800)
+    assert page.evaluate("window.pendc.frame") >= 5              # ~20 frames (0.2 s) in 0.8 s
+    page.click("#play")
+    assert not errors and not errors2
+    page.close()

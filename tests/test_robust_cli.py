@@ -101,3 +101,19 @@ def test_a_resume_takes_no_sweep_options_and_out_is_not_reused(sweep, capsys):
 def test_a_folder_that_holds_no_sweep(capsys, tmp_path):
     rc, _, err = run_cli(capsys, "robust", "--resume", tmp_path)
     assert rc == 2 and f"{tmp_path}: not a sweep folder (no sweep.json" in err
+
+
+@pytest.mark.parametrize("controller", ["lqr", "builtin", "hold", "robust_helpers:ResetRaises"])
+def test_a_plant_without_a_pendulum_is_refused_before_the_sweep(capsys, tmp_path, controller):
+    """Every run of a converter's sweep raised "... use --controller lqr at an operating point" (the
+    option given), and the sweep reported 0 % success; now one line before any run says what to do."""
+    from test_hardware_dt import RC
+
+    model = tmp_path / "rc.toml"
+    model.write_text(RC, encoding="utf-8")
+    rc, out, err = run_cli(capsys, "robust", "--model", model, "--controller", controller, "--samples", "4",
+                           "--out", tmp_path / "sweep")
+    assert rc == 2 and err.count("\n") == 1 and out == ""
+    assert "judge a pendulum, whatever --controller runs, and plant 'rc'" in err
+    assert f"run pendc hil --model {model} --controller lqr --start half" in err
+    assert "use --controller lqr" not in err and not (tmp_path / "sweep").exists()

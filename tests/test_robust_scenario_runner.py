@@ -59,6 +59,20 @@ def test_check_spec(spec):
         check_spec(SweepSpec(**{**spec.__dict__, "scenario": "balance_step", "controller": "lqr"}))
 
 
+def test_check_spec_refuses_a_plant_without_a_pendulum():
+    """Each scenario judges a pendulum by the builtin controllers' constants, whatever controller
+    runs: a converter is refused once, naming pendc hil at its operating point instead."""
+    from test_hardware_dt import RC
+    from pendc.model.modelfile import parse_model
+
+    text = dumps_model(parse_model(RC))
+    spec = SweepSpec(model_text=text, design_text=text, model_source="rc.toml", design_source="rc.toml")
+    for controller in ("builtin", "lqr", "hold", "my_pkg.ctrl:Mine"):
+        with pytest.raises(PendcError, match="judge a pendulum, whatever --controller runs, and plant 'rc'") as exc:
+            check_spec(SweepSpec(**{**spec.__dict__, "controller": controller}))
+        assert "pendc hil --model rc.toml --controller lqr --start half" in str(exc.value)
+
+
 def test_outside_a_worker_each_call_gets_a_fresh_cache():
     assert worker_cache() is not worker_cache()
 

@@ -52,7 +52,7 @@ def _check_out_folder(out: str) -> None:
 
 def cmd_hil(args) -> int:
     from ..hil.controllers.controller_spec import make_controller
-    from ..hil.loop import run_closed_loop
+    from ..hil.loop import core_step, run_closed_loop
     from ..hil.controllers.operating_point_lqr import OperatingPointLqr
     from ..hil.controllers.start_point import hold_keys, hold_summary, point_hold, start_state
     from ..hil.plants.plant import make_plant, start_counts
@@ -73,7 +73,8 @@ def cmd_hil(args) -> int:
     initial = start_state(model, args.start) if args.start else None
     if initial is not None:
         meta["start"] = args.start
-    plant = make_plant(args.plant, model, **({"initial": initial} if initial is not None else {}))
+    plant = make_plant(args.plant, model, dt=core_step(model),
+                       **({"initial": initial} if initial is not None else {}))
     _note_offsets(model, f"the {args.plant} plant")
     origin = start_counts(plant.ports, initial)
     progress = _progress(not args.json)
@@ -140,7 +141,7 @@ def _excursions(text: str | None) -> dict:
 
 
 def cmd_animate(args) -> int:
-    from ..hil.animate import animate_run, model_of_run, read_run_input
+    from ..hil.animate import animate_run, model_of_run, playback, read_run_input
 
     model = None
     if args.model is not None:
@@ -150,7 +151,11 @@ def cmd_animate(args) -> int:
         record = read_run_input(args.run, CorePorts.of_interface(model.interface))
     else:
         record = read_run_input(args.run)
-    animate_run(record, args.output, fps=args.fps, model=model if model is not None else model_of_run(record))
+    slow_motion, why = playback(record, args.slow_motion)
+    animate_run(record, args.output, fps=args.fps, model=model if model is not None else model_of_run(record),
+                slow_motion=slow_motion)
+    if why:
+        print(f"pendc: note: {why}", file=sys.stderr)
     print(f"wrote {args.output}")
     return 0
 
@@ -190,4 +195,8 @@ def add_parsers(sub) -> None:
                                    "names, else the default model)")
     p.add_argument("-o", "--output", required=True, help="pendulum.html, .gif or .mp4")
     p.add_argument("--fps", type=int, default=25, help="GIF/MP4 frames per second (default 25)")
+    p.add_argument("--slow-motion", type=positive, metavar="FACTOR",
+                   help="play FACTOR times slower than real time, every format (below 1: faster); default 1, "
+                        "and a run shorter than 1 s is slowed by 1, 2 or 5 times a power of ten to last at least "
+                        "5 s (a note says by how much)")
     p.set_defaults(func=cmd_animate)

@@ -37,6 +37,7 @@ def cmd_simulate(args) -> int:
     from ..sim.signals import TIME
     from ..sim.simulator import Simulator, sensor_offsets
     from ..model.modes import euler_shortfall
+    from ..hil.loop import core_step
     from .data import note
     from .options import build_model, write_output
 
@@ -50,11 +51,15 @@ def cmd_simulate(args) -> int:
     _check_input_range(data, model.interface.input)
     for w in data.warnings:
         print(f"pendc: warning: {w}", file=sys.stderr)
+    core_dt = core_step(model)
     if args.fixed:
         from ..golden import GoldenModel
 
         if args.method != "euler":
             raise PendcError("--fixed runs the hardware model with its own 1-step Euler integrator (no --method)")
+        if args.dt is not None and abs(args.dt - core_dt) > 1e-9 * core_dt:
+            raise PendcError(f"--fixed steps as the core was built, every {core_dt:g} s (the plant file's [hardware] "
+                             f"dt or the build's default); drop --dt {args.dt:g}, or set [hardware] dt in the file")
         build = build_model(model, args)
         run = GoldenModel(build.graph, build.options.dt)(data.t, data.u, on_overflow=args.on_overflow,
                                                           initial=args.x0)
@@ -78,13 +83,14 @@ def cmd_simulate(args) -> int:
     else:
         if args.on_overflow != "error":
             raise PendcError("--on-overflow applies to --fixed runs (the float model has no formats)")
-        sim = Simulator(model, dt=args.dt, method=args.method)
-        shortfall = euler_shortfall(model, args.dt) if args.method == "euler" else None
+        dt = core_dt if args.dt is None else args.dt
+        sim = Simulator(model, dt=dt, method=args.method)
+        shortfall = euler_shortfall(model, dt, core_dt) if args.method == "euler" else None
         if shortfall:
             note(shortfall)
         result = sim(data.t, data.u, x0=args.x0, quantize=args.quantize)
         columns = result.columns()
-        method, dt = args.method, args.dt
+        method = args.method
     meta = {"generator": "pendc simulate", "model": model.source, "method": method,
             "dt": repr(dt), "quantized": str(bool(args.quantize)).lower()}
     write_output(args.output, format_csv(columns, meta))
@@ -124,7 +130,8 @@ def add_parsers(sub) -> None:
     p.add_argument("-o", "--output", help="output CSV: the time, the input and the model's states (the default "
                                           "model: {plant:columns} then the rates); default (or '-'): standard "
                                           "output")
-    p.add_argument("--dt", type=positive, default=1e-6, help="integration step in s (default 1e-6)")
+    p.add_argument("--dt", type=positive, help="integration step in s (default: the core's, the plant file's "
+                                               "[hardware] dt, else 1e-6; --fixed takes no other)")
     p.add_argument("--method", choices=("euler", "rk4"), default="euler", help="integrator (default euler)")
     p.add_argument("--x0", type=initial_state, help="initial state, one number per state in the order pendc plant check "
                                              "lists them (the default model: {plant:states}; the output's columns "

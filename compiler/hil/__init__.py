@@ -11,6 +11,7 @@
   ``[drawing]`` (HTML, GIF, MP4).
 
 The loop and the rest here import controllers and plants; controllers import only the plants'
-port names; plants import neither. hil may import model, sim, golden, ir, backend and caching;
-only the command line and robust import it (never model, sim, ir, passes, backend or ident).
+port names; plants import neither. hil may import model, sim, golden, ir, backend, caching and
+passes (a build's options, such as the core's step); only the command line and robust import it
+(never model, sim, ir, passes, backend or ident).
 """

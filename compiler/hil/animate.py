@@ -6,6 +6,9 @@ recorded position and the input. HTML is one self-contained file (inline SVG and
 see :mod:`.animate_html`); GIF goes through matplotlib's PillowWriter (Pillow comes with
 matplotlib); MP4 needs an ``ffmpeg`` on PATH. The model is the one the run names in its
 header (``# model: ...``, as ``pendc hil`` writes it), else ``--model``, else the default.
+
+Every format plays ``slow_motion`` times slower than real time (:func:`playback`): a run of a fast
+plant (a converter's 50 ms) in real time would be a handful of frames over in a blink.
 """
 
 from __future__ import annotations
@@ -27,7 +30,10 @@ from .animate_html import PAGE
 from .drawing import layout
 from .records import RunRecord, read_run, write_bytes_atomic
 
-HTML_RATE = 100.0    # frames per simulated second kept in the page
+HTML_RATE = 100.0    # frames per second of playback kept in the page
+REAL_TIME_S = 1.0    # a run at least this long plays in real time unless --slow-motion says otherwise
+PLAYBACK_S = 5.0     # a shorter one is slowed (by 1, 2 or 5 times a power of ten) to last at least this
+MAX_MOVIE_FRAMES = 10000   # a GIF or MP4 of more takes minutes and hundreds of megabytes
 SCENE = (640.0, 440.0)   # pixels of the page's drawing
 FORMATS = (".html", ".gif", ".mp4")
 STDIN = "-"
@@ -52,15 +58,41 @@ def read_run_input(path, ports=None) -> RunRecord:
             raise PendcError(str(exc).replace(str(spool), STDIN_SOURCE)) from None
 
 
-def resample(record: RunRecord, rate: float) -> dict:
-    """The run at (at most) ``rate`` samples per second: nearest earlier sample, so modes stay labels.
-    Keys: t, input, mode, and ``positions`` (state -> samples, the record's order)."""
+def playback(record: RunRecord, slow_motion: float | None) -> tuple[float, str | None]:
+    """(how many times slower than real time the run plays, a note or None): ``slow_motion`` as
+    given, else 1 for a run of at least REAL_TIME_S, else the 1-2-5 factor that makes it last at
+    least PLAYBACK_S (with a note saying so)."""
+    if slow_motion is not None:
+        if not (math.isfinite(slow_motion) and slow_motion > 0):
+            raise PendcError(f"--slow-motion must be a positive number, got {slow_motion:g}")
+        return float(slow_motion), None
+    span = float(record.t[-1] - record.t[0]) if record.t.size > 1 else 0.0
+    if not span > 0 or span >= REAL_TIME_S:
+        return 1.0, None
+    factor = next((m * 10.0 ** e for e in range(13) for m in (1, 2, 5) if span * m * 10.0 ** e >= PLAYBACK_S),
+                  PLAYBACK_S / span)
+    return factor, (f"the run lasts {span:g} s, too short to watch in real time: it plays {factor:g}x slower "
+                    f"({span * factor:g} s); --slow-motion 1 plays it in real time")
+
+
+def time_decimals(step: float) -> int:
+    """Decimals of a clock that ticks every ``step`` seconds (at least the 3 of a millisecond)."""
+    return int(min(9, max(3, math.ceil(-math.log10(step) - 1e-9)))) if step > 0 else 3
+
+
+def resample(record: RunRecord, rate: float, repeat: bool = False) -> dict:
+    """The run at (at most) ``rate`` samples per second: nearest earlier sample, so modes stay labels;
+    ``repeat`` keeps a sample as many times as the grid meets it (a movie's frames are evenly
+    spaced in time), else once. Keys: t, input, mode, and ``positions`` (state -> samples, the
+    record's order)."""
     t = record.t
-    if t.size < 2:
-        idx = np.arange(t.size)
+    span = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    if t.size < 2 or (not repeat and span * rate + 1 >= t.size):
+        idx = np.arange(t.size)   # as fine as the record or finer: every row, without a huge grid
     else:
         grid = np.arange(t[0], t[-1] + 0.5 / rate, 1.0 / rate)
-        idx = np.unique(np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1))
+        idx = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1)
+        idx = idx if repeat else np.unique(idx)
     return {"t": t[idx], "input": record.u[idx], "mode": [record.mode[i] for i in idx],
             "positions": {state: column[idx] for state, column in record.positions}}
 
@@ -69,13 +101,17 @@ def _clean(values, digits):
     return [round(float(v), digits) if math.isfinite(v) else None for v in values]
 
 
-def html_page(record: RunRecord, model, title: str) -> str:
-    """The self-contained page for ``record`` drawn as ``model``'s plant file draws it."""
-    d = resample(record, HTML_RATE)
+def html_page(record: RunRecord, model, title: str, slow_motion: float = 1.0) -> str:
+    """The self-contained page for ``record`` drawn as ``model``'s plant file draws it, playing
+    ``slow_motion`` times slower than real time."""
+    rate = HTML_RATE * slow_motion
+    d = resample(record, rate)
+    spacing = float(np.min(np.diff(d["t"]))) if d["t"].size > 1 else 1.0 / rate
+    decimals = time_decimals(max(spacing, 1.0 / rate))
     drawn = layout(model, d["positions"], *SCENE)
     units = dict(record.units) if getattr(record, "units", None) else {}
     iface = model.interface
-    data = {"t": _clean(d["t"], 4), "mode": d["mode"],
+    data = {"t": _clean(d["t"], decimals + 3), "mode": d["mode"], "slow": slow_motion, "decimals": decimals,
             "points": {name: [_clean(px, 2), _clean(py, 2)] for name, (px, py) in drawn.points.items()},
             "lines": [list(line) for line in drawn.lines],
             "traces": [{"name": state, "unit": units.get(state) or _unit_of(iface, state),
@@ -104,9 +140,10 @@ def model_of_run(record: RunRecord, model_path=None):
     return load_model(named or None)
 
 
-def animate_run(record: RunRecord, output, fps: int = 25, model=None) -> None:
+def animate_run(record: RunRecord, output, fps: int = 25, model=None, slow_motion: float | None = None) -> None:
     """Write the animation of ``record`` to ``output`` (format from the extension), drawn as the
-    plant file of ``model`` (a PlantModel; None: :func:`model_of_run`) draws it."""
+    plant file of ``model`` (a PlantModel; None: :func:`model_of_run`) draws it, played
+    ``slow_motion`` times slower than real time (None: as :func:`playback` chooses)."""
     if str(output) == "-":
         raise PendcError("animate: -o names a file (.html, .gif or .mp4), not standard output")
     if Path(output).is_dir():
@@ -118,22 +155,30 @@ def animate_run(record: RunRecord, output, fps: int = 25, model=None) -> None:
         raise PendcError(f"{output}: unknown animation format '{suffix}' (use .html, .gif or .mp4)")
     if not 1 <= fps <= 100:
         raise PendcError(f"--fps must be in 1..100, got {fps}")
+    slow_motion = playback(record, slow_motion)[0]
+    span = float(record.t[-1] - record.t[0]) if record.t.size > 1 else 0.0
+    frames = int(span * fps * slow_motion) + 1
+    if suffix != ".html" and frames > MAX_MOVIE_FRAMES:
+        raise PendcError(f"{span:g} s at {slow_motion:g}x slower and {fps} frames/s is {frames} frames, more than "
+                         f"{MAX_MOVIE_FRAMES}: lower --slow-motion or --fps, or write .html")
     model = model if model is not None else model_of_run(record)
     if suffix == ".html":
-        write_atomic(output, html_page(record, model, output.stem))
+        write_atomic(output, html_page(record, model, output.stem, slow_motion))
         return
     if suffix == ".mp4" and shutil.which("ffmpeg") is None:
         raise PendcError("writing .mp4 needs ffmpeg on PATH; write .html or .gif instead")
-    _write_movie(record, model, output, fps, suffix)
+    _write_movie(record, model, output, fps, suffix, slow_motion)
 
 
-def _write_movie(record: RunRecord, model, output: Path, fps: int, suffix: str) -> None:
+def _write_movie(record: RunRecord, model, output: Path, fps: int, suffix: str, slow_motion: float) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
 
-    d = resample(record, fps)
+    d = resample(record, fps * slow_motion, repeat=True)
+    decimals = time_decimals(1.0 / (fps * slow_motion))
+    pace = f"  ({slow_motion:g}x slower)" if slow_motion != 1 else ""
     width, height = SCENE
     drawn = layout(model, d["positions"], width, height)
     fig, (ax, axt) = plt.subplots(1, 2, figsize=(9, 3.6), gridspec_kw={"width_ratios": [1.4, 1]})
@@ -155,7 +200,7 @@ def _write_movie(record: RunRecord, model, output: Path, fps: int, suffix: str) 
         for join, (a, b) in zip(joins, drawn.lines):
             join.set_data([drawn.points[a][0][k], drawn.points[b][0][k]], [drawn.points[a][1][k], drawn.points[b][1][k]])
         dots.set_data([p[0][k] for p in drawn.points.values()], [p[1][k] for p in drawn.points.values()])
-        stamp.set_text(f"t = {d['t'][k]:.2f} s  {d['mode'][k]}")
+        stamp.set_text(f"t = {d['t'][k]:.{decimals}f} s{pace}  {d['mode'][k]}")
         cursor.set_xdata([d["t"][k], d["t"][k]])
         return (*joins, dots, stamp, cursor)
 

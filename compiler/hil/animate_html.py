@@ -2,7 +2,8 @@
 
 The page draws, per frame, the points and lines :mod:`pendc.hil.drawing` laid out from the
 plant file's ``[drawing]`` (already in pixels: the script does no geometry), a time slider,
-a play/pause button and a trace per recorded position and the input, with a cursor.
+a play/pause button, a speed choice (times ``D.slow``, the run's slow motion) and a trace per
+recorded position and the input, with a cursor.
 ``window.pendc`` exposes the current frame and each drawn point's place so that a browser
 test can check them.
 """
@@ -24,6 +25,7 @@ body { font-family: sans-serif; margin: 16px; color: #222; }
   <span id="clock">t = 0.000 s</span>
   <label>speed <select id="speed"><option>0.25</option><option>0.5</option><option selected>1</option>
   <option>2</option></select></label>
+  <span id="pace" class="label"></span>
 </div>
 <div id="wrap">
 <svg id="scene" width="640" height="440" viewBox="0 0 640 440" role="img" aria-label="the plant">
@@ -41,7 +43,9 @@ const slider = document.getElementById("slider"), clock = document.getElementByI
 const play = document.getElementById("play"), speed = document.getElementById("speed");
 const modeText = document.getElementById("modeText");
 slider.max = String(N - 1);
-const state = { frame: 0, playing: false, points: {} };
+// the simulated time played so far: a tick of a slowed run moves it less than one frame
+const state = { frame: 0, playing: false, points: {}, clock: D.t[0] };
+if (D.slow !== 1) document.getElementById("pace").textContent = "played " + D.slow + "\u00d7 slower than real time";
 window.pendc = state;
 function make(tag, parent, attrs) {
   const e = document.createElementNS(svgNS, tag);
@@ -67,7 +71,7 @@ function draw(k) {
   });
   modeText.textContent = D.mode[k] ? "controller: " + D.mode[k] : "";
   slider.value = String(k);
-  clock.textContent = "t = " + D.t[k].toFixed(3) + " s";
+  clock.textContent = "t = " + D.t[k].toFixed(D.decimals) + " s";
   cursors.forEach(c => { const cx = tx(D.t[k]).toFixed(2); c.setAttribute("x1", cx); c.setAttribute("x2", cx); });
 }
 
@@ -110,9 +114,9 @@ let last = null;
 function tick(now) {
   if (!state.playing) { last = null; return; }
   if (last !== null) {
-    const target = D.t[state.frame] + (now - last) / 1000 * Number(speed.value);
+    state.clock += (now - last) / 1000 * Number(speed.value) / D.slow;
     let k = state.frame;
-    while (k < N - 1 && D.t[k + 1] <= target) k++;
+    while (k < N - 1 && D.t[k + 1] <= state.clock) k++;
     if (k >= N - 1) { state.playing = false; play.textContent = "Play"; }
     if (k !== state.frame) draw(k);
   }
@@ -121,11 +125,13 @@ function tick(now) {
 }
 play.addEventListener("click", () => {
   if (!state.playing && state.frame >= N - 1) draw(0);
+  if (!state.playing) state.clock = D.t[state.frame];
   state.playing = !state.playing; play.textContent = state.playing ? "Pause" : "Play";
   if (state.playing) requestAnimationFrame(tick);
 });
-slider.addEventListener("input", () => draw(Number(slider.value)));
-window.pendcShow = draw;
+function show(k) { state.clock = D.t[k]; draw(k); }
+slider.addEventListener("input", () => show(Number(slider.value)));
+window.pendcShow = show;
 draw(0);
 </script></body></html>
 """

@@ -106,6 +106,16 @@ def upright_stretch(t: np.ndarray, phi: np.ndarray, tol: float = UPRIGHT_TOLERAN
     return float(t[first]), float(np.sqrt(np.mean(phi[first:] ** 2)))
 
 
+def core_step(model) -> float:
+    """The step ``model``'s core integrates at: its plant file's ``[hardware] dt``, read as the
+    build reads it (the build's default without one). Every plant that steps as the core does
+    (float, golden, RTL; simulate, hil, robust) starts from this, so a golden plant always
+    matches its build and a float one never silently takes the default instead."""
+    from ..passes.pipeline import options_from_model
+
+    return float(options_from_model(model).dt)
+
+
 def steps_per_period(plant_dt: float, period: float) -> int:
     """Model steps in one control period; the period must be a whole number of them."""
     if not (math.isfinite(period) and period > 0):

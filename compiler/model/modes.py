@@ -82,15 +82,17 @@ def mode_words(eigenvalue: complex) -> str:
     return f"a {abs(lam.imag) / (2 * math.pi):.4g} Hz oscillation {verb} at {abs(lam.real):.3g} /s"
 
 
-def euler_shortfall(model: PlantModel, dt: float) -> str | None:
+def euler_shortfall(model: PlantModel, dt: float, core_dt: float | None = None) -> str | None:
     """What forward Euler at ``dt`` takes of the fastest mode's damping, when it is more than 5 %
-    of it (None otherwise): a sentence for ``pendc simulate``."""
+    of it (None otherwise): a sentence for ``pendc simulate``. ``core_dt``: the core's step
+    (default ``dt``); the sentence says whether the core loses the same."""
     lam = fastest_eigenvalue(model)
     grow, decay = euler_growth(lam, dt), -complex(lam).real
     if lam == 0 or decay <= 0 or grow <= 0.05 * decay:
         return None
+    core = ", as the core does" if core_dt is None or core_dt == dt else f" (the core steps {core_dt:g} s)"
     return (f"forward Euler at {dt:g} s takes {100 * grow / decay:.0f} % of the damping of the plant's fastest "
-            f"mode ({abs(lam) / (2 * math.pi):.4g} Hz) away, as the core does; --method rk4 follows the equations")
+            f"mode ({abs(lam) / (2 * math.pi):.4g} Hz) away{core}; --method rk4 follows the equations")
 
 
 def euler_note(model: PlantModel, dt: float) -> str:

@@ -92,9 +92,10 @@ class RetypeTemplate:
     @classmethod
     def of(cls, model) -> "RetypeTemplate":
         """The template of ``model``'s build (compiled once, then read from the build cache)."""
+        from ..hil.loop import core_step
         from ..hil.plants.golden_plant import build_for
 
-        build = build_for(model, 1e-6)
+        build = build_for(model, core_step(model))
         if build.options.short_chain:
             raise PendcError("--plant golden sweeps retype the default arithmetic; this model's [hardware] asks "
                              "for the short chain (short_chain = true)")

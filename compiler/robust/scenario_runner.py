@@ -60,6 +60,30 @@ def check_spec(spec: SweepSpec) -> None:
     if spec.controller != "builtin" and spec.scenario != "swing_up_balance":
         raise PendcError(f"--scenario {spec.scenario} runs the builtin controllers (its set-point step or swing-up "
                          f"alone); --controller {spec.controller} runs with --scenario swing_up_balance")
+    nominal, design = WorkerCache().models(spec)
+    check_pendulum(design, spec.model_source)
+    if nominal is not design:
+        check_pendulum(nominal, spec.model_source)
+
+
+def check_pendulum(model, source: str) -> None:
+    """Every scenario judges a pendulum's swing-up and balance by the builtin controllers' constants,
+    whatever ``--controller`` runs: a plant with no pendulum is refused here, once, rather than
+    in every run with the HIL controllers' advice (which names the --controller lqr already given)."""
+    from ..hil.controllers.operating_point_lqr import operating_point_names
+    from ..hil.controllers.pendulum_roles import pendulum_roles
+
+    try:
+        pendulum_roles(model)
+    except PendcError:
+        points = operating_point_names(model)
+        where = f" --model {source}" if source and not source.startswith("<") else ""
+        instead = (f"pendc hil{where} --controller lqr --start {points[0]}" if points else
+                   f"pendc hil{where} --controller lqr --start NAME after declaring [operating_points] NAME")
+        raise PendcError(f"robust: its scenarios (swing-up and balance, its set-point step, swing-up alone) judge "
+                         f"a pendulum, whatever --controller runs, and plant '{model.interface.name}' is not one "
+                         f"pendulum on one driven coordinate; to judge a plant without one holding an operating "
+                         f"point, run {instead}") from None
 
 
 class WorkerCache:
@@ -117,8 +141,9 @@ def make_sampled_plant(spec: SweepSpec, params: dict, cache: WorkerCache):
     nominal, _ = cache.models(spec)
     if spec.plant == "golden":
         return cache.golden_template(spec).plant(params)
+    from ..hil.loop import core_step
     from ..hil.plants.plant import make_plant
-    return make_plant("float", nominal.with_params(params))
+    return make_plant("float", nominal.with_params(params), dt=core_step(nominal))
 
 
 def run_scenario(spec: SweepSpec, plant, design, consts=None):

@@ -150,8 +150,9 @@ class FloatPlant:
         return self._report({name: float(new[i]) for name, i in self._index.items()})
 
 
-def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **options) -> Plant:
-    """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model).
+def make_plant(kind: str, model: PlantModel | None = None, dt: float | None = None, **options) -> Plant:
+    """A plant of ``kind`` (float, golden, verilator, icarus) for ``model`` (default: the default model),
+    stepping every ``dt`` s (default: the core's, the plant file's ``[hardware] dt``, else 1e-6).
 
     ``options`` go to the plant's constructor: ``initial`` (the reported states, in order) for
     every kind; ``method`` for float; ``build`` (reuse a compiled
@@ -163,6 +164,9 @@ def make_plant(kind: str, model: PlantModel | None = None, dt: float = 1e-6, **o
     if model is None:
         from ...model.modelfile import load_model
         model = load_model()
+    if dt is None:
+        from ..loop import core_step
+        dt = core_step(model)
     if kind == "float":
         return FloatPlant(model, dt=dt, **options)
     if kind == "golden":
