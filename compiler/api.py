@@ -26,7 +26,6 @@ first call, so ``import pendc`` stays light.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 
@@ -152,17 +151,10 @@ def compare(model, data, *, horizon: float | None = None, outputs=None, dt: floa
 
 
 def _horizon(given, datasets: list, model) -> float:
-    """``given``, or the data's horizon (:func:`pendc.ident.horizon.horizon_for`: 0.5 s, doubled
-    while the data move less than four sensor steps in it, shortened for a fast plant's short record)."""
-    from .errors import PendcError
-    from .ident.horizon import horizon_for
-    from .sim.signals import signals_of
+    """``given``, or the data's horizon (:func:`pendc.ident.horizon.chosen_horizon`)."""
+    from .ident.horizon import chosen_horizon
 
-    if given is None:
-        return horizon_for(datasets, signals_of(model), model)[0]
-    if not (math.isfinite(given) and given > 0):
-        raise PendcError(f"horizon must be a positive number of seconds, got {given}")
-    return float(given)
+    return chosen_horizon(given, datasets, model)[0]
 
 
 def _names(value) -> list:

@@ -100,20 +100,13 @@ def note_offsets(model, what: str) -> None:
 
 def horizon_of(args, model=None, datasets=()) -> float:
     """``--horizon``, checked: seconds between the restarts from the measured state; not given,
-    the data's (:func:`pendc.ident.horizon.horizon_for`, with a note when it is not 0.5 s)."""
-    if args.horizon is None:
-        from ..ident.horizon import horizon_for
-        from ..sim.signals import signals_of
+    the data's (:func:`pendc.ident.horizon.chosen_horizon`, with a note when it is not 0.5 s)."""
+    from ..ident.horizon import chosen_horizon
 
-        horizon, why = horizon_for(list(datasets), signals_of(model), model)
-        if why:
-            print(f"pendc: note: {why}", file=sys.stderr)
-        return horizon
-    from ..errors import PendcError
-
-    if not (math.isfinite(args.horizon) and args.horizon > 0):
-        raise PendcError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
-    return float(args.horizon)
+    horizon, why = chosen_horizon(args.horizon, datasets, model, "--horizon")
+    if why:
+        print(f"pendc: note: {why}", file=sys.stderr)
+    return horizon
 
 
 def horizon_words(horizon: float) -> str:

@@ -158,6 +158,20 @@ def horizon_for(datasets: list, signals, model=None) -> tuple[float, str]:
                      f"and see the data move (--horizon sets it)")
 
 
+def chosen_horizon(given, datasets: list, model, label: str = "horizon") -> tuple[float, str]:
+    """``(horizon, why)``: ``given`` checked (``label`` names it in the error), or when it is None
+    the data's own (:func:`horizon_for`; ``why`` says why it is not the default, else empty)."""
+    import math
+
+    from ..sim.signals import signals_of
+
+    if given is None:
+        return horizon_for(list(datasets), signals_of(model), model)
+    if not (math.isfinite(given) and given > 0):
+        raise PendcError(f"{label} must be a positive number of seconds, got {given:g}")
+    return float(given), ""
+
+
 def shorter_horizon(datasets: list, signals, model, horizon: float, need: int) -> tuple:
     """``(h, segments)``: the longest horizon below ``horizon`` (along 0.2, 0.1, 0.05, ... s) whose
     segments number ``need`` or more across ``datasets``, else the shortest qualifying one; each
