@@ -52,11 +52,13 @@ def _check_out_folder(out: str) -> None:
 
 def cmd_hil(args) -> int:
     from ..hil.controllers.controller_spec import make_controller
-    from ..hil.loop import core_step, run_closed_loop
+    from ..hil.loop import run_closed_loop
+    from ..passes.pipeline import core_step
     from ..hil.controllers.operating_point_lqr import OperatingPointLqr
     from ..hil.controllers.start_point import hold_keys, hold_summary, point_hold, start_state
     from ..hil.plants.plant import make_plant, start_counts
     from ..hil.records import write_run
+    from ..model.interface import with_unit
     from ..model.modelfile import load_model
 
     if args.serve and args.controller is not None:
@@ -106,7 +108,7 @@ def cmd_hil(args) -> int:
             print(f"upright from t = {up:.3f} s (rms {summary['balance_rms_rad']:.4f} rad)" if up is not None
                   else "not upright at the end of the run")
         units = dict(run.units)
-        spans = [f"max |{state}| = {float(abs(column).max()):.4f} {units.get(state, '')}".rstrip()
+        spans = [f"max |{state}| = {with_unit(f'{float(abs(column).max()):.4f}', units.get(state, ''))}"
                  for state, column in run.positions if (state != run.angle or held is not None) and column.size]
         print(", ".join(spans + [f"{summary['switches']} controller switches"]))
         if held is not None and run.stopped is not None:
@@ -114,7 +116,7 @@ def cmd_hil(args) -> int:
         elif held is not None:
             window = "the last 1 s" if summary["seconds"] >= 1.0 else f"the whole {summary['seconds']:g} s"
             print(f"over {window}, from operating point {held}: " + ", ".join(
-                f"max |{c.position} - {c.target:.4g}| = {summary[k]:.4g} {c.unit}".rstrip()
+                f"max |{c.position} - {c.target:.4g}| = {with_unit(f'{summary[k]:.4g}', c.unit)}"
                 for c, k in zip(holder.coords, hold_keys(holder)) if summary.get(k) is not None))
         if args.out:
             print(f"wrote {args.out}/run.csv, summary.json, run.png")

@@ -14,6 +14,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from .heldout import format_budget, held_out_check
+from ..model.interface import with_unit
 from .options import MODEL_HELP, build_model, positive
 
 if TYPE_CHECKING:
@@ -106,7 +107,7 @@ def format_qformat_report(report: dict) -> str:
         lines += ["", "Drift after the budget horizon (max |fixed - float| up to t):"]
         for stim, rows in report["drift"].items():
             lines.append(f"  {stim:10s} " + "  ".join(f"t<={r['t']:g}s " + ", ".join(
-                f"{k} {v:.3g} {u}" for k, u in r["units"].items() for v in (r[k],))
+                f"{k} {with_unit(f'{v:.3g}', u)}" for k, u in r["units"].items() for v in (r[k],))
                                                     for r in rows))
     return "\n".join(lines) + "\n"
 

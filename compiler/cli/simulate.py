@@ -37,7 +37,7 @@ def cmd_simulate(args) -> int:
     from ..sim.signals import TIME
     from ..sim.simulator import Simulator, sensor_offsets
     from ..model.modes import euler_shortfall
-    from ..hil.loop import core_step
+    from ..passes.pipeline import core_step
     from .data import note
     from .options import build_model, write_output
 
@@ -111,13 +111,18 @@ def _check_input_range(data, inp) -> None:
     full scale): a unit mistake such as millivolts (many rows) or an outlier (a few), named by
     line, before a simulation of nonsense. Only the input: the other columns of a file (a
     simulation's own output, say) are not read."""
+    from ..model.interface import is_dimensionless
     from ..sim import plausibility
     from ..sim.table import Table
 
     table = Table(columns={}, meta={}, source=data.source, first_line=data.first_line)
-    mistake = "millivolts" if inp.unit == "V" else f"another unit than {inp.unit}"
+    if is_dimensionless(inp.unit):   # no unit to name: a percentage is the likely slip
+        fix = ("a percentage or another scale", f"give {inp.name} as a plain number on the scale of its range, "
+               "not in percent")
+    else:
+        fix = ("millivolts" if inp.unit == "V" else f"another unit than {inp.unit}", f"give {inp.name} in {inp.unit}")
     plausibility.check_bounded(table, inp.name, data.u, plausibility.INPUT_MARGIN * inp.full_scale, inp.unit,
-                               f"the input takes {inp.range.describe()}", (mistake, f"give {inp.name} in {inp.unit}"))
+                               f"the input takes {inp.range.describe()}", fix)
 
 
 def add_parsers(sub) -> None:

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..atomic import check_file_output, write_atomic
 from ..errors import PendcError
+from ..model.interface import is_dimensionless
 from .animate_html import PAGE
 from .drawing import layout
 from .records import RunRecord, read_run, write_bytes_atomic
@@ -114,13 +115,18 @@ def html_page(record: RunRecord, model, title: str, slow_motion: float = 1.0) ->
     data = {"t": _clean(d["t"], decimals + 3), "mode": d["mode"], "slow": slow_motion, "decimals": decimals,
             "points": {name: [_clean(px, 2), _clean(py, 2)] for name, (px, py) in drawn.points.items()},
             "lines": [list(line) for line in drawn.lines],
-            "traces": [{"name": state, "unit": units.get(state) or _unit_of(iface, state),
+            "traces": [{"name": state, "unit": _shown(units.get(state) or _unit_of(iface, state)),
                         "values": _clean(values, 6)} for state, values in d["positions"].items()]
-            + [{"name": record.input_name, "unit": iface.input.unit, "values": _clean(d["input"], 4)}],
+            + [{"name": record.input_name, "unit": _shown(iface.input.unit), "values": _clean(d["input"], 4)}],
             "plant": iface.name}
     # JSON inside <script>: escape "</" so a mode label cannot close the element
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return PAGE.replace("__TITLE__", html.escape(title)).replace("__DATA__", payload)
+
+
+def _shown(unit: str) -> str:
+    """A trace's unit as the page labels it (``name (unit)``): none for a dimensionless one, not "(-)"."""
+    return "" if is_dimensionless(unit) else unit
 
 
 def _unit_of(iface, state: str) -> str:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PendcError
+from ..model.interface import unit_key
 from .controllers.measurement import Measurement, wrap_upright
 
 DAC_BITS = 12
@@ -80,7 +81,7 @@ class HilRun:
             "balance_rms_rad": rms,
         }
         for state, column in self.positions:
-            key = f"max_abs_{state}_{units.get(state, '').replace('/', '_per_')}".rstrip("_")
+            key = unit_key(f"max_abs_{state}", units.get(state, ""))
             out[key] = float(np.max(np.abs(column))) if column.size else None
         out.update({
             "switches": switches,
@@ -104,16 +105,6 @@ def upright_stretch(t: np.ndarray, phi: np.ndarray, tol: float = UPRIGHT_TOLERAN
     outside = np.flatnonzero(np.abs(phi) >= tol)
     first = int(outside[-1]) + 1 if outside.size else 0
     return float(t[first]), float(np.sqrt(np.mean(phi[first:] ** 2)))
-
-
-def core_step(model) -> float:
-    """The step ``model``'s core integrates at: its plant file's ``[hardware] dt``, read as the
-    build reads it (the build's default without one). Every plant that steps as the core does
-    (float, golden, RTL; simulate, hil, robust) starts from this, so a golden plant always
-    matches its build and a float one never silently takes the default instead."""
-    from ..passes.pipeline import options_from_model
-
-    return float(options_from_model(model).dt)
 
 
 def steps_per_period(plant_dt: float, period: float) -> int:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..model.modelfile import load_model
 from .controllers.measurement import wrap_upright
-from .loop import core_step
+from ..passes.pipeline import core_step
 from .plants.plant import make_plant
 from .records import write_bytes_atomic
 from .scenarios import balance_activity, model_mismatch

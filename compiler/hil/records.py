@@ -22,6 +22,7 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..errors import PendcError
+from ..model.interface import unit_name
 from .loop import HilRun
 
 TIME, MODE = "t", "mode"
@@ -112,7 +113,7 @@ def plot_png(run: HilRun, title: str = "") -> bytes:
     axes = list(np.atleast_1d(axes))
     for ax, (state, column) in zip(axes, run.positions):
         ax.plot(t, column, lw=0.8)
-        ax.set_ylabel(f"{state} ({units.get(state, '')})")
+        ax.set_ylabel(f"{state} ({unit_name(units[state])})" if state in units else state)
         guides = upright_guides(column) if state == run.angle else []
         for y in guides:
             ax.axhline(y, color="grey", lw=0.5, ls=":")
@@ -121,7 +122,7 @@ def plot_png(run: HilRun, title: str = "") -> bytes:
             if upright.any():
                 ax.plot(t[upright], column[upright], ".", ms=1, color="tab:orange")
     axes[-1].plot(t, run.u, lw=0.5, color="tab:green")
-    axes[-1].set_ylabel(f"{run.input_name} ({units.get(run.input_name) or 'V'})")
+    axes[-1].set_ylabel(f"{run.input_name} ({unit_name(units.get(run.input_name, 'V'))})")
     axes[-1].set_xlabel("t (s)")
     balancing = np.array([m == "balance" for m in mode])
     if balancing.any():

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..model.interface import is_dimensionless, with_unit
 from ..model.plant import PlantModel
 from .controllers.pendulum import CATCH_ANGLE, EnergySwingUp, PendulumConstants, Supervisor
 from .loop import UPRIGHT_TOLERANCE, HilRun, run_closed_loop
@@ -53,8 +54,9 @@ def _common_failures(run: HilRun, consts: PendulumConstants) -> list:
         out.append(f"the run stopped early: {run.stopped}")
     travel = run.column(consts.actuated)
     if travel.size and np.max(np.abs(travel)) >= TRACK_LIMIT:
-        out.append(f"|{consts.actuated}| reached {np.max(np.abs(travel)):.3f} {consts.roles.actuated.unit} "
-                   f"(limit {TRACK_LIMIT} {consts.roles.actuated.unit})")
+        unit = consts.roles.actuated.unit
+        out.append(f"|{consts.actuated}| reached {with_unit(f'{np.max(np.abs(travel)):.3f}', unit)} "
+                   f"(limit {with_unit(str(TRACK_LIMIT), unit)})")
     return out
 
 
@@ -90,7 +92,7 @@ def _upright(consts: PendulumConstants) -> str:
 
 def _travel(consts: PendulumConstants) -> str:
     """The track limit in words, with the plant's actuated position."""
-    return f"|{consts.actuated}| < {TRACK_LIMIT} {consts.roles.actuated.unit}"
+    return f"|{consts.actuated}| < {with_unit(str(TRACK_LIMIT), consts.roles.actuated.unit)}"
 
 
 def swing_up_and_balance(plant, model: PlantModel, seconds: float = 12.0, design: PlantModel | None = None,
@@ -172,7 +174,9 @@ def balance_activity(run: HilRun) -> dict:
     others = [(s, c) for s, c in run.positions if s != run.angle]
     out = {"u_std_v": float(np.std(run.u[mask])) if mask.any() else None}
     for state, column in others:
-        out[f"{state}_peak_to_peak_{units.get(state, '')}"] = float(np.ptp(column[mask])) if mask.any() else None
+        unit = units.get(state, "")
+        key = f"{state}_peak_to_peak" + ("" if is_dimensionless(unit) else f"_{unit}")
+        out[key] = float(np.ptp(column[mask])) if mask.any() else None
     return out
 
 

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PendcError
+from ..model.interface import with_unit
 from ..model.plant import PlantModel
 from ..sim.signals import signals_of
 from .evidence import describe_candidate, residual_correlations
@@ -216,8 +217,9 @@ def offset_blindness(model: PlantModel, datasets: list, output: str, reach: floa
                 name, (_, _, threshold) = min(limits, key=lambda item: item[1][2])
                 if reach < NEAR_END * threshold:
                     words = name.replace("_", " ")
-                    return (f"the {body} never comes near the {words} (|{output}| <= {reach:.3g} {unit}, "
-                            f"{name} acts beyond {threshold:g} {unit}), the only place where the model depends "
+                    near, beyond = with_unit(f"{reach:.3g}", unit), with_unit(f"{threshold:g}", unit)
+                    return (f"the {body} never comes near the {words} (|{output}| <= {near}, "
+                            f"{name} acts beyond {beyond}), the only place where the model depends "
                             f"on its absolute position; {shown_by}")
         return ""
     if translation:

@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from ..model.interface import with_unit
 from ..sim.signals import signals_of
 from .plant_roles import driven_coordinate
 
@@ -69,7 +70,7 @@ def _number(value: float, unit: str) -> str:
     """``5 mm/s`` for small lengths, else the value in its own unit."""
     if unit.startswith("m") and not unit.startswith("mm") and abs(value) < 0.1:
         return f"{value * 1e3:g} m{unit}"
-    return f"{value:g} {unit}"
+    return with_unit(f"{value:g}", unit)
 
 
 def swing_angle(plant) -> str | None:
@@ -109,27 +110,29 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_n
         th = np.abs(wrap_angle(measured[swing], sig.period(swing)))
         zero = sig.spec(swing).meaning.split(" from ", 1)[1].split(" (")[0] if " from " in sig.spec(swing).meaning \
             else "its zero"
+        small = with_unit(f"{SMALL_SWING:g}", sig.unit(swing))
         out.append((f"{sig.body_of(swing)} angle", [
-            ("small swing", f"|{swing}| < {SMALL_SWING:g} {sig.unit(swing)} from {zero}", th < SMALL_SWING),
-            ("large swing", f"|{swing}| >= {SMALL_SWING:g} {sig.unit(swing)}", th >= SMALL_SWING)]))
+            ("small swing", f"|{swing}| < {small} from {zero}", th < SMALL_SWING),
+            ("large swing", f"|{swing}| >= {small}", th >= SMALL_SWING)]))
     e = np.abs(u - centre)
     name = spec.name
     about = f"|{name} - {centre_name}|" if centre else f"|{name}|"
-    where = f", {centre_name} = {centre:.4g} {spec.unit}" if centre else ""
+    where = f", {centre_name} = {with_unit(f'{centre:.4g}', spec.unit)}" if centre else ""
+    weak = with_unit(f"{LOW_DRIVE:g}", spec.unit)
     out.append(("drive", [
-        ("weak drive", f"{about} < {LOW_DRIVE:g} {spec.unit}{where}", e < LOW_DRIVE),
-        ("strong drive", f"{about} >= {LOW_DRIVE:g} {spec.unit}", e >= LOW_DRIVE)]))
+        ("weak drive", f"{about} < {weak}{where}", e < LOW_DRIVE),
+        ("strong drive", f"{about} >= {weak}", e >= LOW_DRIVE)]))
     for p in [p for p in sig.positions if sig.period(p) is None and p in measured and sig.unit(p) in TRACK_END]:
         end = TRACK_END[sig.unit(p)]
         x = np.abs(np.asarray(measured[p], dtype=np.float64))
         out.append(("track position" if p == lead else f"{p} position", [
-            ("centre", f"|{p}| <= {end:g} {sig.unit(p)}", x <= end),
-            ("near an end", f"|{p}| > {end:g} {sig.unit(p)}", x > end)]))
+            ("centre", f"|{p}| <= {with_unit(f'{end:g}', sig.unit(p))}", x <= end),
+            ("near an end", f"|{p}| > {with_unit(f'{end:g}', sig.unit(p))}", x > end)]))
     low, high = saturation_limits(spec.range)
     sat = (u <= low) | (u >= high)
     out.append(("input saturation", [
-        ("saturated", f"{name} <= {low:g} or >= {high:g} {spec.unit}", sat),
-        ("in range", f"{low:g} < {name} < {high:g} {spec.unit}", ~sat)]))
+        ("saturated", with_unit(f"{name} <= {low:g} or >= {high:g}", spec.unit), sat),
+        ("in range", with_unit(f"{low:g} < {name} < {high:g}", spec.unit), ~sat)]))
     return [(p, members) for p, members in out if p not in skip]
 
 

@@ -30,6 +30,8 @@ from .report_plots import figure_scatter as _figure_scatter
 from .report_plots import zoom_span as _zoom_span  # noqa: F401 (the zoomed figure's span, for tests)
 from .report_text import concentrated, format_side_by_side, short, side_by_side_headline
 from .sidebyside import SideBySide, as_side_by_side
+from .units import labelled, small_scale, unit_of
+from ..model.interface import unit_name, with_unit
 from ..sim.signals import signals_of
 
 DPI = 80
@@ -176,7 +178,7 @@ def _fmt(c: Comparison, output: str, value, digits: int = 4) -> str:
 
 def _unit(c: Comparison, output: str) -> str:
     """The unit residuals of ``output`` are printed in: ``mm``, ``mrad``."""
-    return residual_scale(c, output)[1].rsplit("(", 1)[1].rstrip(")")
+    return small_scale(unit_of(c.model, output))[1]
 
 
 def _num(v, sign: bool = False, digits: int = 2) -> str:
@@ -196,7 +198,7 @@ def _figures_table(s: SideBySide, i: int) -> str:
     rows = []
     for name, unit, values in s.rows(i):
         cls = " class=head" if name.startswith(lead) and "wrapped" not in name else ""
-        label = f"{name} ({unit})" if unit else name
+        label = labelled(name, unit)
         d = 0 if unit == "turns" else 2
         rows.append(f"<tr{cls}><td class=l>{e(label)}</td>" + "".join(f"<td>{_num(v, digits=d)}</td>" for v in values)
                     + "".join(f"<td>{_num(v - values[0], sign=True, digits=d)}</td>" for v in values[1:]) + "</tr>")
@@ -206,7 +208,7 @@ def _figures_table(s: SideBySide, i: int) -> str:
 def _windows_table(c: Comparison) -> str:
     rows = "".join(
         f"<tr><td class=l>{w['output']}</td><td>{w['t0']:.3f}</td><td>{w['t1']:.3f}</td>"
-        f"<td>{_fmt(c, w['output'], w['rms'])} {_unit(c, w['output'])}</td>"
+        f"<td>{with_unit(_fmt(c, w['output'], w['rms']), _unit(c, w['output']))}</td>"
         f"<td>{100 * w['share']:.1f} %</td></tr>" for w in c.windows)
     return ("<table><tr><th class=l>output</th><th>from (s)</th><th>to (s)</th><th>rms residual</th>"
             f"<th>share of the output's squared error</th></tr>{rows}</table>")
@@ -231,7 +233,7 @@ def _regimes_table(c: Comparison) -> str:
         rows.append(f"<tr{' class=hot' if hot else ''}><td class=l>{html.escape(g['partition'])}</td>"
                     f"<td class=l>{html.escape(g['name'])}</td><td class=l>{html.escape(g['definition'])}</td>"
                     f"<td>{100 * g['fraction_of_time']:.1f} %</td>{''.join(cells)}</tr>")
-    units = " and ".join(f"{_unit(c, k)} ({k})" for k in c.outputs)
+    units = " and ".join(f"{unit_name(_unit(c, k))} ({k})" for k in c.outputs)
     return f"<table>{head}{''.join(rows)}</table><p class=note>rms in {html.escape(units)}.</p>"
 
 

@@ -13,7 +13,7 @@ import numpy as np
 from . import headline as hl
 from ..sim.signals import signals_of
 from .compare import Comparison, worst_windows, wrap_angle, wrap_difference
-from .units import small_scale, trajectory_scale, unit_of
+from .units import axis_label, small_scale, trajectory_scale, unit_of
 from .whiteness import biased
 from .report_text import short
 from .sidebyside import SideBySide
@@ -28,14 +28,14 @@ def scale(c: Comparison, output: str) -> tuple:
     """``(factor, axis label)`` of a plotted trajectory: ``<output> (mm)`` for a position in
     metres, ``<output> (rad)`` for an angle."""
     factor, unit = trajectory_scale(unit_of(c.model, output))
-    return factor, f"{output} ({unit})"
+    return factor, axis_label(output, unit)
 
 
 def residual_scale(c: Comparison, output: str) -> tuple:
     """``(factor, axis label)`` of a plotted residual: ``<output> residual (mm)`` for metres,
     ``<output> residual (mrad)`` for radians."""
     factor, unit = small_scale(unit_of(c.model, output))
-    return factor, f"{output} residual ({unit})"
+    return factor, axis_label(f"{output} residual", unit)
 
 
 def _periodic(c: Comparison, output: str) -> bool:
@@ -204,12 +204,12 @@ def scatter_axes(c: Comparison) -> list:
     vary in the run."""
     sig = signals_of(c.model)
     spec = sig.interface.input
-    against = [(f"{r} ({sig.unit(r)})", c.measured[r]) for r in sig.rates if r in c.measured]
-    against += [(f"{p} wrapped to ±π ({sig.unit(p)})", wrap_angle(c.measured[p], sig.period(p)))
+    against = [(axis_label(r, sig.unit(r)), c.measured[r]) for r in sig.rates if r in c.measured]
+    against += [(axis_label(f"{p} wrapped to ±π", sig.unit(p)), wrap_angle(c.measured[p], sig.period(p)))
                 for p in sig.periodic if p in c.measured]
     centre = f"{spec.name} - {c.centre_name}" if c.v_off else spec.name
-    against.append((f"{centre} ({spec.unit})", c.simulated.u - c.v_off))
-    against += [(f"{p} ({sig.unit(p)})", c.measured[p]) for p in sig.positions if sig.period(p) is None
+    against.append((axis_label(centre, spec.unit), c.simulated.u - c.v_off))
+    against += [(axis_label(p, sig.unit(p)), c.measured[p]) for p in sig.positions if sig.period(p) is None
                 and p in c.measured]
     return [(name, v) for name, v in against if np.ptp(v) > 0]   # a held or absent signal shows nothing
 

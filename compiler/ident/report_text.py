@@ -18,7 +18,7 @@ from ..sim.signals import signals_of
 from . import headline as hl
 from .compare import WORST_WINDOW, Comparison, model_name
 from .sidebyside import SideBySide, as_side_by_side
-from .units import amount_in, unit_of
+from .units import amount_in, labelled, unit_of
 from .whiteness import biased
 
 FEW_COUNTS = 5           # rms residual (encoder counts) below which structure may be rounding
@@ -225,14 +225,14 @@ def format_side_by_side(s: SideBySide) -> str:
 def _table(s: SideBySide, i: int) -> list:
     """Fixed-width table: figure, one column per model, the change of each later model from the first."""
     rows = s.rows(i)
-    first = max(len(f"{name} ({unit})" if unit else name) for name, unit, _ in rows)
+    first = max(len(labelled(name, unit)) for name, unit, _ in rows)
     width = max(12, *(len(lab) for lab in s.labels))
     changes = [f"{short(lab)} - {short(s.labels[0])}" for lab in s.labels[1:]]
     head = f"{'figure':{first}s}  " + "  ".join(f"{lab:>{width}s}" for lab in s.labels) + "  " + \
         "  ".join(f"{ch:>{max(9, len(ch))}s}" for ch in changes)
     out = [head]
     for name, unit, values in rows:
-        label = f"{name} ({unit})" if unit else name
+        label = labelled(name, unit)
         digits = 0 if unit == "turns" else 2
         cells = "  ".join(f"{_num(v, digits=digits):>{width}s}" for v in values)
         delta = "  ".join(f"{_num(v - values[0], sign=True, digits=digits):>{max(9, len(ch))}s}"

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+from ..model.interface import is_dimensionless, unit_name, with_unit
 from ..sim.signals import signals_of
 
 # SI unit -> (factor, unit) a small value (a residual, an error) is printed in
@@ -28,7 +29,7 @@ def amount_in(unit: str, value) -> str:
     if unit == "rad" and abs(value) >= 1.0:
         return f"{value:.3g} rad"
     factor, shown = SMALL.get(unit, (1.0, unit))
-    return f"{value * factor:.3g} {shown}"
+    return with_unit(f"{value * factor:.3g}", shown)
 
 
 def small_scale(unit: str) -> tuple:
@@ -39,3 +40,14 @@ def small_scale(unit: str) -> tuple:
 def trajectory_scale(unit: str) -> tuple:
     """``(factor, unit)`` for plotting values of ``unit``."""
     return TRAJECTORY.get(unit, (1.0, unit))
+
+
+def labelled(name: str, unit: str) -> str:
+    """A table's row label: ``name (unit)``, ``name`` alone for a dimensionless unit (not
+    ``name (-)``)."""
+    return name if is_dimensionless(unit) else f"{name} ({unit})"
+
+
+def axis_label(name: str, unit: str) -> str:
+    """A plot axis's label: ``name (unit)``, ``name (dimensionless)`` for no unit (not ``name (-)``)."""
+    return f"{name} ({unit_name(unit)})"

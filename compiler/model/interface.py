@@ -290,6 +290,13 @@ def unit_name(unit: str) -> str:
     return "dimensionless" if is_dimensionless(unit) else unit.strip()
 
 
+def unit_key(name: str, unit: str) -> str:
+    """``name`` and ``unit`` as one JSON key, '/' as "_per_" (``max_abs_x_m``,
+    ``hold_w_rad_per_s``); ``name`` alone for a dimensionless unit (``max_abs_d``, not
+    ``max_abs_d_-``)."""
+    return name if is_dimensionless(unit) else f"{name}_{unit.strip().replace('/', '_per_')}"
+
+
 def graph_interface(graph) -> PlantInterface | None:
     """The plant interface a graph was lowered from (None for a graph built by hand)."""
     return dict(graph.info).get(INFO_KEY)

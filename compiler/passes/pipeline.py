@@ -132,6 +132,14 @@ def training_stimuli(inp, scale: float = 1.0) -> dict:
     return out
 
 
+def core_step(model: PlantModel) -> float:
+    """The step ``model``'s core integrates at: its plant file's ``[hardware] dt``, read as the
+    build reads it (the build's default without one). Every plant that steps as the core does
+    (float, golden, RTL; simulate, hil, robust) starts from this, so a golden plant always
+    matches its build and a float one never silently takes the default instead."""
+    return float(options_from_model(model).dt)
+
+
 def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
     """Build options from the model file's ``[hardware]`` table, then keyword overrides."""
     known = {f.name for f in fields(BuildOptions)}

@@ -92,7 +92,7 @@ class RetypeTemplate:
     @classmethod
     def of(cls, model) -> "RetypeTemplate":
         """The template of ``model``'s build (compiled once, then read from the build cache)."""
-        from ..hil.loop import core_step
+        from ..passes.pipeline import core_step
         from ..hil.plants.golden_plant import build_for
 
         build = build_for(model, core_step(model))

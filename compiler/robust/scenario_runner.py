@@ -141,7 +141,7 @@ def make_sampled_plant(spec: SweepSpec, params: dict, cache: WorkerCache):
     nominal, _ = cache.models(spec)
     if spec.plant == "golden":
         return cache.golden_template(spec).plant(params)
-    from ..hil.loop import core_step
+    from ..passes.pipeline import core_step
     from ..hil.plants.plant import make_plant
     return make_plant("float", nominal.with_params(params), dt=core_step(nominal))
 

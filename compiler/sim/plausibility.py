@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from ..errors import PendcError
+from ..model.interface import with_unit
 from .table import Table
 
 POSITION_LIMIT = {"m": 1.0}     # per unit: no rig position lies farther from its zero
@@ -139,10 +140,10 @@ def check_bounded(table: Table, name: str, values: np.ndarray, limit: float, uni
     if count > UNIT_FRACTION * len(values):
         peak = float(np.abs(values).max())
         raise PendcError(f"{table.source}: column '{name}' looks like {fix[0]} ({count} of {len(values)} values beyond "
-                         f"{limit:g} {unit}, max |{name}| = {peak:.6g}; {why}): {fix[1]}")
+                         f"{with_unit(f'{limit:g}', unit)}, max |{name}| = {peak:.6g}; {why}): {fix[1]}")
     k = int(np.argmax(out))
     raise PendcError(f"{table.source}: {table.where(k)}: {name} = {float(values[k]):.6g} is an outlier "
-                     f"(|{name}| > {limit:g} {unit}: {why}; {count} such row(s))")
+                     f"(|{name}| > {with_unit(f'{limit:g}', unit)}: {why}; {count} such row(s))")
 
 
 def check_spikes(table: Table, name: str, values: np.ndarray, limit: float, unit: str) -> None:
@@ -161,7 +162,7 @@ def check_spikes(table: Table, name: str, values: np.ndarray, limit: float, unit
 
 def _spike_error(table: Table, name: str, values: np.ndarray, k: int, limit: float, unit: str) -> None:
     raise PendcError(f"{table.source}: {table.where(k)}: {name} = {float(values[k]):.6g} is an outlier (it jumps "
-                     f"more than {limit:g} {unit} away from both neighbours, "
+                     f"more than {with_unit(f'{limit:g}', unit)} away from both neighbours, "
                      f"{float(values[k - 1]):.6g} and {float(values[k + 1]):.6g})")
 
 
@@ -234,5 +235,5 @@ def input_warning(source: str, name: str, values: np.ndarray, low: float, high: 
     outside = (values < low) | (values > high)
     if not outside.any():
         return []
-    return [f"{source}: {name} outside {low:g}-{high:g} {unit} in {int(outside.sum())} of {len(values)} samples "
-            f"(min {values.min():g} {unit}, max {values.max():g} {unit})"]
+    return [f"{source}: {name} outside {with_unit(f'{low:g}-{high:g}', unit)} in {int(outside.sum())} of {len(values)} "
+            f"samples (min {with_unit(f'{values.min():g}', unit)}, max {with_unit(f'{values.max():g}', unit)})"]

@@ -13,6 +13,7 @@ import re
 from dataclasses import dataclass, field, fields
 
 from ..errors import PendcError
+from ..model.interface import is_dimensionless
 from .signals import UNIT_SCALES, ZERO_NAMES, PlantSignals, signals_of, unit_scale
 
 # Per-signal keywords of ReadOptions, ``<signal>_unit``, ``<signal>_zero`` and ``<signal>_sign``:
@@ -130,6 +131,9 @@ def unit_factor(axis: str, unit: str, plant=None) -> float:
         raise PendcError(f"--{axis}-unit: '{axis}' is not a signal of this plant ({', '.join(sig.all_columns)})")
     si = sig.unit(axis)
     factor = unit_scale(si, unit)
+    if factor is None and is_dimensionless(si):
+        raise PendcError(f"--{axis}-unit {unit!r}: {axis} is dimensionless: give the size of one file unit, a "
+                         "positive number (0.01 for percent)")
     if factor is None:
         names = UNIT_SCALES.get(si, {si: 1.0})
         raise PendcError(f"--{axis}-unit {unit!r}: use one of {', '.join(names)}, or the size of one file "

@@ -16,6 +16,7 @@ import sys
 import numpy as np
 
 from ..errors import PendcError, open_input
+from ..model.interface import is_dimensionless, with_unit
 from . import plausibility as plaus
 from .experiment_axes import held_experiment_of, irrelevant_axes, missing_hint
 from .read_options import ReadOptions, unit_factor  # noqa: F401 (re-exported: how a file is read)
@@ -348,10 +349,14 @@ def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
     spec = sig.interface.input
     if spec.name in columns:
         smaller = _smaller_units(spec.unit)
+        if is_dimensionless(spec.unit):   # no unit to name: a percentage is the likely slip
+            mistake = ("a percentage or another scale", _unit_hint(options, spec.name, "0.01") +
+                       ("" if spec.name in options.units else " if it is in percent"))
+        else:
+            mistake = (_spelled(smaller[-1]) if smaller else "a unit mistake",
+                       _unit_hint(options, spec.name, smaller[-1] if smaller else "..."))
         plaus.check_bounded(table, spec.name, columns[spec.name], plaus.INPUT_MARGIN * spec.full_scale, spec.unit,
-                            f"the {spec.meaning.split(' (')[0]} spans {spec.range.describe()}",
-                            (_spelled(smaller[-1]) if smaller else "a unit mistake",
-                             _unit_hint(options, spec.name, smaller[-1] if smaller else "...")))
+                            f"the {spec.meaning.split(' (')[0]} spans {spec.range.describe()}", mistake)
     for name in [p for p in sig.positions if p in columns and sig.unit(p) in plaus.POSITION_LIMIT]:
         unit = sig.unit(name)
         limit, span = plaus.POSITION_LIMIT[unit], plaus.POSITION_SPAN[unit]
@@ -364,7 +369,7 @@ def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
             fitting = [u for u in smaller if typical * UNIT_SCALES[unit][u] <= span]
             guess = fitting[0] if fitting else smaller[-1] if smaller else guess
         plaus.check_bounded(table, name, values, limit, unit,
-                            f"the {sig.label(name)} spans {span:g} {unit} at most",
+                            f"the {sig.label(name)} spans {with_unit(f'{span:g}', unit)} at most",
                             (_spelled(guess), _unit_hint(options, name, guess)))
     for name in [r for r in sig.rates if r in columns and sig.unit(r) in plaus.RATE_LIMIT]:
         limit = max(plaus.RATE_LIMIT[sig.unit(name)], plaus.DECLARED_MARGIN * declared_rate(sig, name))

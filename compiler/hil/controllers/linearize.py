@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg
 
 from ...errors import PendcError
+from ...model.interface import with_unit
 from ...model.plant import PlantModel
 from .numeric_model import NumericModel
 from .pendulum_roles import PendulumRoles, pendulum_roles, restoring_stiffness
@@ -102,8 +103,8 @@ def linearise_at_rest(numeric: NumericModel, roles: PendulumRoles, angle: float)
     a_left, a_right = (acceleration(u0, sg) for sg in (1.0, -1.0))
     tilt = 0.5 * sum(acceleration(u0, sg, pend_rate) for sg in (1.0, -1.0))
     if not abs(tilt) < 1e-6 * max(1.0, abs(restoring_stiffness(numeric, roles.pendulum))):
-        raise PendcError(f"the pendulum of plant '{roles.plant}' is not at rest at {angle:g} "
-                         f"{roles.pendulum.unit} (angular acceleration {tilt:.3g})")
+        raise PendcError(f"the pendulum of plant '{roles.plant}' is not at rest at "
+                         f"{with_unit(f'{angle:g}', roles.pendulum.unit)} (angular acceleration {tilt:.3g})")
     J = 0.5 * sum(numeric.jacobian(point(u0, sg), u0) for sg in (1.0, -1.0))
     J = J[np.ix_(order, order + [n])]
     if not np.all(np.isfinite(J)):

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import PendcError
+from ...model.interface import unit_key
 from ...model.plant import PlantModel
 from ..plants.core_ports import CorePorts
 from .operating_point_lqr import measured_coordinates, operating_state, wrap
@@ -93,5 +94,5 @@ def hold_summary(run, controller, last_seconds: float = 1.0) -> dict:
 
 def hold_keys(controller) -> tuple:
     """The keys of :func:`hold_summary`'s distances, one per measured position (``hold_<state>_<unit>``)."""
-    return tuple(f"hold_{c.position}_{c.unit.replace('/', '_per_')}".rstrip("_") for c in controller.coords)
+    return tuple(unit_key(f"hold_{c.position}", c.unit) for c in controller.coords)
 

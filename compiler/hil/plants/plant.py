@@ -165,7 +165,7 @@ def make_plant(kind: str, model: PlantModel | None = None, dt: float | None = No
         from ...model.modelfile import load_model
         model = load_model()
     if dt is None:
-        from ..loop import core_step
+        from ...passes.pipeline import core_step
         dt = core_step(model)
     if kind == "float":
         return FloatPlant(model, dt=dt, **options)
