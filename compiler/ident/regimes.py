@@ -10,7 +10,9 @@ rig was in). The partitions are read off the plant interface:
   from its zero (``SMALL_SWING``: sin(q) ~ q still holds within 1.5 %);
 * **drive**: the input near or far from its centre (where the model's drive law pushes
   nothing at rest, e.g. a servo drive's offset voltage, else the middle of the input's
-  range; ``LOW_DRIVE``: about the static break-away input of a laboratory cart, 0.40 V);
+  range; ``LOW_DRIVE``: about the static break-away input of a laboratory cart, 0.40 V; an
+  input whose range spans less than ``REFERENCE_SPAN`` units takes that share of it, so a 0-1
+  duty cycle's is 0.05);
 * **<position> position** for a translation (e.g. a cart on its track): centre or near an
   end (``TRACK_END`` of its unit: the outer third of each half of a 750 mm track);
 * **input saturation**: the input within ``SATURATION_MARGIN`` of the span of the range its
@@ -25,11 +27,12 @@ import numpy as np
 
 from ..model.interface import with_unit
 from ..sim.signals import signals_of
+from ..sim.stimuli import REFERENCE_SPAN
 from .plant_roles import driven_coordinate
 
 STANDSTILL = {"m/s": 0.005, "rad/s": 0.05}   # per rate unit: below this the body counts as standing
 SMALL_SWING = 0.3            # rad from the angle's zero
-LOW_DRIVE = 0.5              # input units from its centre
+LOW_DRIVE = 0.5              # input units from its centre (of a range spanning REFERENCE_SPAN or more)
 TRACK_END = {"m": 0.25}      # per position unit: beyond this the body is near an end of its travel
 SATURATION_MARGIN = 0.005    # fraction of the input range's span
 CENTRE_NAME = "input_centre"  # what reports call the input's centre when no parameter holds it
@@ -83,6 +86,12 @@ def swing_angle(plant) -> str | None:
     return free[-1] if free else (sig.periodic[-1] if sig.periodic else None)
 
 
+def low_drive_of(drive) -> float:
+    """The weak-drive bound of an input whose range is ``drive``: ``LOW_DRIVE``, or its share of a
+    span narrower than ``REFERENCE_SPAN`` (every sample of a 0-1 duty cycle was 'weak' at 0.5)."""
+    return LOW_DRIVE * min(1.0, drive.span / REFERENCE_SPAN)
+
+
 def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_name: str = CENTRE_NAME) -> list:
     """``[(partition, [(name, definition, mask), ...]), ...]``; each partition's masks cover
     every sample exactly once. ``measured`` holds the data's positions and rates by state name
@@ -118,10 +127,11 @@ def regime_partitions(plant, measured: dict, u, centre: float, skip=(), centre_n
     name = spec.name
     about = f"|{name} - {centre_name}|" if centre else f"|{name}|"
     where = f", {centre_name} = {with_unit(f'{centre:.4g}', spec.unit)}" if centre else ""
-    weak = with_unit(f"{LOW_DRIVE:g}", spec.unit)
+    low_drive = low_drive_of(spec.range)
+    weak = with_unit(f"{low_drive:g}", spec.unit)
     out.append(("drive", [
-        ("weak drive", f"{about} < {weak}{where}", e < LOW_DRIVE),
-        ("strong drive", f"{about} >= {weak}", e >= LOW_DRIVE)]))
+        ("weak drive", f"{about} < {weak}{where}", e < low_drive),
+        ("strong drive", f"{about} >= {weak}", e >= low_drive)]))
     for p in [p for p in sig.positions if sig.period(p) is None and p in measured and sig.unit(p) in TRACK_END]:
         end = TRACK_END[sig.unit(p)]
         x = np.abs(np.asarray(measured[p], dtype=np.float64))
