@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from buck_plant import FAST, buck_toml
 from cli_capture import run_cli
 from pendc.ident.horizon import DEFAULT_HORIZON, MIN_SEGMENTS, horizon_for, segment_count
 from pendc.model.modelfile import load_model
@@ -22,71 +23,6 @@ from pendc.sim.measurements import format_csv, read_measurements
 from pendc.sim.readers import ReadOptions
 from pendc.sim.signals import signals_of
 
-BUCK = """
-[plant]
-name = "buck"
-core = "buck_core"
-summary = "averaged DC-DC buck converter, duty-cycle input, resistive load"
-V_g = 12.0
-L_f = {L}
-C_f = {C}
-R_L = 0.02
-R_o = 2.5
-
-[constants]
-V_g = {{ unit = "V", meaning = "input voltage", bounds = [1.0, 60.0] }}
-L_f = {{ unit = "H", meaning = "filter inductance", bounds = [1e-7, 1e2] }}
-C_f = {{ unit = "F", meaning = "output capacitance", bounds = [1e-7, 1e2] }}
-R_L = {{ unit = "ohm", meaning = "winding and switch resistance", bounds = [0.0, 1.0] }}
-R_o = {{ unit = "ohm", meaning = "load resistance", bounds = [0.1, 1000.0] }}
-
-[states.i_L]
-unit = "A"
-meaning = "inductor current (A)"
-derivative = "(d*V_g - v_C - R_L*i_L)/L_f"
-initial = 2.0
-range = [-5.0, 30.0]
-
-[states.v_C]
-unit = "V"
-meaning = "output capacitor voltage (V)"
-derivative = "(i_L - v_C/R_o)/C_f"
-initial = 5.0
-range = [0.0, 20.0]
-
-[inputs.d]
-unit = "-"
-meaning = "switch duty cycle (0..1)"
-range = [0.0, 1.0]
-neutral = 0.42
-
-[sensors.adc_v]
-kind = "adc"
-state = "v_C"
-bits = 12
-range = [0.0, 20.0]
-
-[sensors.adc_i]
-kind = "adc"
-state = "i_L"
-bits = 12
-range = [-10.0, 30.0]
-
-[catalogue.duty_dead_zone]
-kind = "dead_zone"
-on = "d"
-width = "d_dz"
-params.d_dz = {{ unit = "-", meaning = "duty lost to dead time", default = 0.01, bounds = [0.0, 0.2] }}
-summary = "dead time eats part of the commanded duty"
-
-[catalogue.v_offset]
-kind = "offset"
-on = "v_C"
-offset = "v_os"
-params.v_os = {{ unit = "V", meaning = "output voltage sense offset", default = 0.0, bounds = [-1.0, 1.0] }}
-summary = "offset of the output voltage converter"
-"""
-FAST = dict(L=22e-6, C=100e-6)     # fastest mode 3.4 kHz: 10 time constants are 0.47 ms
 SLOW = dict(L=22e-2, C=1e-1)       # the same circuit a thousand times slower: 0.47 s
 OFFSET = 0.05                      # V, hidden on the v_C converter (10 codes)
 RATE = 100e3                       # Hz
@@ -97,7 +33,7 @@ def write_buck_run(folder, offset: float = OFFSET):
     """The buck's model file (fast), and 0.1 s at 100 kHz of random 1-5 ms duty steps about 0.42
     with ``offset`` (V) on the v_C converter: ``(model, data)`` paths."""
     model = folder / "buck.toml"
-    model.write_text(BUCK.format(**FAST))
+    model.write_text(buck_toml(**FAST))
     vg, L, C, rl, ro = 12.0, FAST["L"], FAST["C"], 0.02, 2.5
     A = np.array([[-rl / L, -1 / L], [1 / C, -1 / (ro * C)]])
     B = np.array([vg / L, 0.0])
@@ -147,7 +83,7 @@ def test_a_fast_plants_short_record_gets_a_shorter_horizon(files, tmp_path):
     # the same record with a plant a thousand times slower: ten of its time constants (0.47 s)
     # do not fit in a shorter segment, so the half second stays
     slow = tmp_path / "slow.toml"
-    slow.write_text(BUCK.format(**SLOW))
+    slow.write_text(buck_toml(**SLOW))
     slow_model = load_model(slow)
     assert horizon_for([record], signals_of(slow_model), slow_model) == (DEFAULT_HORIZON, "")
     assert horizon_for([record], signals_of(model)) == (DEFAULT_HORIZON, "")    # no model: no plant to judge

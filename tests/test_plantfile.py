@@ -9,6 +9,7 @@ import pytest
 import sympy as sp
 
 import pendc
+from buck_plant import buck_toml
 from pendc.errors import PendcError
 from pendc.model.modelfile import model_fingerprint, parse_model
 from pendc.model.model_writer import dumps_model
@@ -293,47 +294,8 @@ def test_an_energy_of_the_wrong_unit_is_named_at_its_key():
 
 
 # a buck converter's averaged equations: a dimensionless input (the duty cycle) and a resistance
-# an ideal switch makes 0 (the blind check's buck.toml, cut to what the tests below read)
-BUCK = """
-[plant]
-name = "buck"
-V_g = 12.0
-L_f = 22e-6
-C_f = 100e-6
-R_L = 0.02
-R_o = 2.5
-
-[constants]
-V_g = { unit = "V", meaning = "input voltage", bounds = [1.0, 60.0] }
-L_f = { unit = "H", meaning = "filter inductance", bounds = [1e-7, 1e-2] }
-C_f = { unit = "F", meaning = "output capacitance", bounds = [1e-7, 1e-1] }
-R_L = { unit = "ohm", meaning = "winding and switch resistance", bounds = [0.0, 1.0] }
-R_o = { unit = "ohm", meaning = "load resistance", bounds = [0.1, 1000.0] }
-
-[states.i_L]
-unit = "A"
-meaning = "inductor current (A)"
-derivative = "(d*V_g - v_C - R_L*i_L)/L_f"
-initial = 2.0
-
-[states.v_C]
-unit = "V"
-meaning = "output voltage (V)"
-derivative = "(i_L - v_C/R_o)/C_f"
-initial = 5.0
-
-[inputs.d]
-unit = "-"
-meaning = "duty cycle"
-range = [0.0, 1.0]
-neutral = 0.42
-
-[sensors.adc_v]
-kind = "adc"
-state = "v_C"
-bits = 12
-range = [0.0, 20.0]
-"""
+# an ideal switch makes 0
+BUCK = buck_toml()
 
 
 def test_a_constant_whose_bounds_start_at_0_may_be_0():
@@ -362,8 +324,8 @@ def test_a_refused_0_says_why_and_what_to_do():
     assert str(info.value) == ("m.toml: plant.R must be positive, got 0.0: a constant declared without bounds is "
                                "positive; to allow 0, declare its bounds (constants.R.bounds = [low, high])")
     with pytest.raises(PendcError, match=r"^b\.toml: plant\.C_f must be positive, got 0\.0: its bounds are "
-                                         r"\[1e-07, 0\.1\] F$"):
-        parse_model(BUCK.replace("C_f = 100e-6", "C_f = 0.0"), "b.toml")
+                                         r"\[1e-07, 100\] F$"):
+        parse_model(buck_toml(C=0.0), "b.toml")
 
 
 def test_plant_check_prints_a_dimensionless_input_without_a_dash(tmp_path, capsys):
@@ -373,5 +335,5 @@ def test_plant_check_prints_a_dimensionless_input_without_a_dash(tmp_path, capsy
     path.write_text(BUCK, encoding="utf-8")
     assert main(["plant", "check", str(path)]) == 0
     out = capsys.readouterr().out
-    assert "  d [dimensionless] duty cycle; range 0-1\n" in out, out
-    assert "  v_C [V] output voltage (V)" in out and " -\n" not in out and "[-]" not in out
+    assert "  d [dimensionless] switch duty cycle (0..1); range 0-1\n" in out, out
+    assert "  v_C [V] output capacitor voltage (V)" in out and " -\n" not in out and "[-]" not in out

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
+from buck_plant import buck_toml
 from pendc.errors import PendcError
 from pendc.sim.resample import MAX_GAP_S, regrid
 
@@ -65,53 +66,7 @@ def test_uniform_file_below_1khz_is_untouched_and_rate_is_honoured():
 # held on each), not by pendc. Its centred block means applied the duty half an output interval
 # late (10 us at 50 kHz: 12 degrees of the mode), and the exact model scored 90 % on its own data.
 
-BUCK = """
-[plant]
-name = "buck"
-core = "buck_core"
-summary = "averaged DC-DC buck converter, duty-cycle input, resistive load"
-V_g = 12.0
-L_f = 22e-6
-C_f = 100e-6
-R_L = 0.02
-R_o = 2.5
-
-[constants]
-V_g = { unit = "V", meaning = "input voltage" }
-L_f = { unit = "H", meaning = "filter inductance" }
-C_f = { unit = "F", meaning = "output capacitance" }
-R_L = { unit = "ohm", meaning = "winding resistance" }
-R_o = { unit = "ohm", meaning = "load" }
-
-[states.i_L]
-unit = "A"
-meaning = "inductor current (A)"
-derivative = "(d*V_g - v_C - R_L*i_L)/L_f"
-initial = 2.0
-
-[states.v_C]
-unit = "V"
-meaning = "output capacitor voltage (V)"
-derivative = "(i_L - v_C/R_o)/C_f"
-initial = 5.0
-
-[inputs.d]
-unit = "-"
-meaning = "switch duty cycle"
-range = [0.0, 1.0]
-
-[sensors.adc_v]
-kind = "adc"
-state = "v_C"
-bits = 12
-range = [0.0, 20.0]
-
-[sensors.adc_i]
-kind = "adc"
-state = "i_L"
-bits = 12
-range = [-10.0, 30.0]
-"""
+BUCK = buck_toml()
 BUCK_STEP = 1e-5            # 100 kHz
 
 
