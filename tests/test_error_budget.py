@@ -15,7 +15,6 @@ from pendc.passes.error_budget import (MAX_WIDEN, WIDEN_STEP, check_stimuli, com
                                        float_twin, interpolation_error, meet_error_budget)
 from pendc.caching.build_cache import compile_cached
 from pendc.passes.pipeline import BuildOptions, compile_model
-from pendc.cli.heldout import CLASSES, format_budget, held_out_check, held_out_stimuli
 from pendc.passes.segmented_error import Decisions, compare_segmented
 from pendc.sim.stimuli import Stimuli
 from pendc.passes.qformats import assign_qformats
@@ -395,33 +394,3 @@ def test_a_held_input_feeds_its_rounding_back(build):
     seen = CompiledGraph(g).run({"u": ins}, record=(cast.name,)).outputs[cast.name] * cast.qformat.lsb
     assert abs(np.round(volts / cast.qformat.lsb) * cast.qformat.lsb - volts) > cast.qformat.lsb / 4
     assert abs(seen.mean() - volts) < cast.qformat.lsb / 1000
-
-
-def test_held_out_check_runs_one_input_per_class(build):
-    rep = held_out_check(build)
-    assert rep["seconds"] == build.error.seconds and rep["form"] == build.error.form
-    assert tuple(rep["stimuli"]) == CLASSES and not rep["skipped"] and rep["overflow"] is None
-    stimuli, _ = held_out_stimuli(build, rep["seconds"])
-    checks = check_stimuli(DEFAULT.interface.input, rep["seconds"])
-    for name, (t, u) in stimuli.items():                # none of them is a check stimulus
-        assert not any(len(u) == len(c) and np.allclose(u, c) for _, c in checks.values()), name
-    runs = compare_segmented(build.graph, stimuli, DT)
-    for name, r in rep["stimuli"].items():               # the report's numbers are the comparison's
-        assert r["errors"] == runs[name].segmented and r["plain"] == runs[name].plain
-        assert r["met"] == all(r["errors"][s] <= b for s, b in rep["budgets"].items()), name
-        if name != "tap":        # the SCT cart's static friction holds it against the tap: both runs stay
-            assert r["errors"]["x"] > 0 and r["errors"]["theta"] > 0
-    t, u = stimuli["tap"]
-    neutral, span = DEFAULT.interface.input.neutral, DEFAULT.interface.input.hi - DEFAULT.interface.input.lo
-    assert np.allclose(u[t < 0.02], neutral + 0.001 * span) and np.all(u[t >= 0.02] == neutral)
-    assert rep["met"]
-    text = "\n".join(format_budget(build.error.to_json(), rep))
-    assert "held out" in text and all(name in text for name in CLASSES) and "OVER" not in text
-
-
-def test_held_out_check_fails_on_a_shrunk_budget(build):
-    small = {s: b / 1000 for s, b in build.error.budgets.items()}
-    rep = held_out_check(build, budgets=small)
-    assert not rep["met"] and all("x" in r["over"] and not r["met"] for c, r in rep["stimuli"].items() if c != "tap")
-    assert rep["stimuli"]["tap"]["met"]          # x and theta exactly 0 in both runs: the cart sticks
-    assert "NOT met" in "\n".join(format_budget(build.error.to_json(), rep))
