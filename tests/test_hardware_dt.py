@@ -124,3 +124,13 @@ def test_robust_plants_step_as_the_core(plant_file):
     # the golden sweep's template: its build (cached by the hil test) checked against the file's step
     template = RetypeTemplate.of(parse_model(RC))
     assert template.build.options.dt == DT and template.plant({"tau": 1.1e-4}).dt == DT
+
+
+@pytest.mark.parametrize("dt", ["0.0", "-1e-6", "nan", "0.1"])
+def test_a_step_that_is_no_step_is_one_line(dt, tmp_path, capsys):
+    """Round I: dt = 0 was a ZeroDivisionError traceback in plant check, -1e-6 and nan passed it."""
+    path = tmp_path / "rc.toml"
+    path.write_text(RC.replace(f"dt = {DT}", f"dt = {dt}"), encoding="utf-8")
+    rc, out, err = run_cli(capsys, "plant", "check", str(path))
+    assert rc == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert f"{path}: [hardware] dt must be a step in (0, 0.01] s, got" in err

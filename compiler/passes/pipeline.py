@@ -11,6 +11,8 @@ know of the plant (states, input, encoders, error tolerances) is the model's pla
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field, fields
 
 from ..errors import PendcError
@@ -34,6 +36,7 @@ from .resources import Resources, estimate_resources
 from .round_early import round_operands_early
 from .tabulate import fill_lut_tables, tabulate_luts
 
+MAX_DT = 0.01     # s: the longest core step (the float simulator's bound too)
 # The model file spells a state's tolerance ``budget_<state> = ...`` in [hardware] (the older
 # form), or ``[hardware.budget] <state> = ...``; both end in BuildOptions.budget.
 BUDGET_ALIAS = "budget_"
@@ -199,6 +202,9 @@ def validate_options(values) -> BuildOptions:
                          f"got {addr_bits}")
     if table.get("target", defaults.target) not in MULT_SHAPES:
         raise PendcError(f"[hardware] target must be one of {', '.join(MULT_SHAPES)}, got {table['target']!r}")
+    dt = table.get("dt", defaults.dt)
+    if not (math.isfinite(dt) and 0 < dt <= MAX_DT):        # Euler's growth divides by it; a nan passed every test
+        raise PendcError(f"[hardware] dt must be a step in (0, {MAX_DT:g}] s, got {dt!r}")
     if table.get("hold_seconds", 0.0) < 0:
         raise PendcError(f"[hardware] hold_seconds must be 0 (off) or positive, got {table['hold_seconds']!r}")
     for state, value in table.get("budget", {}).items():
