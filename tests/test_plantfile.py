@@ -337,3 +337,14 @@ def test_plant_check_prints_a_dimensionless_input_without_a_dash(tmp_path, capsy
     out = capsys.readouterr().out
     assert "  d [dimensionless] switch duty cycle (0..1); range 0-1\n" in out, out
     assert "  v_C [V] output capacitor voltage (V)" in out and " -\n" not in out and "[-]" not in out
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ('core = "buck_core"', 'core = "module"', "plant: 'module' is a Verilog keyword and cannot name a core"),
+    ("[sensors.adc_v]", "[sensors.wire]", "sensors: 'wire' is a Verilog keyword and cannot name a sensor"),
+    ("[sensors.adc_i]", "[sensors.step]", "sensors: 'step' is a port every core has"),
+])
+def test_a_name_verilog_reserves_is_one_line(old, new, says):
+    """Round I: a core named module built `module module (`, a state named step a traceback."""
+    with pytest.raises(PendcError, match=f"^b\\.toml: {re.escape(says)}"):
+        parse_model(BUCK.replace(old, new), "b.toml")

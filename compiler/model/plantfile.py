@@ -40,7 +40,7 @@ def read_definition(doc: dict, source: str) -> PlantDefinition:
     name = plant.string("name", required=True)
     check_identifier(plant, name, "plant")
     core = plant.string("core", f"{name}_core")
-    check_identifier(plant, core, "core")
+    check_identifier(plant, core, "core", hdl=True)
     summary = plant.string("summary", name)
 
     constants = {}
@@ -91,7 +91,7 @@ def _inputs(top: TableReader) -> tuple:
         r.fail("declares no input")
     out = []
     for name in r.table:
-        check_identifier(r, name, "input")
+        check_identifier(r, name, "input", hdl=True)
         i = r.sub(name)
         i.only(("unit", "meaning", "range", "neutral"))
         lo, hi = i.pair("range", required=True)
@@ -117,7 +117,7 @@ def _entries(top: TableReader, key: str, what: str):
     if not r.table:
         r.fail(f"declares no {what}")
     for name in r.table:
-        check_identifier(r, name, what)
+        check_identifier(r, name, what, hdl=True)
         yield name, r.sub(name)
 
 
@@ -289,7 +289,7 @@ def _sensors(top: TableReader, states, rates=()) -> tuple:
     if r is None:
         return ()
     for name in r.table:
-        check_identifier(r, name, "sensor")
+        check_identifier(r, name, "sensor", hdl=True)
         s = r.sub(name)
         kind = s.string("kind", ENCODER)
         if kind not in SENSOR_KEYS:

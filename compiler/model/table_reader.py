@@ -107,9 +107,34 @@ def kind_of(v) -> str:
             dict: "a table"}.get(type(v), type(v).__name__)
 
 
-def check_identifier(r: TableReader, name: str, what: str):
+# Verilog-2005 keywords (IEEE 1364-2005 Annex B) and SystemVerilog's common ones, which a
+# Verilator or a vendor tool reading the core as SystemVerilog reserves too; and the ports every
+# core has. A name that becomes a Verilog identifier (the core, the input, a state, a sensor)
+# must be none of them: `module module (` and a state named `step` built Verilog that did not
+# parse, or a traceback (round I).
+VERILOG_WORDS = frozenset("""
+always and assign automatic begin buf bufif0 bufif1 case casex casez cell cmos config deassign default
+defparam design disable edge else end endcase endconfig endfunction endgenerate endmodule endprimitive
+endspecify endtable endtask event for force forever fork function generate genvar highz0 highz1 if
+ifnone incdir include initial inout input instance integer join large liblist library localparam
+macromodule medium module nand negedge nmos nor noshowcancelled not notif0 notif1 or output parameter
+pmos posedge primitive pull0 pull1 pulldown pullup pulsestyle_onevent pulsestyle_ondetect rcmos real
+realtime reg release repeat rnmos rpmos rtran rtranif0 rtranif1 scalared showcancelled signed small
+specify specparam strong0 strong1 supply0 supply1 table task time tran tranif0 tranif1 tri tri0 tri1
+triand trior trireg unsigned use uwire vectored wait wand weak0 weak1 while wire wor xnor xor
+bit byte logic int shortint longint string class struct union enum typedef interface package
+""".split())
+CORE_PORTS = frozenset(("clk", "rst", "step", "ready", "overflow"))
+
+
+def check_identifier(r: TableReader, name: str, what: str, hdl: bool = False):
+    """A valid name; ``hdl``: one that becomes a Verilog identifier of the core."""
     if not name.isidentifier() or name.startswith("_"):
         r.fail(f"'{name}' is not a valid {what} name (letters, digits and _, not starting with a digit or _)")
+    if hdl and name.lower() in VERILOG_WORDS:
+        r.fail(f"'{name}' is a Verilog keyword and cannot name a {what} (it names a port or module of the core)")
+    if hdl and name in CORE_PORTS:
+        r.fail(f"'{name}' is a port every core has ({', '.join(sorted(CORE_PORTS))}): choose another {what} name")
 
 
 def read_param(r: TableReader, name: str, positive_default: bool) -> Param:
