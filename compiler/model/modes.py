@@ -90,9 +90,23 @@ def euler_shortfall(model: PlantModel, dt: float, core_dt: float | None = None) 
     grow, decay = euler_growth(lam, dt), -complex(lam).real
     if lam == 0 or decay <= 0 or grow <= 0.05 * decay:
         return None
+    if euler_unstable(lam, dt):
+        return f"the plant's fastest mode ({abs(lam) / (2 * math.pi):.4g} Hz): {euler_unstable(lam, dt)}"
     core = ", as the core does" if core_dt is None or core_dt == dt else f" (the core steps {core_dt:g} s)"
     return (f"forward Euler at {dt:g} s takes {100 * grow / decay:.0f} % of the damping of the plant's fastest "
             f"mode ({abs(lam) / (2 * math.pi):.4g} Hz) away{core}; --method rk4 follows the equations")
+
+
+def euler_unstable(eigenvalue: complex, dt: float) -> str | None:
+    """Words for a decaying mode that forward Euler at ``dt`` makes grow (|1 + lambda dt| > 1: the
+    core diverges where the equations settle) with the largest step that keeps it decaying;
+    None when Euler keeps it decaying."""
+    lam = complex(eigenvalue)
+    if lam.real >= 0 or abs(1 + lam * dt) <= 1.0:
+        return None
+    stable = -2.0 * lam.real / abs(lam) ** 2
+    return (f"forward Euler at {dt:g} s is unstable for it (|1 + lambda dt| = {abs(1 + lam * dt):.3g} > 1): the "
+            f"core diverges where the equations settle; [hardware] dt must be below {stable:.3g} s")
 
 
 def euler_note(model: PlantModel, dt: float) -> str:
@@ -101,6 +115,9 @@ def euler_note(model: PlantModel, dt: float) -> str:
     head = f"core integrator: forward Euler at {dt:g} s"
     if lam == 0:
         return head + "; no dynamics at the start state"
+    unstable = euler_unstable(lam, dt)
+    if unstable:
+        return f"{head}; fastest mode at the start state: {mode_words(lam)}; {unstable}"
     grow, decay = euler_growth(lam, dt), -complex(lam).real
     line = f"{head}; fastest mode at the start state: {mode_words(lam)}; Euler adds {grow:.3g} /s of growth to it"
     if decay > 0 and grow > 0.05 * decay:
