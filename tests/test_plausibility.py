@@ -60,3 +60,16 @@ def test_a_fast_real_pole_needs_no_samples_a_period():
     m = parse_measurements(format_csv({"t": t, "v": np.sin(t), "phi": 0.1 * t}),
                            options=ReadOptions(plant=model, plausible=True))
     assert len(m.t) == len(t)
+
+
+def test_a_file_pendc_wrote_is_in_seconds(tmp_path, capsys):
+    """Round I: pendc simulate's own 1 kHz output of a fast plant was called milliseconds, and the
+    advice (--t-unit ms) made a 20 ms record of it. A file pendc wrote is seconds: the line says so
+    and how to make a faster one."""
+    model, data = write_buck(tmp_path, every=100)              # 1 kHz
+    ours = tmp_path / "ours.csv"
+    ours.write_text("# generator: pendc simulate\n" + Path(data).read_text())
+    rc, out, err = run_cli(capsys, "compare", ours, "--model", model)
+    line = _error(err)
+    assert rc == 2 and "(pendc wrote it: seconds)" in line and "looks like milliseconds" not in line
+    assert "pendc simulate writes one row per input row, so give it an input sampled at 33.84 kHz or more" in line

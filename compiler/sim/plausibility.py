@@ -94,19 +94,20 @@ def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest=None) -> N
     stride = max(1, len(t) // 1_000_000)
     step = float(np.median(np.diff(t[::stride]))) / stride  # spread over the run, no full-length copy
     lam = complex(fastest()) if fastest is not None else 0j
+    ours = table.meta.get("generator", "").strip().startswith("pendc")    # pendc writes seconds
     mode = abs(lam) / (2 * math.pi)
     need = MIN_RATE if not mode > 0 else min(MIN_RATE, 10.0 * mode)
-    if not given and step >= 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
+    if not (given or ours) and step >= 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
         unit = "milliseconds" if step * 1e-3 < 1.0 / MIN_RATE else "microseconds"
         why = (f"ten samples a period of the plant's fastest mode, {mode:.3g} Hz, need {need:.3g} Hz" if mode > 0
                else f"sampling slower than {MIN_RATE:g} Hz cannot record a swing")
         raise PendcError(f"{table.source}: t looks like {unit} (median step {step:g}, last t = {float(t[-1]):g}; "
                          f"{why}): use --t-unit {'ms' if unit == 'milliseconds' else 'us'}, or --t-unit s if it is "
                          f"seconds")
-    check_nyquist(table, t, step, given, lam)
+    check_nyquist(table, t, step, given, lam, ours)
 
 
-def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: complex) -> None:
+def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: complex, ours: bool = False) -> None:
     """Fewer than two samples a period of the fastest mode's oscillation (eigenvalue ``lam``): it
     aliases, and no model can be fitted; a real pole has no period (a motor's 2 kHz electrical
     corner is recorded at 1 kHz as an instant). When milliseconds or microseconds would sample
@@ -121,6 +122,10 @@ def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: co
                  span * f * ring >= MODE_PERIODS), None)
     mode = (f"fewer than 2 samples a period of the plant's fastest mode, a {ring:.4g} Hz oscillation (Nyquist "
             f"{hertz(2 * ring)}, ten samples a period {hertz(10 * ring)})")
+    if ours:      # a file pendc wrote is in seconds: its rows are its input's (pendc simulate)
+        raise PendcError(f"{table.source}: t is sampled at {hertz(1 / step)} (pendc wrote it: seconds), {mode}: "
+                         f"record faster: pendc simulate writes one row per input row, so give it an input "
+                         f"sampled at {hertz(10 * ring)} or more")
     if unit is not None and not given:
         raise PendcError(f"{table.source}: t looks like {_SPELLED_T[unit]} (median step {step:g}, last t = "
                          f"{float(t[-1]):g}; in seconds it is sampled at {hertz(1 / step)}, {mode}): use --t-unit "
