@@ -134,3 +134,15 @@ def test_a_step_that_is_no_step_is_one_line(dt, tmp_path, capsys):
     rc, out, err = run_cli(capsys, "plant", "check", str(path))
     assert rc == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     assert f"{path}: [hardware] dt must be a step in (0, 0.01] s, got" in err
+
+
+def test_an_operating_point_a_converter_cannot_read_is_one_line(tmp_path, capsys):
+    """Round I: a boost's point at 90 V beyond its converter's 64 V passed, and the LQR, reading the
+    clipped code, missed the point by 26 V without a word."""
+    path = tmp_path / "rc.toml"
+    path.write_text(RC.replace("bits = 12\nrange = [-1.0, 11.0]", "bits = 12\nrange = [6.0, 11.0]"), encoding="utf-8")
+    rc, out, err = run_cli(capsys, "hil", "--model", str(path), "--controller", "lqr", "--plant", "float",
+                           "--seconds", "0.01", "--out", str(tmp_path / "out"))
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert ("operating point 'half' of plant 'rc': v = 5 V lies outside the range of its converter adc_v, "
+            "[6, 11] V: it reads clipped there" in err)

@@ -117,6 +117,13 @@ def measured_coordinates(model: PlantModel, state: dict, point: str) -> tuple:
     coords, seen = [], set()
     for p in ports.measured:
         spec = iface.state(p)
+        sensor = iface.sensor_of(p)
+        if sensor is not None and sensor.is_adc and not sensor.lo <= state[p] <= sensor.hi:
+            # the converter clips: the LQR would read its end and miss the point by what lies beyond
+            raise PendcError(f"operating point '{point}' of plant '{iface.name}': {p} = "
+                             f"{with_unit(f'{state[p]:.4g}', spec.unit)} lies outside the range of its converter "
+                             f"{sensor.name}, {with_unit(f'[{sensor.lo:g}, {sensor.hi:g}]', spec.unit)}: it reads "
+                             f"clipped there; widen the converter's range or move the point")
         rate = next((s.name for s in iface.states if s.derivative_of == p), None)
         coords.append(MeasuredCoordinate(
             position=p, rate=rate, index=states.index(p), rate_index=states.index(rate) if rate else None,
