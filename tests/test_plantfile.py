@@ -348,3 +348,14 @@ def test_a_name_verilog_reserves_is_one_line(old, new, says):
     """Round I: a core named module built `module module (`, a state named step a traceback."""
     with pytest.raises(PendcError, match=f"^b\\.toml: {re.escape(says)}"):
         parse_model(BUCK.replace(old, new), "b.toml")
+
+
+def test_a_singular_mass_matrix_from_energies_names_the_kinetic_energy():
+    """Round I: a kinetic energy without the elbow's rate was blamed on "bodies:" in a file that has none."""
+    text = (Path(__file__).parent / "data" / "pendubot.toml").read_text(encoding="utf-8")
+    bad = text.replace('kinetic = "th1*dq1^2/2 + th2*(dq1 + dq2)^2/2 + th3*cos(q2)*dq1*(dq1 + dq2)"',
+                       'kinetic = "th1*dq1^2/2"')
+    assert bad != text
+    with pytest.raises(PendcError, match=r"^pendubot\.toml: mechanics\.kinetic: the mass matrix is singular .*"
+                                         r"every coordinate's rate appears squared\)$"):
+        parse_model(bad, source="pendubot.toml").equations

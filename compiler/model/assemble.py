@@ -226,8 +226,11 @@ def _mechanical(ctx, experiment, drive_out):
     if not held and not experiment.removed:
         mech = _mechanism(ctx)
         if mech.det == 0:
-            raise PendcError(f"{ctx.where}: bodies: the mass matrix is singular (a coordinate has no inertia of its "
-                             f"own: give every coordinate a mass or inertia that moves with it)")
+            where = "mechanics.kinetic" if d.kinetic else "bodies"    # the table that wrote the inertias
+            fix = ("write a kinetic energy in which every coordinate's rate appears squared"
+                   if d.kinetic else "give every coordinate a mass or inertia that moves with it")
+            raise PendcError(f"{ctx.where}: {where}: the mass matrix is singular (a coordinate has no inertia of its "
+                             f"own: {fix})")
         det = ctx.bind(d.determinant, mech.det)
         accels = [ctx.bind(f"dd{c.name}", num.subs(dict(zip(mech.forces, forces))) / det)
                   for c, num in zip(d.coordinates, mech.numerators)]
