@@ -23,8 +23,8 @@ START_OFFSET_OTHER = 0.01
 def start_moved(model: PlantModel, ports) -> str | None:
     """The measured state ``pendc hil --start`` moves: the pendulum if the plant is one pendulum
     on a driven coordinate (whichever the file declares first), else the last measured position
-    with a rate (the far end of the chain: a top link, a ball; not a coil's current), else the
-    last measured state."""
+    with a rate (the far end of the chain: a top link, a ball), else the last measured state in the
+    order of the file's sensors."""
     from .pendulum_roles import pendulum_roles
 
     try:
