@@ -53,7 +53,6 @@ def _check_out_folder(out: str) -> None:
 def cmd_hil(args) -> int:
     from ..hil.controllers.controller_spec import make_controller
     from ..hil.loop import run_closed_loop
-    from ..passes.pipeline import core_step
     from ..hil.controllers.operating_point_lqr import OperatingPointLqr
     from ..hil.controllers.start_point import hold_keys, hold_summary, point_hold, start_state
     from ..hil.plants.plant import make_plant, start_counts
@@ -75,7 +74,7 @@ def cmd_hil(args) -> int:
     initial = start_state(model, args.start) if args.start else None
     if initial is not None:
         meta["start"] = args.start
-    plant = make_plant(args.plant, model, dt=core_step(model),
+    plant = make_plant(args.plant, model,
                        **({"initial": initial} if initial is not None else {}))
     _note_offsets(model, f"the {args.plant} plant")
     origin = start_counts(plant.ports, initial)

@@ -18,7 +18,6 @@ import numpy as np
 
 from ..model.modelfile import load_model
 from .controllers.measurement import wrap_upright
-from ..passes.pipeline import core_step
 from .plants.plant import make_plant
 from .records import write_bytes_atomic
 from .scenarios import balance_activity, model_mismatch
@@ -89,7 +88,7 @@ def main(argv=None) -> int:
     ap.add_argument("--plant", default="float", choices=("float", "golden"))
     args = ap.parse_args(argv)
     design, truth = load_model(args.design), load_model(args.truth)
-    results = model_mismatch(lambda m: make_plant(args.plant, m, dt=core_step(m)), design, truth, plant_name=args.plant)
+    results = model_mismatch(lambda m: make_plant(args.plant, m), design, truth, plant_name=args.plant)
     write_bytes_atomic(Path(args.output), figure_png(results))
     print(table(results))
     return 0
