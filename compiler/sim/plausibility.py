@@ -84,6 +84,11 @@ def check_time(table: Table, t: np.ndarray, label: str = "t") -> None:
     raise PendcError(f"{table.source}: {table.where(k)}: {kind}; {label} must be strictly increasing")
 
 
+def written_by_pendc(table: Table) -> bool:
+    """Whether ``table``'s header says pendc wrote it (``# generator: pendc ...``): seconds, radians."""
+    return table.meta.get("generator", "").strip().startswith("pendc")
+
+
 def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest=None) -> None:
     """Refuse times that cannot be seconds. ``fastest()`` is the plant's fastest eigenvalue (1/s,
     complex; when a model is known). Sampling slower than MIN_RATE, and slower than ten samples a
@@ -94,7 +99,7 @@ def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest=None) -> N
     stride = max(1, len(t) // 1_000_000)
     step = float(np.median(np.diff(t[::stride]))) / stride  # spread over the run, no full-length copy
     lam = complex(fastest()) if fastest is not None else 0j
-    ours = table.meta.get("generator", "").strip().startswith("pendc")    # pendc writes seconds
+    ours = written_by_pendc(table)    # pendc writes seconds
     mode = abs(lam) / (2 * math.pi)
     need = MIN_RATE if not mode > 0 else min(MIN_RATE, 10.0 * mode)
     if not (given or ours) and step >= 1.0 / need:    # a slow plant (a heater's minutes) is recorded slowly
@@ -223,7 +228,7 @@ def check_radians(table: Table, t: np.ndarray, angle: np.ndarray, given: bool, n
     # spinning wheel's, not degrees: its magnitude follows from its speed
     spinning = MAX_RAD_RATE < rate <= rate_limit
     # pendc writes radians: its own simulation of a link that whirls is not a unit mistake
-    ours = table.meta.get("generator", "").strip().startswith("pendc")
+    ours = written_by_pendc(table)
     if unit in _DEG_UNITS and not given:
         why = f"metadata {name}_unit: {unit}"
     elif not ours and ((peak > 200.0 and not spinning) or (peak > 2 * math.pi and rate > rate_limit)):
