@@ -136,7 +136,7 @@ def _hostile():
                                                   'derivative = "(v - R*i - k*omega)/L_a"\ntraining_rate = 3.0'),
          r"states\.i\.training_rate: is for a rate state"),
         ("state equation of the wrong unit", m.replace('derivative = "omega"', 'derivative = "omega*J"'),
-         r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s, expected 1/s"),
+         r"states\.phi\.derivative: d/dt phi has units of kg\*m\^2/s \(J\*s\), expected 1/s"),
         ("neutral outside the range", t.replace("range = [-20.0, 20.0]", "range = [-20.0, 20.0]\nneutral = 30.0"),
          r"inputs\.F\.neutral: neutral 30 lies outside the range"),
         ("drawing of an unknown symbol", t.replace('points = { cart = ["x", 0]', 'points = { cart = ["xx", 0]'),

@@ -166,11 +166,15 @@ def test_check_same():
     check_same(force, sp.Integer(0), DIMS, "w", "force")       # zero fits any quantity
     with pytest.raises(PendcError) as info:
         check_same(force, SYMS["M"] * SYMS["dx"], DIMS, "effects.drive", "the force")
-    assert str(info.value) == ("effects.drive: the force has units of kg*m/s, "
+    assert str(info.value) == ("effects.drive: the force has units of kg*m/s (N*s), "
                                "expected kg*m/s^2 (N)")
     with pytest.raises(PendcError) as info:      # a derived unit is named as the user wrote it
         check_same(parse_unit("V", "w"), SYMS["M"], DIMS, "states.vC", "d/dt vC")
     assert str(info.value) == "states.vC: d/dt vC has units of kg, expected kg*m^2/(s^3*A) (V)"
+    with pytest.raises(PendcError) as info:      # a state's derivative: its unit per second
+        check_same(parse_unit("V/s", "w"), SYMS["M"],
+                   DIMS, "states.vC", "d/dt vC")
+    assert str(info.value) == "states.vC: d/dt vC has units of kg, expected kg*m^2/(s^4*A) (V/s)"
 
 
 def test_the_unit_table_is_sympys_and_is_kept_between_processes(tmp_path):

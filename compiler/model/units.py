@@ -240,11 +240,16 @@ _NAMED = ("N", "J", "W", "V", "ohm", "F", "H", "C", "Pa", "T", "Wb", "S")
 
 def shown(dim: Dim) -> str:
     """``dim`` as a message prints it: in SI base units, and the derived unit's name where one
-    matches (``kg*m^2/(s^3*A) (V)``), since a user wrote volts, not base units."""
-    for name in _NAMED:
-        if parse_unit(name, "") == dim:
-            return f"{dim} ({name})"
-    return str(dim)
+    matches (``kg*m^2/(s^3*A) (V)``), or one over or times a second or its square (a state's
+    derivative: ``kg*m^2/(s^4*A) (V/s)``), since a user wrote volts, not base units."""
+    base = str(dim)
+    if not any(sign in base for sign in "*/^"):
+        return base                  # m, s, A, 1: already what a user writes
+    for form in ("{}", "{}/s", "{}/s^2", "{}*s"):
+        for name in _NAMED:
+            if parse_unit(form.format(name), "") == dim:
+                return f"{base} ({form.format(name)})"
+    return base
 
 
 class _Checker:
