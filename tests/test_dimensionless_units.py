@@ -134,6 +134,37 @@ def test_compare_reads_and_reports_a_dimensionless_signal(files, tmp_path, capsy
     assert rc == 0, err
 
 
+def test_side_by_side_prints_a_small_dimensionless_rms_with_its_digits(files, tmp_path, capsys):
+    """Round H: a duty cycle's rms errors of a few thousandths were printed 0.00 in compare's
+    side-by-side table (two decimals for every figure), in the text and the HTML alike."""
+    folder, model, drive = files
+    sim = tmp_path / "sim.csv"
+    rc, _, err = run_cli(capsys, "simulate", "--model", model, "--input", drive, "-o", sim)
+    assert rc == 0, err
+    slower = tmp_path / "slower.toml"
+    slower.write_text(LAG.replace("tau = 1e-3", "tau = 1.05e-3"), encoding="utf-8")
+    page = tmp_path / "cmp.html"
+    rc, out, err = run_cli(capsys, "compare", "--model", model, "--model", slower, sim, "--html", page)
+    assert rc == 0, err
+    row = next(ln for ln in out.splitlines() if ln.startswith("free-run rms error x "))
+    first, second, change = row.split()[-3:]
+    assert 0 < float(first) < float(second) < 0.1 and float(change) > 0, row       # was 0.00  0.01  +0.01
+    assert float(second) == pytest.approx(float(change) + float(first), abs=2e-5), row
+    assert len(second.split(".")[1].lstrip("0")) >= 2, row        # three significant digits
+    assert f"<td>{second}</td>" in page.read_text(encoding="utf-8")
+
+
+def test_a_small_unit_is_kept_for_small_values_only():
+    """Round I: a state in volts printed '1.77e+03 mV' (rms error 1.77 V)."""
+    from pendc.ident.units import amount_in, small_scale, table_digits
+
+    assert amount_in("V", 1.77) == "1.77 V" and amount_in("V", 0.0177) == "17.7 mV"
+    assert amount_in("m", 2.5) == "2.5 m" and amount_in("rad", 1.5) == "1.5 rad"
+    assert small_scale("V", 0.9) == (1e3, "mV") and small_scale("V", 1.0) == (1.0, "V")
+    assert table_digits([0.0031, 0.0002], "-") == 5 and table_digits([1.77, 0.01], "V") == 2
+    assert table_digits([3.0], "turns") == 0 and table_digits([0.001], "%") == 2
+
+
 def test_regime_words_and_report_labels_name_no_unit():
     from pendc.ident.regimes import regime_partitions
     from pendc.ident.units import amount_in, axis_label, labelled

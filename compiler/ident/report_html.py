@@ -30,7 +30,7 @@ from .report_plots import figure_scatter as _figure_scatter
 from .report_plots import zoom_span as _zoom_span  # noqa: F401 (the zoomed figure's span, for tests)
 from .report_text import concentrated, format_side_by_side, short, side_by_side_headline
 from .sidebyside import SideBySide, as_side_by_side
-from .units import labelled, small_scale, unit_of
+from .units import labelled, small_scale, table_digits, unit_of
 from ..model.interface import unit_name, with_unit
 from ..sim.signals import signals_of
 
@@ -199,7 +199,7 @@ def _figures_table(s: SideBySide, i: int) -> str:
     for name, unit, values in s.rows(i):
         cls = " class=head" if name.startswith(lead) and "wrapped" not in name else ""
         label = labelled(name, unit)
-        d = 0 if unit == "turns" else 2
+        d = table_digits(values, unit)
         rows.append(f"<tr{cls}><td class=l>{e(label)}</td>" + "".join(f"<td>{_num(v, digits=d)}</td>" for v in values)
                     + "".join(f"<td>{_num(v - values[0], sign=True, digits=d)}</td>" for v in values[1:]) + "</tr>")
     return f"<table>{head}{''.join(rows)}</table>"

@@ -18,7 +18,7 @@ from ..sim.signals import signals_of
 from . import headline as hl
 from .compare import WORST_WINDOW, Comparison, model_name
 from .sidebyside import SideBySide, as_side_by_side
-from .units import amount_in, labelled, unit_of
+from .units import amount_in, labelled, table_digits, unit_of
 from .whiteness import biased
 
 FEW_COUNTS = 5           # rms residual (encoder counts) below which structure may be rounding
@@ -233,7 +233,7 @@ def _table(s: SideBySide, i: int) -> list:
     out = [head]
     for name, unit, values in rows:
         label = labelled(name, unit)
-        digits = 0 if unit == "turns" else 2
+        digits = table_digits(values, unit)
         cells = "  ".join(f"{_num(v, digits=digits):>{width}s}" for v in values)
         delta = "  ".join(f"{_num(v - values[0], sign=True, digits=digits):>{max(9, len(ch))}s}"
                           for v, ch in zip(values[1:], changes))

@@ -56,12 +56,11 @@ class SideBySide:
             out.append((f"free-run fit {a}, angle wrapped", "%", [c.fit_wrapped for c in cs]))
             out.append((f"free-run {a}, whole turns apart (max)", "turns", [float(c.turns) for c in cs]))
         for k in outputs:
-            scale, unit = small_scale(unit_of(cs[0].model, k))
-            out.append((f"free-run rms error {k}", unit, [scale * c.rms_free_run()[k] for c in cs]))
+            out.append(_rms_row(f"free-run rms error {k}", unit_of(cs[0].model, k),
+                                [c.rms_free_run()[k] for c in cs]))
         if a in outputs:
-            scale, unit = small_scale(unit_of(cs[0].model, a))
-            out.append((f"free-run rms error {a}, wrapped", unit,
-                        [scale * c.rms_free_run()[f"{a}_wrapped"] for c in cs]))
+            out.append(_rms_row(f"free-run rms error {a}, wrapped", unit_of(cs[0].model, a),
+                                [c.rms_free_run()[f"{a}_wrapped"] for c in cs]))
         return out
 
     def notes(self) -> list:
@@ -85,6 +84,14 @@ class SideBySide:
                           for name, unit, values in self.rows(i)],
                 "models": [c.to_json() for c in cs]})
         return _clean({"models": list(self.labels), "runs": runs})
+
+
+def _rms_row(figure: str, unit: str, values: list) -> tuple:
+    """A table row of rms errors, every model in one unit: the small one (mm, mV) unless the
+    largest is one of ``unit`` or more."""
+    finite = [abs(v) for v in values if v is not None and math.isfinite(v)]
+    scale, shown = small_scale(unit, max(finite, default=None))
+    return figure, shown, [scale * v for v in values]
 
 
 def labels_for(models) -> tuple:
