@@ -82,6 +82,15 @@ def mode_words(eigenvalue: complex) -> str:
     return f"a {abs(lam.imag) / (2 * math.pi):.4g} Hz oscillation {verb} at {abs(lam.real):.3g} /s"
 
 
+def euler_instability(model: PlantModel, dt: float) -> str | None:
+    """Words for a step at which forward Euler makes the plant's fastest mode at the start state
+    grow (None where it does not): why a build or an Euler simulation at ``dt`` diverged, said
+    instead of the range or square-root hints that cannot help."""
+    lam = fastest_eigenvalue(model)
+    words = euler_unstable(lam, dt) if lam != 0 else None
+    return f"the plant's fastest mode ({abs(lam) / (2 * math.pi):.4g} Hz): {words}" if words else None
+
+
 def euler_shortfall(model: PlantModel, dt: float, core_dt: float | None = None) -> str | None:
     """What forward Euler at ``dt`` takes of the fastest mode's damping, when it is more than 5 %
     of it (None otherwise): a sentence for ``pendc simulate``. ``core_dt``: the core's step
@@ -91,7 +100,7 @@ def euler_shortfall(model: PlantModel, dt: float, core_dt: float | None = None) 
     if lam == 0 or decay <= 0 or grow <= 0.05 * decay:
         return None
     if euler_unstable(lam, dt):
-        return f"the plant's fastest mode ({abs(lam) / (2 * math.pi):.4g} Hz): {euler_unstable(lam, dt)}"
+        return euler_instability(model, dt)
     core = ", as the core does" if core_dt is None or core_dt == dt else f" (the core steps {core_dt:g} s)"
     return (f"forward Euler at {dt:g} s takes {100 * grow / decay:.0f} % of the damping of the plant's fastest "
             f"mode ({abs(lam) / (2 * math.pi):.4g} Hz) away{core}; --method rk4 follows the equations")

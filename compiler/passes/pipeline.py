@@ -23,6 +23,7 @@ from ..ir.qformat import QFormat
 from ..ir.verify import verify
 from ..model.interface import PlantInterface
 from ..model.plant import PlantModel
+from ..model.modes import euler_instability
 from ..sim.stimuli import Stimuli
 from .eliminate_common import eliminate_common_subexpressions
 from .error_budget import BudgetError, ErrorReport, meet_error_budget
@@ -232,8 +233,19 @@ def _checked(graph: Graph, stage: str, typed: bool = False) -> Graph:
 
 
 def compile_model(model: PlantModel, options: BuildOptions | None = None) -> BuildResult:
-    """Run every pass on ``model`` and return the typed graph with ranges, error and resources."""
+    """Run every pass on ``model`` and return the typed graph with ranges, error and resources.
+    A build that fails because the core's forward Euler step makes the plant diverge says so."""
     opt = validate_options(options) if options is not None else options_from_model(model)
+    try:
+        return _compile(model, opt)
+    except PendcError:
+        words = euler_instability(model, opt.dt)
+        if words:
+            raise PendcError(f"{model.source or model.name}: [hardware] dt: {words}") from None
+        raise
+
+
+def _compile(model: PlantModel, opt: BuildOptions) -> BuildResult:
     budgets = opt.budgets_for(model.interface)
     short = opt.short_chain
     graph = _checked(lower_model(model, dt=opt.dt, fold_dt=short, turns_phase=short, deep_last=short,

@@ -178,6 +178,17 @@ class Simulator:
             full[self._start_names.index(name)] = s0[i]
         return full
 
+    def _why_diverged(self, out: np.ndarray, valid: int) -> str:
+        """Forward Euler's instability at this step where that is the cause, else the last finite
+        state and the square-root hint."""
+        if self.method == "euler":
+            from ..model.modes import euler_instability
+
+            words = euler_instability(self.model, self.dt)
+            if words:
+                return f": {words}"
+        return _last_finite(self, out, valid)
+
     def __call__(self, t, u, x0=None, params: dict | None = None, quantize: bool = False) -> SimResult:
         t = np.ascontiguousarray(t, dtype=np.float64)
         u = np.ascontiguousarray(u, dtype=np.float64)
@@ -196,7 +207,7 @@ class Simulator:
             raise PendcError(f"initial state must be {len(names)} finite numbers ({', '.join(names)})")
         out, valid = self.raw(t, u, s0, self.vector(params))
         if valid < t.size:
-            raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s{_last_finite(self, out, valid)}")
+            raise PendcError(f"simulation diverged (non-finite state) at t = {t[valid]:.6g} s{self._why_diverged(out, valid)}")
         states = {name: out[:, i].copy() for i, name in enumerate(self.state_names)}
         off = self.offset_values(self.vector(params))
         outputs = {p: self.reading(p, states[p] + off[p], self.reading_limits if quantize else None)
