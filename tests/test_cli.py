@@ -101,3 +101,27 @@ def test_the_qformat_report_prints_units_not_words():
     from pendc.cli.report import _unit
     assert [_unit(m) for m in ("cart acceleration (m/s^2)", "flow (Torricelli)", "table (L1)", "x (F_in)")] == \
         ["m/s^2", "", "", ""]
+
+
+def test_stimulus_at_a_fast_plants_rate_makes_data_compare_reads(tmp_path, capsys):
+    """Round I (F5): pendc stimulus sampled at 1 kHz only, so the documented recipe for test data
+    (stimulus, then simulate --quantize) made records a 3.4 kHz converter's compare refuses. With
+    --rate the same two commands make a record compare takes."""
+    from buck_plant import buck_toml
+
+    plant = tmp_path / "buck.toml"
+    plant.write_text(buck_toml(), encoding="utf-8")
+    for rate, accepted in (("1000", False), ("40000", True)):
+        stim, data = tmp_path / f"stim{rate}.csv", tmp_path / f"data{rate}.csv"
+        assert run(capsys, "stimulus", "steps", "--model", str(plant), "--rate", rate, "-o", str(stim))[0] == 0
+        rows = [ln for ln in stim.read_text().splitlines() if not ln.startswith("#")]
+        assert rows[0] == "t,d" and f"# rate: {float(rate):g} Hz" in stim.read_text()
+        t = np.array([float(ln.split(",")[0]) for ln in rows[1:]])
+        assert np.allclose(np.diff(t), 1 / float(rate)) and t[-1] == pytest.approx(5.0)
+        rc, _, err = run(capsys, "simulate", "--model", str(plant), "--input", str(stim), "--quantize", "-o", str(data))
+        assert rc == 0, err
+        rc, out, err = run(capsys, "compare", "--model", str(plant), str(data))
+        assert (rc == 0) == accepted, err
+        assert accepted or "faster" in err
+    _one_line_error(capsys, "stimulus", "steps", "--rate", "0", match="--rate 0: the sample rate must be between")
+    _one_line_error(capsys, "stimulus", "chirp_low", "--rate", "1e6", match="would be 2.01e+07 rows")

@@ -72,4 +72,4 @@ def test_a_file_pendc_wrote_is_in_seconds(tmp_path, capsys):
     rc, out, err = run_cli(capsys, "compare", ours, "--model", model)
     line = _error(err)
     assert rc == 2 and "(pendc wrote it: seconds)" in line and "looks like milliseconds" not in line
-    assert "pendc simulate writes one row per input row, so give it an input sampled at 33.84 kHz or more" in line
+    assert "so give it an input sampled at 33.84 kHz or more (pendc stimulus --rate 34000)" in line

@@ -112,6 +112,12 @@ def check_time_unit(table: Table, t: np.ndarray, given: bool, fastest=None) -> N
     check_nyquist(table, t, step, given, lam, ours)
 
 
+def _round_up(hz: float) -> str:
+    """``hz`` rounded up to two significant digits, as a --rate to type (7349 -> 7400)."""
+    scale = 10.0 ** (math.floor(math.log10(hz)) - 1)
+    return f"{math.ceil(hz / scale) * scale:g}"
+
+
 def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: complex, ours: bool = False) -> None:
     """Fewer than two samples a period of the fastest mode's oscillation (eigenvalue ``lam``): it
     aliases, and no model can be fitted; a real pole has no period (a motor's 2 kHz electrical
@@ -130,7 +136,7 @@ def check_nyquist(table: Table, t: np.ndarray, step: float, given: bool, lam: co
     if ours:      # a file pendc wrote is in seconds: its rows are its input's (pendc simulate)
         raise PendcError(f"{table.source}: t is sampled at {hertz(1 / step)} (pendc wrote it: seconds), {mode}: "
                          f"record faster: pendc simulate writes one row per input row, so give it an input "
-                         f"sampled at {hertz(10 * ring)} or more")
+                         f"sampled at {hertz(10 * ring)} or more (pendc stimulus --rate {_round_up(10 * ring)})")
     if unit is not None and not given:
         raise PendcError(f"{table.source}: t looks like {_SPELLED_T[unit]} (median step {step:g}, last t = "
                          f"{float(t[-1]):g}; in seconds it is sampled at {hertz(1 / step)}, {mode}): use --t-unit "
