@@ -146,3 +146,23 @@ def test_an_operating_point_a_converter_cannot_read_is_one_line(tmp_path, capsys
     assert rc == 2 and len(err.strip().splitlines()) == 1, err
     assert ("operating point 'half' of plant 'rc': v = 5 V lies outside the range of its converter adc_v, "
             "[6, 11] V: it reads clipped there" in err)
+    # plant check says it before any run (round I, F6), of the start state too; a file whose states
+    # all lie within their converters' and their own ranges gets no such note
+    rc, out, err = run_cli(capsys, "plant", "check", str(path))
+    assert rc == 0, err
+    notes = [ln for ln in out.splitlines() if ln.startswith("note: ")]
+    assert notes == [
+        "note: the start state: v = 0 V lies outside the range of its converter adc_v, [6, 11] V: it reads "
+        "clipped there until the state comes back within it",
+        "note: operating point 'half': v = 5 V lies outside the range of its converter adc_v, [6, 11] V: it "
+        "reads clipped there, so pendc hil's LQR refuses the point"], out
+    path.write_text(RC.replace('half = { v = "5.0" }', 'half = { v = "12.0" }'), encoding="utf-8")
+    rc, out, err = run_cli(capsys, "plant", "check", str(path))
+    assert [ln for ln in out.splitlines() if ln.startswith("note: ")] == [
+        "note: operating point 'half': v = 12 V lies outside the range of its converter adc_v, [-1, 11] V: it "
+        "reads clipped there, so pendc hil's LQR refuses the point",
+        "note: operating point 'half': v = 12 V lies outside its range [-1, 11] V, which the core's formats are "
+        "sized for: widen states.v.range"], out
+    path.write_text(RC, encoding="utf-8")
+    rc, out, err = run_cli(capsys, "plant", "check", str(path))
+    assert rc == 0 and "note: " not in out, out

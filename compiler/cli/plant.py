@@ -208,5 +208,36 @@ def cmd_plant_check(args) -> int:
     if eq.velocity_bound is not None:
         out.append(f"  after each step: |rate| <= {show(eq.velocity_bound)}")
     out.append(euler_note(model, options_from_model(model).dt))
+    out += _unreadable_states(model)
     sys.stdout.write("\n".join(out) + "\n")
     return 0
+
+
+def _unreadable_states(model) -> list:
+    """Notes on the start state and each operating point where a state lies outside its
+    converter's range (the converter reads its end there: an LQR misses the point) or outside its
+    declared range (the core's formats are sized for that range)."""
+    from ..hil.controllers.operating_point_lqr import operating_point_names, operating_state
+    from ..model.interface import with_unit
+
+    iface = model.interface
+    start = "it reads clipped there until the state comes back within it"
+    places = [("the start state", {s.name: s.initial for s in iface.states}, start)]
+    places += [(f"operating point '{name}'", operating_state(model, name)[1],
+                "it reads clipped there, so pendc hil's LQR refuses the point") for name in operating_point_names(model)]
+    notes = []
+    for where, values, clipped in places:
+        for spec in iface.states:
+            value, sensor = values.get(spec.name), iface.sensor_of(spec.name)
+            if value is None:
+                continue
+            shown = with_unit(f"{value:.4g}", spec.unit)
+            if sensor is not None and sensor.is_adc and not sensor.lo <= value <= sensor.hi:
+                notes.append(f"note: {where}: {spec.name} = {shown} lies outside the range of its converter "
+                             f"{sensor.name}, {with_unit(f'[{sensor.lo:g}, {sensor.hi:g}]', spec.unit)}: {clipped}")
+            low_high = spec.working_range
+            if low_high and not low_high[0] <= value <= low_high[1]:
+                notes.append(f"note: {where}: {spec.name} = {shown} lies outside its range "
+                             f"{with_unit(f'[{low_high[0]:g}, {low_high[1]:g}]', spec.unit)}, which the core's "
+                             f"formats are sized for: widen states.{spec.name}.range")
+    return notes
