@@ -66,6 +66,28 @@ def test_a_changed_header_or_flag_compiles_again(setup):
     assert compiles(log) == 3
 
 
+def test_two_builds_at_once_compile_the_runtime_once(setup, tmp_path):
+    """The suite's Verilator core and bus builds start together: both missed the cache and
+    compiled the runtime side by side (verilated.cpp and friends, some 35 CPU s, twice). The
+    second now waits for the first's object."""
+    import subprocess
+
+    runtime, build, cache, log, cxx = setup
+    slow = tmp_path / "slow_cxx"            # a compile that takes a while, so the two overlap
+    slow.write_text(f'#!/bin/sh\ncase " $* " in *" -c "*) sleep 1;; esac\nexec "{cxx}" "$@"\n')
+    slow.chmod(slow.stat().st_mode | stat.S_IXUSR)
+    launcher = Path(__file__).parents[1] / "compiler" / "caching" / "objcache.py"
+    procs = []
+    for name in ("one", "two"):
+        (build / name).mkdir()
+        args = [str(slow), "-Os", "-MMD", f"-I{runtime}", "-c", "-o", "lib.o", str(runtime / "lib.cpp")]
+        procs.append(subprocess.Popen([sys.executable, "-S", str(launcher), *args], cwd=build / name,
+                                      env={**os.environ, "PENDC_OBJCACHE_DIR": str(cache)}))
+    assert [p.wait(timeout=120) for p in procs] == [0, 0]
+    assert compiles(log) == 1, "both builds compiled the runtime"
+    assert (build / "one" / "lib.o").read_bytes() == (build / "two" / "lib.o").read_bytes()
+
+
 def test_design_files_and_failures_are_never_stored(setup):
     runtime, build, cache, log, cxx = setup
     (build / "design.cpp").write_text("int f() { return 1; }\n")

@@ -18,6 +18,7 @@ gives the environment that turns it on for a Verilator build.
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
 import shutil
@@ -106,15 +107,36 @@ def run(args: list, cache: str, cwd: str | None = None) -> int:
     obj = os.path.join(cwd, found[1])
     dep = _dep_file(args, obj)
     stored = os.path.join(cache, key[:2], key)
-    if os.path.isfile(stored + ".o") and (dep is None or os.path.isfile(stored + ".d")):
-        _copy_atomic(stored + ".o", obj)
-        if dep is not None:
-            _copy_atomic(stored + ".d", dep)
+    if _take(stored, obj, dep):
         return 0
+    try:
+        os.makedirs(os.path.dirname(stored), exist_ok=True)
+        lock = open(stored + ".lock", "a")
+    except OSError:
+        return subprocess.run(args, cwd=cwd).returncode    # a read-only cache: compile, store nothing
+    with lock:
+        # two builds started together (the test suite's core and bus suites, two workers) compile
+        # the same runtime: the second waits for the first's object instead of compiling it again
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if _take(stored, obj, dep):
+            return 0
+        return _compile_and_store(args, cwd, stored, obj, dep)
+
+
+def _take(stored: str, obj: str, dep: str | None) -> bool:
+    """Copy the stored object (and dependency file) to ``obj`` when the cache holds them."""
+    if not (os.path.isfile(stored + ".o") and (dep is None or os.path.isfile(stored + ".d"))):
+        return False
+    _copy_atomic(stored + ".o", obj)
+    if dep is not None:
+        _copy_atomic(stored + ".d", dep)
+    return True
+
+
+def _compile_and_store(args: list, cwd: str, stored: str, obj: str, dep: str | None) -> int:
     code = subprocess.run(args, cwd=cwd).returncode
     if code == 0 and os.path.isfile(obj) and (dep is None or os.path.isfile(dep)):
         try:
-            os.makedirs(os.path.dirname(stored), exist_ok=True)
             if dep is not None:
                 _copy_atomic(dep, stored + ".d")
             _copy_atomic(obj, stored + ".o")     # last: a present .o means a complete entry
