@@ -79,9 +79,10 @@ def simulator() -> str:
 
 
 def profile() -> str:
-    """"full" (long runs from reset) or "quick" (Icarus: ~1.5 k model steps per second)."""
+    """"full" (long runs from reset), "quick" (Icarus: ~1.5 k model steps per second) or "ci"
+    (quick, with shorter every-step windows on Icarus: the test suite's)."""
     p = os.environ.get("PENDC_TB_PROFILE")
-    if p in ("full", "quick"):
+    if p in ("full", "quick", "ci"):
         return p
     return "quick" if simulator() == "icarus" else "full"
 

@@ -68,7 +68,7 @@ def simulator_missing(sim: str) -> str | None:
 # The model code's optimisation: -O3 where the simulation runs seconds of model time (the full
 # profile), -O1 for the quick profile's milliseconds, where the C++ compile is most of a suite's
 # CPU (a core build 12 -> 8 s, its 14 tests as fast: docs/testing.md)
-OPT_FAST = {"quick": "-O1"}
+OPT_FAST = {"quick": "-O1", "ci": "-O1"}
 
 
 # cocotb rewrites the asserts of every module imported in the simulator ("*.py"), sympy and numpy

@@ -47,7 +47,7 @@ SUITES = {"icarus": ("core", "raptor"), "verilator": ("core", "axil")}
 # test_chirp_accuracy_verilator_binary below (the thesis preset's build, bit-exact at every 1000th
 # step), and long runs at full scale with the encoder counts compared after every ms are
 # tests/test_rtl_full_scale.py (the minute and the spin). `make sim` runs the full profile.
-CI_PROFILE = "quick"
+CI_PROFILE = "ci"
 
 
 @pytest.fixture(scope="module")
