@@ -164,4 +164,36 @@ def simulate(t, u, s0, p, dt, use_rk4, k0, out):
 def load_kernel(eq: Equations, clamped: str | None = None):
     """The kernel's ``simulate`` for ``eq``: C (:mod:`pendc.native`) or numba, compiled on its
     first call and cached on disk."""
-    return kernel_function(kernel_source(eq, clamped), "pendc_kernel", "simulate")
+    return kernel_function(stored_kernel_source(eq, clamped), "pendc_kernel", "simulate")
+
+
+def stored_kernel_source(eq: Equations, clamped: str | None = None) -> str:
+    """:func:`kernel_source`, kept in the cache folder under a hash of the equations (their
+    ``srepr``), ``clamped`` and the code that prints them. Printing a chain of links' equations
+    with their common subexpressions takes 1.5 s (the double pendulum on a cart; its srepr 0.2 s),
+    and a diagnosis builds a dozen simulators of three models."""
+    import hashlib
+    from pathlib import Path
+
+    import sympy as sp
+
+    from ..atomic import write_atomic
+    from ..codegen import cache_dir
+    from ..errors import PendcError
+
+    fields = (eq.states, eq.input, eq.params, eq.assignments, eq.derivatives, eq.initial, eq.velocity_bound,
+              eq.delay)
+    digest = hashlib.sha256(f"{KERNEL_FORMAT}\0{clamped}\0{sp.srepr(fields)}".encode())
+    for code in (__file__, Path(__file__).parents[1] / "codegen.py"):
+        digest.update(Path(code).read_bytes())
+    path = cache_dir("kernel_sources") / f"{digest.hexdigest()[:24]}.py"
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError:
+        pass
+    source = kernel_source(eq, clamped)
+    try:
+        write_atomic(path, source)
+    except PendcError:            # a read-only cache: printed again next time
+        pass
+    return source

@@ -70,7 +70,7 @@ class FloatPlant:
 
     def __init__(self, model: PlantModel, dt: float = 1e-6, method: str = "euler", initial: tuple | None = None):
         from ...native.build import kernel_function
-        from ...sim.kernel import kernel_source
+        from ...sim.kernel import stored_kernel_source
         from ...sim.simulator import Simulator
 
         sim = Simulator(model, dt=dt, method=method)  # validates dt and method
@@ -99,7 +99,7 @@ class FloatPlant:
         self._start = np.array([start.get(n, initial.get(n, 0.0)) for n in names[:n_start]], dtype=float)
         self._origin = {e.name: start.get(e.state, 0.0) for e in self.ports.encoders}
         clamped = next((st.name for st in model.interface.states if st.velocity_bound is not None), None)
-        source = kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
+        source = stored_kernel_source(eq, clamped) + _step_source(len(eq.states), len(self._params), n_start)
         self._plant_start = kernel_function(source, "pendc_plant", "plant_start")
         self._plant_advance = kernel_function(source, "pendc_plant", "plant_advance")
         values = model.parameter_values()
