@@ -232,7 +232,7 @@ def _mechanical(ctx, experiment, drive_out):
             raise PendcError(f"{ctx.where}: {where}: the mass matrix is singular (a coordinate has no inertia of its "
                              f"own: {fix})")
         det = ctx.bind(d.determinant, mech.det)
-        accels = [ctx.bind(f"dd{c.name}", num.subs(dict(zip(mech.forces, forces))) / det)
+        accels = [ctx.bind(f"dd{c.name}", num.xreplace(dict(zip(mech.forces, forces))) / det)
                   for c, num in zip(d.coordinates, mech.numerators)]
     else:
         mech = _mechanism(ctx, set(experiment.removed))
@@ -241,7 +241,7 @@ def _mechanical(ctx, experiment, drive_out):
             if c.name in held:
                 fixed.update({dd: 0, dq: 0})
         moving = [i for i, c in enumerate(d.coordinates) if c.name not in held]
-        eqs = [mech.euler_lagrange[i].subs({**fixed, **dict(zip(mech.forces, forces))}) for i in moving]
+        eqs = [mech.euler_lagrange[i].xreplace({**fixed, **dict(zip(mech.forces, forces))}) for i in moving]
         unknowns = [mech.accelerations[i] for i in moving]
         if len(unknowns) == 1:
             solved = sp.solve(eqs[0], unknowns[0])
