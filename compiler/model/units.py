@@ -381,6 +381,15 @@ def check_same(expected: Dim, expr: sp.Basic, dims: Mapping[str, Dim], where: st
                what: str) -> None:
     """Raise "{where}: {what} has units of {got}, expected {expected}" unless ``expr`` has
     dimension ``expected`` (a zero expression fits any)."""
-    got = _Checker(dims, where).dim(_as_sympy(expr))
+    require(expected, dimension_or_zero(expr, dims, where), where, what)
+
+
+def dimension_or_zero(expr: sp.Basic, dims: Mapping[str, Dim], where: str) -> Dim | None:
+    """:func:`dimension_of`, but None for a zero expression (which fits any dimension)."""
+    return _Checker(dims, where).dim(_as_sympy(expr))
+
+
+def require(expected: Dim, got: Dim | None, where: str, what: str) -> None:
+    """:func:`check_same` of a dimension already worked out (None: a zero expression)."""
     if got is not None and got != expected:
         raise PendcError(f"{where}: {what} has units of {shown(got)}, expected {shown(expected)}")
