@@ -82,7 +82,8 @@ class Simulator:
         self.param_names = tuple(s.name for s in model.equations.params)
         self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
         self.signals = signals_of(model)
-        self._simulate = load_kernel(model.equations, self.signals.clamped())
+        clamped = self.signals.clamped()
+        self._simulate = model.derived(f"float kernel, {clamped} clamped", lambda m: load_kernel(m.equations, clamped))
         eq = model.equations
         self._start_names = self.state_names[:len(self.state_names) - len(eq.initial)]
         self._initial = {st.name: st.initial for st in model.interface.states}
