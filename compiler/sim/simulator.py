@@ -16,7 +16,8 @@ from ..errors import PendcError
 from ..model.plant import PlantModel
 from ..model.sensors import ADC
 from .encoders import quantize as to_counts
-from .kernel import load_kernel
+from ..native.build import kernel_function
+from .kernel import stored_kernel_source
 from .signals import PlantSignals, signals_of
 
 METHODS = ("euler", "rk4")
@@ -83,7 +84,10 @@ class Simulator:
         self.param_vector = np.asarray(model.parameter_vector(), dtype=np.float64)
         self.signals = signals_of(model)
         clamped = self.signals.clamped()
-        self._simulate = model.derived(f"float kernel, {clamped} clamped", lambda m: load_kernel(m.equations, clamped))
+        # the source text, not the compiled function: a model goes to other processes (pickled)
+        source = model.derived(f"float kernel source, {clamped} clamped",
+                               lambda m: stored_kernel_source(m.equations, clamped))
+        self._simulate = kernel_function(source, "pendc_kernel", "simulate")
         eq = model.equations
         self._start_names = self.state_names[:len(self.state_names) - len(eq.initial)]
         self._initial = {st.name: st.initial for st in model.interface.states}
