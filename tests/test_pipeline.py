@@ -2,6 +2,7 @@
 
 import dataclasses
 import os
+import re
 import subprocess
 import sys
 
@@ -163,8 +164,19 @@ def test_table_size_outside_the_ir_limit_is_one_line(bits):
 
 def test_unknown_hardware_key_is_rejected():
     m = with_hardware("[hardware]\nmargin_bits = 2\nclock_mhz = 100\nbogus = 1\n")
-    with pytest.raises(PendcError, match=r"\[hardware\] has unknown option\(s\) bogus, clock_mhz"):
+    with pytest.raises(PendcError, match=r"^hw\.toml: \[hardware\] has unknown option\(s\) bogus, clock_mhz"):
         options_from_model(m)
+    with pytest.raises(PendcError, match=r"^hw\.toml: \[hardware\] margin_bits must be an int, got 'two'"):
+        options_from_model(with_hardware('[hardware]\nmargin_bits = "two"\n'))
+
+
+@pytest.mark.parametrize("table, says", [("[hardware.ranges]\nno_such_node = 2.0\n", "range override names unknown"),
+                                         ("[hardware.budget]\nZ = 0.1\n", "error budget for unknown state(s) Z")])
+def test_a_name_the_hardware_table_gets_wrong_names_the_file(table, says):
+    """Round J: the file's [hardware] names that no node or state has were the only errors of a
+    plant file that did not name the file."""
+    with pytest.raises(PendcError, match=rf"^hw\.toml: \[hardware\] {re.escape(says)}"):
+        compile_model(with_hardware(table))
 
 
 def test_unknown_keyword_override_is_rejected(model):

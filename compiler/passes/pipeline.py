@@ -150,7 +150,8 @@ def options_from_model(model: PlantModel, **overrides) -> BuildOptions:
     table = _budget_aliases(dict(getattr(model, "hardware", {}) or {}))
     unknown = set(table) - known
     if unknown:
-        raise PendcError(f"[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
+        where = f"{model.source}: " if model.source else ""
+        raise PendcError(f"{where}[hardware] has unknown option(s) {', '.join(sorted(unknown))} "
                          f"(known: {', '.join(sorted(known))})")
     try:   # the file's own values first, so a mistake there names the file
         validate_options(dict(table))
@@ -196,7 +197,8 @@ def validate_options(values) -> BuildOptions:
         if expected is float and isinstance(value, int) and not isinstance(value, bool):
             table[key], ok = float(value), True
         if not ok:
-            raise PendcError(f"[hardware] {key} must be a {expected.__name__}, got {value!r}")
+            article = "an" if expected.__name__[0] in "aeiou" else "a"
+            raise PendcError(f"[hardware] {key} must be {article} {expected.__name__}, got {value!r}")
     addr_bits = table.get("lut_addr_bits", defaults.lut_addr_bits)
     if not 1 <= addr_bits <= MAX_LUT_ADDR_BITS:
         raise PendcError(f"[hardware] lut_addr_bits must be 1..{MAX_LUT_ADDR_BITS} (a table of 2**n segments), "
@@ -238,10 +240,12 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     opt = validate_options(options) if options is not None else options_from_model(model)
     try:
         return _compile(model, opt)
-    except PendcError:
+    except PendcError as exc:
         words = euler_instability(model, opt.dt)
         if words:
             raise PendcError(f"{model.source or model.name}: [hardware] dt: {words}") from None
+        if model.source and str(exc).startswith("[hardware"):      # a node or state the file names
+            raise PendcError(f"{model.source}: {exc}") from None
         raise
 
 
