@@ -37,7 +37,10 @@ def lut_function(expr: str):
 
 
 def evaluate(expr: str, values) -> np.ndarray:
-    out = lut_function(expr)(np.asarray(values, dtype=np.float64))
+    """``expr`` at ``values``; where it is not finite (an Arrhenius rate exp(-E/T) at T = 0) it
+    gives inf or nan without numpy's warning: the caller decides what that means."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        out = lut_function(expr)(np.asarray(values, dtype=np.float64))
     return np.broadcast_to(np.asarray(out, dtype=np.float64), np.shape(values)).copy()
 
 
