@@ -13,22 +13,24 @@ from pendc.backend.hdl import port_formats
 from overflow_runs import golden_overflow
 from resumed_runs import (CHECK_STEPS, compiled_window, interp_windows, port_rows, ports_of, reset_word, rtl_state,
                           state_nodes)
-from tbconfig import (BUS_LEVELS, BUS_STEPS, CHUNK, LONG_CHUNKS, PERIOD_NS, QUICK_LONG_CHUNKS, VERSION, WINDOW,
-                      WINDOW_POINTS, WINDOW_STIMULI)
+from tbconfig import (BUS_LEVELS, BUS_STEPS, LONG_CHUNKS, PERIOD_NS, QUICK_LONG_CHUNKS, VERSION, WINDOW,
+                      WINDOW_POINTS, WINDOW_STIMULI, sampling)
 
 
 # ---------------------------------------------------------------- stimuli
 
-def window_stimuli(inp) -> dict:
-    """name -> (t, u, trained) on the input ``inp`` (an InputSpec): the training set plus two
-    inputs it never saw."""
+def window_stimuli(inp, dt: float = 1e-6) -> dict:
+    """name -> (t, u, trained) on the input ``inp`` (an InputSpec) for a core stepping ``dt``:
+    the training set plus two inputs it never saw, sampled at :func:`tbconfig.sampling`'s rate."""
     from pendc.sim.stimuli import Stimuli
     stimuli = Stimuli(inp)
-    out = {name: (t, u, True) for name, (t, u) in stimuli.named().items()}
-    # a multisine with another seed sampled at 1 MHz, so u changes on every model step
-    t, u = stimuli.multisine(duration=2.0, seed=7, amplitude=1.5, fs=1e6)
+    chunk, fs = sampling(dt)
+    out = {name: (t, u, True) for name, (t, u) in stimuli.named(fs=fs).items()}
+    # a multisine with another seed sampled at every model step (1 MHz at the default 1 us), so u
+    # changes on every step
+    t, u = stimuli.multisine(duration=2.0, seed=7, amplitude=1.5, fs=chunk * fs)
     out["multisine_seed7_1MHz"] = (t, u, False)
-    t, u = stimuli.steps(duration=4.0, levels=(1.1, -0.5, 2.0, -2.2, 0.4))
+    t, u = stimuli.steps(duration=4.0, levels=(1.1, -0.5, 2.0, -2.2, 0.4), fs=fs)
     out["steps_other_levels"] = (t, u, False)
     if tuple(out) != WINDOW_STIMULI:
         raise RuntimeError(f"window stimuli {tuple(out)} differ from WINDOW_STIMULI {WINDOW_STIMULI}")
@@ -130,6 +132,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     iface = require_interface(graph)
     long_chunks = dict(LONG_CHUNKS if long_chunks is None else long_chunks)
     dt = build.options.dt
+    chunk, fs = sampling(dt)
     golden = GoldenModel(graph, dt)
     view = build_view(graph, schedule=schedule_of(graph, (report.get("schedule") or {}).get("request")))
     state_names = [n.name for n in state_nodes(graph)]
@@ -138,7 +141,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     if missing:
         raise RuntimeError(f"state registers not found in the emitted core: {sorted(missing)}")
     vec = {
-        "version": VERSION, "ii": view.ii, "period_ns": PERIOD_NS, "chunk": CHUNK, "dt": dt,
+        "version": VERSION, "ii": view.ii, "period_ns": PERIOD_NS, "chunk": chunk, "dt": dt,
         "ports": port_formats(graph), "report": report, "core_ports": ports,
         "register_names": iface.register_names(), "window": window,
         "ovf_wires": list(view.net.overflow), "ovf_stages": view.dp.overflow_stages(),
@@ -151,10 +154,15 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     # -- every-step windows: from reset and from three states deep inside each stimulus
     t0 = time.time()
     jobs, done = [], {}
-    for name, (t, u, trained) in window_stimuli(iface.input).items():
-        if stimuli_names is not None and name not in stimuli_names:
+    stimuli_ints = {name: golden.input_integers(t, u) for name, (t, u, _) in window_stimuli(iface.input, dt).items()
+                    if stimuli_names is None or name in stimuli_names}
+    # a core slower than 1 ms a step (a slow plant's) has fewer steps in a stimulus than a window
+    window = min([window] + [(len(ints) - 1) // 2 for ints in stimuli_ints.values()])
+    vec["window"] = window
+    for name, (t, u, trained) in window_stimuli(iface.input, dt).items():
+        if name not in stimuli_ints:
             continue
-        ints = golden.input_integers(t, u)
+        ints = stimuli_ints[name]
         total = len(ints)
         starts = [0] + sorted({int(round(f * total / window)) * window for f in WINDOW_POINTS})
         starts = [k for k in starts if k + window < total]
@@ -198,39 +206,41 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
         })
     log(f"pendtb: {len(vec['windows'])} every-step windows of {window} steps ({time.time() - t0:.1f} s)")
 
-    # -- long runs from reset, input changing every CHUNK steps, compared every CHUNK steps
+    # -- long runs from reset, input changing every chunk steps, compared every chunk steps
     t0 = time.time()
     from pendc.sim.stimuli import Stimuli
     stimuli = Stimuli(iface.input)
-    sources = {"chirp": stimuli.chirp(), "random": stimuli.random_levels()}
+    sources = {"chirp": stimuli.chirp(fs=fs), "random": stimuli.random_levels(fs=fs)}
     for name, chunks in long_chunks.items():
         t, u = sources[name]
-        ints = golden.input_integers(t, u)[:chunks * CHUNK]
-        per_chunk = ints.reshape(chunks, CHUNK)
+        ints = golden.input_integers(t, u)
+        chunks = min(chunks, len(ints) // chunk - 1)     # a slow core's 1 s of random levels is fewer samples
+        ints = ints[:chunks * chunk]
+        per_chunk = ints.reshape(chunks, chunk)
         if not np.all(per_chunk == per_chunk[:, :1]):
-            raise RuntimeError(f"stimulus {name} does not hold the input for {CHUNK} steps")
+            raise RuntimeError(f"stimulus {name} does not hold the input for {chunk} steps")
         tr = golden.run_steps(np.append(ints, ints[-1]), every=1)
         rows = port_rows(tr, ports)
         cnt = _decoded(rows, ports)
         mid = chunks // 2          # a state deep in the run, for simulators too slow to get there
-        at_mid = golden.run_steps(ints[:mid * CHUNK + 1], every=mid * CHUNK, record=tuple(state_names))
+        at_mid = golden.run_steps(ints[:mid * chunk + 1], every=mid * chunk, record=tuple(state_names))
         vec["long"][name] = {
-            "input": per_chunk[:, 0].copy(), "rows": rows[::CHUNK].copy(),
-            "cnt": cnt[::CHUNK].copy(), "decode_errors": _decode_errors(rows, ports),
+            "input": per_chunk[:, 0].copy(), "rows": rows[::chunk].copy(),
+            "cnt": cnt[::chunk].copy(), "decode_errors": _decode_errors(rows, ports),
             "overflows": dict(tr.overflows), "mid": mid,
             "mid_state": rtl_state(graph, {n: int(at_mid.outputs[n][1]) for n in state_names}),
         }
         if name == "chirp":
             # the converters whose code the whole chirp leaves on one value (tb/test_core.py converters_code)
             vec["long"][name]["codes_static"] = codes_static(rows, ports)
-        at = codes_start(rows[::CHUNK], ports, mid) if name == "chirp" else mid
+        at = codes_start(rows[::chunk], ports, mid) if name == "chirp" else mid
         if at != mid:     # the quick profile's converter test starts there (tb/test_core.py converters_code)
-            at_codes = golden.run_steps(ints[:at * CHUNK + 1], every=at * CHUNK, record=tuple(state_names))
+            at_codes = golden.run_steps(ints[:at * chunk + 1], every=at * chunk, record=tuple(state_names))
             vec["long"][name].update(codes_at=at, codes_state=rtl_state(
                 graph, {n: int(at_codes.outputs[n][1]) for n in state_names}))
-        at = encoders_start(cnt[::CHUNK]) if name == "random" else 0
+        at = encoders_start(cnt[::chunk]) if name == "random" else 0
         if at:            # the quick profile's encoder test starts there (tb/test_core.py encoders_decode)
-            at_enc = golden.run_steps(ints[:at * CHUNK + 1], every=at * CHUNK, record=tuple(state_names))
+            at_enc = golden.run_steps(ints[:at * chunk + 1], every=at * chunk, record=tuple(state_names))
             vec["long"][name].update(enc_at=at, enc_state=rtl_state(
                 graph, {n: int(at_enc.outputs[n][1]) for n in state_names}))
         del tr, rows
@@ -239,7 +249,7 @@ def make_vectors(build, report: dict, log=print, stimuli_names=None, window: int
     # -- overflow: the input's full scale held drives the plant beyond its trained range
     if overflow:
         t0 = time.time()
-        vec["overflow"] = o = golden_overflow(golden, graph, iface, ports, state_names, dt)
+        vec["overflow"] = o = golden_overflow(golden, graph, iface, ports, state_names, dt, chunk, fs)
         what = ("none, the overflow tests will be skipped: " + o["unreachable"] if "unreachable" in o else
                 o.get("error") or o.get("how") or ("from reset" if o["from_reset"] else "from the edge of a format"))
         log(f"pendtb: overflow scenario ({time.time() - t0:.1f} s): {what}")

@@ -9,33 +9,34 @@ import numpy as np
 
 from pendc.model.interface import with_unit
 from resumed_runs import interp_window, port_rows, reset_integer, rtl_state
-from tbconfig import CHUNK
 
 
-def full_push(full_scale: float, duration: float = 4.0):
-    """The input's full scale held (the plant interface's ``full_scale``): a plant without end
-    stops runs past the range the build was trained for (the cart-pendulum's cart runs off the
-    track; its periodic angle holds 256 turns and does not overflow)."""
-    t = np.arange(int(round(duration * 1000)) + 1) / 1000.0
+def full_push(full_scale: float, duration: float = 4.0, fs: float = 1000.0):
+    """The input's full scale held (the plant interface's ``full_scale``), sampled at ``fs``: a
+    plant without end stops runs past the range the build was trained for (the cart-pendulum's
+    cart runs off the track; its periodic angle holds 256 turns and does not overflow)."""
+    t = np.arange(int(round(duration * fs)) + 1) / fs
     return t, np.full_like(t, float(full_scale))
 
 
-def golden_overflow(golden, graph, iface, ports, state_names, dt: float) -> dict:
+def golden_overflow(golden, graph, iface, ports, state_names, dt: float, chunk: int, fs: float) -> dict:
     """The full push from reset to the first overflow (both golden engines agreeing on its step
-    and nodes), or, for a plant whose full push stays in range, the run from a format's edge."""
-    t, u = full_push(iface.input.full_scale)
+    and nodes), or, for a plant whose full push stays in range, the run from a format's edge.
+    ``chunk``, ``fs``: the testbench's steps per stimulus sample and their rate
+    (:func:`tbconfig.sampling`)."""
+    t, u = full_push(iface.input.full_scale, fs=fs)
     ints = golden.input_integers(t, u)
-    chunks = len(ints) // CHUNK
-    tr = golden.run_steps(ints, every=CHUNK, record=tuple(state_names))
+    chunks = len(ints) // chunk
+    tr = golden.run_steps(ints, every=chunk, record=tuple(state_names))
     if not tr.overflows:
         # a plant whose full push stays in range (its rates saturate, its angles wrap, it is slow):
         # start at the edge of a reported state's range instead, moving out
         return _overflow_from_edge(golden, graph, iface, ports, state_names, int(ints[0]), dt)
     k_star = min(tr.overflows.values())
     nodes = sorted(n for n, s in tr.overflows.items() if s == k_star)
-    k0 = max(0, (k_star // CHUNK - 1) * CHUNK)
+    k0 = max(0, (k_star // chunk - 1) * chunk)
     n_win = k_star - k0 + 500
-    state = {n: int(tr.outputs[n][k0 // CHUNK]) for n in state_names}
+    state = {n: int(tr.outputs[n][k0 // chunk]) for n in state_names}
     u_win = ints[k0:k0 + n_win]
     rows, ovf_rel = interp_window(graph, state, u_win)
     first_rel = min(ovf_rel.values()) if ovf_rel else None
@@ -44,8 +45,8 @@ def golden_overflow(golden, graph, iface, ports, state_names, dt: float) -> dict
         raise RuntimeError(f"golden engines disagree on the first overflow: compiled step {k_star} {nodes}, "
                            f"interpreter step {None if first_rel is None else k0 + first_rel} {rel_nodes}")
     return {
-        "input": ints[:chunks * CHUNK].reshape(chunks, CHUNK)[:, 0].copy(),
-        "coarse": port_rows(tr, ports)[: k0 // CHUNK + 1].copy(),
+        "input": ints[:chunks * chunk].reshape(chunks, chunk)[:, 0].copy(),
+        "coarse": port_rows(tr, ports)[: k0 // chunk + 1].copy(),
         "k_star": k_star, "nodes": nodes, "all": dict(tr.overflows), "from_reset": True,
         "k0": k0, "state": rtl_state(graph, state), "u_win": u_win.astype(np.int64), "rows": rows,
     }

@@ -8,7 +8,7 @@ TB_DIR = Path(__file__).resolve().parent
 REPO = TB_DIR.parent
 SIMS = ("icarus", "verilator")
 PERIOD_NS = 10                      # clock period of every simulation
-CHUNK = 1000                        # model steps per sample of the 1 kHz stimuli
+CHUNK = 1000                        # model steps per sample of the 1 kHz stimuli at the default 1 us step
 WINDOW = 2000                       # steps of every bit-exact, every-step window
 WINDOW_POINTS = (0.3, 0.6, 0.9)     # besides the start: where in each stimulus windows begin
 LONG_CHUNKS = {"chirp": 2000, "random": 1000}   # 2 s of the chirp, 1 s of full-scale random levels
@@ -44,3 +44,14 @@ TEST_VECTORS = {
 def verilog_files(hdl_dir: Path) -> list[Path]:
     """The Verilog files of an HDL folder, sorted."""
     return sorted(Path(hdl_dir).glob("*.v"))
+
+
+def sampling(dt: float) -> tuple[int, float]:
+    """``(chunk, fs)``: model steps per sample of the testbench's stimuli and their rate, for a
+    core stepping ``dt`` s. About 1 kHz (a sample every millisecond, as a HIL controller's period):
+    at the default 1 us step, CHUNK steps at exactly 1000 Hz; a core slower than 1 ms a step
+    (a [hardware] dt of 2 ms, 10 ms) gets a sample every step."""
+    chunk = max(1, int(round(1e-3 / dt)))
+    if chunk == CHUNK and abs(chunk * dt - 1e-3) <= 1e-15:
+        return chunk, 1000.0
+    return chunk, 1.0 / (chunk * dt)

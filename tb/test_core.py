@@ -43,7 +43,7 @@ import random
 
 import cocotb
 
-from pendtb import CHUNK, WINDOW_STIMULI
+from pendtb import WINDOW_STIMULI
 from simlib import (CoreBench, StepMismatch, core_ports, diff_text, overflow_scenario, ports, profile, simulator,
                     vectors)
 from tbconfig import QUICK_LONG_CHUNKS      # Icarus: ~1.5 k steps/s, so 10 ms instead of seconds
@@ -54,6 +54,12 @@ from tbconfig import QUICK_LONG_CHUNKS      # Icarus: ~1.5 k steps/s, so 10 ms i
 # runs it on the thesis preset, `make sim` on the default one). The test suite's ci profile runs
 # 200 (28 windows, 5600 steps: 40 CPU s less on a 2-core CI machine; `make sim` keeps 500).
 ICARUS_WINDOW = {"quick": 500, "ci": 200}
+
+
+def _chunk() -> int:
+    """Model steps per sample of the long runs' stimuli (1000 at the default 1 us step; one at a
+    slow core's 1 ms; ``tbconfig.sampling``), as the vectors were made."""
+    return vectors()["chunk"]
 
 
 def _window(stim: str, k0: int = 0) -> dict:
@@ -109,7 +115,7 @@ async def every_step(dut, stim):
 
 
 def _count_checker(dut, tb, run: dict, label: str, stats: dict):
-    """check(i) at boundary i*CHUNK: row, overflow flag, decoded counts (a run from a deposited
+    """check(i) at boundary i*_chunk(): row, overflow flag, decoded counts (a run from a deposited
     state first sets the testbench decoders: ``CoreBench.load_counts``), counts vs state, codes vs state."""
     v = vectors()
     cp = core_ports()
@@ -121,14 +127,14 @@ def _count_checker(dut, tb, run: dict, label: str, stats: dict):
     first_ovf = min(run["overflows"].values()) if run["overflows"] else None
 
     def check(i: int):
-        k = i * CHUNK
+        k = i * _chunk()
         got = tb.sample()
         want = tuple(int(x) for x in run["rows"][i])
         if got != want:
-            raise StepMismatch(f"{label}: first mismatch at step {k} (sampled every {CHUNK}): " + diff_text(got, want))
+            raise StepMismatch(f"{label}: first mismatch at step {k} (sampled every {_chunk()}): " + diff_text(got, want))
         want_ovf = int(first_ovf is not None and k > first_ovf)
         if int(dut.overflow.value) != want_ovf:
-            raise StepMismatch(f"{label}: overflow {int(dut.overflow.value)} at step {k} (sampled every {CHUNK}), "
+            raise StepMismatch(f"{label}: overflow {int(dut.overflow.value)} at step {k} (sampled every {_chunk()}), "
                                f"golden {want_ovf}{tb.overflow_terms()}")
         decoded = tb.counts()
         if decoded != tuple(int(c) for c in run["cnt"][i]):
@@ -165,8 +171,8 @@ async def _long_run(dut, name: str, label: str):
     tb = CoreBench(dut)
     await tb.start()
     stats = {}
-    await tb.run_chunks(run["input"][:chunks], CHUNK, _count_checker(dut, tb, run, label, stats))
-    dut._log.info("%s: %d steps from reset, bit-exact at every %dth; %s", label, chunks * CHUNK, CHUNK,
+    await tb.run_chunks(run["input"][:chunks], _chunk(), _count_checker(dut, tb, run, label, stats))
+    dut._log.info("%s: %d steps from reset, bit-exact at every %dth; %s", label, chunks * _chunk(), _chunk(),
                   "; ".join(f"{e.name} counts up to {stats[f'span_{e.name}']}, max |count - state/resolution| "
                             f"{stats[e.name]:.5f}" for e in core_ports().encoders))
     return stats
@@ -190,12 +196,12 @@ async def long_run_chirp(dut):
     def check(i):
         got, want = tb.sample(), tuple(int(x) for x in run["rows"][mid + i])
         if got != want:
-            raise StepMismatch(f"chirp long run: first mismatch at step {(mid + i) * CHUNK} (sampled every "
-                               f"{CHUNK}): " + diff_text(got, want))
-        assert int(dut.overflow.value) == 0, f"chirp: overflow at step {(mid + i) * CHUNK}{tb.overflow_terms()}"
-    await tb.run_chunks(run["input"][mid:mid + QUICK_LONG_CHUNKS], CHUNK, check)
+            raise StepMismatch(f"chirp long run: first mismatch at step {(mid + i) * _chunk()} (sampled every "
+                               f"{_chunk()}): " + diff_text(got, want))
+        assert int(dut.overflow.value) == 0, f"chirp: overflow at step {(mid + i) * _chunk()}{tb.overflow_terms()}"
+    await tb.run_chunks(run["input"][mid:mid + QUICK_LONG_CHUNKS], _chunk(), check)
     dut._log.info("chirp long run: %d steps from the golden state at step %d, bit-exact at every %dth",
-                  QUICK_LONG_CHUNKS * CHUNK, mid * CHUNK, CHUNK)
+                  QUICK_LONG_CHUNKS * _chunk(), mid * _chunk(), _chunk())
 
 
 @cocotb.test()
@@ -211,13 +217,13 @@ async def encoders_decode(dut):
     if at:
         tb = CoreBench(dut)
         await tb.start()
-        ovf = {n: s - at * CHUNK for n, s in run["overflows"].items()}
+        ovf = {n: s - at * _chunk() for n, s in run["overflows"].items()}
         await tb.load_state(run["enc_state"], any(s < 0 for s in ovf.values()))
         await tb.load_counts(run["cnt"][at])
         stats = {}
         part = dict(run, rows=run["rows"][at:], cnt=run["cnt"][at:], overflows=ovf)
-        await tb.run_chunks(run["input"][at:at + QUICK_LONG_CHUNKS], CHUNK,
-                            _count_checker(dut, tb, part, f"random levels from step {at * CHUNK} (encoders)", stats))
+        await tb.run_chunks(run["input"][at:at + QUICK_LONG_CHUNKS], _chunk(),
+                            _count_checker(dut, tb, part, f"random levels from step {at * _chunk()} (encoders)", stats))
     else:
         stats = await _long_run(dut, "random", "random levels (encoders)")
     moved = {e.name: stats[f"range_{e.name}"][1] - stats[f"range_{e.name}"][0] for e in core_ports().encoders}
@@ -226,7 +232,7 @@ async def encoders_decode(dut):
     if moved:
         assert any(s >= least for s in moved.values()), \
             f"no encoder moved {least} counts or more ({moved}): not an encoder test"
-        dut._log.info("encoders moved %s counts%s", moved, f" from step {at * CHUNK}" if at else " from reset")
+        dut._log.info("encoders moved %s counts%s", moved, f" from step {at * _chunk()}" if at else " from reset")
     else:
         dut._log.info("the plant has no encoder: its sensors are converters (checked by converters_code)")
 
@@ -256,8 +262,8 @@ async def converters_code(dut):
         # there, or a jump of two counts reads as both lines changing in one step
         await tb.load_counts(run["cnt"][mid])
         part = dict(run, rows=run["rows"][mid:], cnt=run["cnt"][mid:], overflows={})
-        checker = _count_checker(dut, tb, part, f"chirp from step {mid * CHUNK} (converters)", stats)
-        await tb.run_chunks(run["input"][mid:mid + QUICK_LONG_CHUNKS], CHUNK, checker)
+        checker = _count_checker(dut, tb, part, f"chirp from step {mid * _chunk()} (converters)", stats)
+        await tb.run_chunks(run["input"][mid:mid + QUICK_LONG_CHUNKS], _chunk(), checker)
     # every converter's code was checked bit-exact and against the rule on every compared row; at
     # least one must change (else not a converter test). A converter the plant leaves on one code (a
     # maglev's ball lying on its post: the gap's code) is named, with whether the whole golden chirp does too.
@@ -298,11 +304,11 @@ async def overflow_full_push(dut):
         def check(i):
             got, want = tb.sample(), tuple(int(x) for x in o["coarse"][i])
             if got != want:
-                raise StepMismatch(f"full push: first mismatch at step {i * CHUNK}: " + diff_text(got, want))
+                raise StepMismatch(f"full push: first mismatch at step {i * _chunk()}: " + diff_text(got, want))
             if int(dut.overflow.value):
-                raise StepMismatch(f"full push: overflow high at step {i * CHUNK}, golden model: first overflow at "
+                raise StepMismatch(f"full push: overflow high at step {i * _chunk()}, golden model: first overflow at "
                                    f"step {k_star}{tb.overflow_terms()}")
-        await tb.run_chunks(o["input"][:k0 // CHUNK], CHUNK, check)
+        await tb.run_chunks(o["input"][:k0 // _chunk()], _chunk(), check)
         how = "from reset"
     else:
         await tb.load_state(o["state"], False)

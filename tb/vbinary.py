@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from pendtb import CHUNK, core_ports_of, model_and_build, use_venv_tools
+from tbconfig import sampling
 
 
 def build(hdl_dir: Path, report: dict, core_ports, log=print) -> tuple[Path, float]:
@@ -61,25 +62,26 @@ def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log
     model, build_ = (build_.model, build_) if build_ is not None else model_and_build(model_path)
     ports = core_ports_of(build_)
     dt = build_.options.dt
-    t, u = Stimuli(model.interface.input).chirp()
-    n = int(round(seconds * 1000))
+    chunk, fs = sampling(dt)
+    t, u = Stimuli(model.interface.input).chirp(fs=fs)
+    n = int(round(seconds * fs))
     t, u = t[:n + 1], u[:n + 1]
     golden = GoldenModel(build_.graph, dt)
     ints = golden.input_integers(t, u)
-    u_chunks = ints.reshape(n, CHUNK)[:, 0]
+    u_chunks = ints.reshape(n, chunk)[:, 0]
     binary, build_s = build(hdl_dir, report, ports, log=log)
-    rows, wall = run(binary, ports, u_chunks)
+    rows, wall = run(binary, ports, u_chunks, chunk)
     Path(work).mkdir(parents=True, exist_ok=True)
     np.savetxt(Path(work) / "chirp_rows.txt", rows, fmt="%d", header=" ".join([*ports.outputs, "overflow"]))
     outputs = ports.outputs
     # golden (bit-exact) at the same boundaries
-    gold = golden.run_steps(np.append(ints, ints[-1]), every=CHUNK)
+    gold = golden.run_steps(np.append(ints, ints[-1]), every=chunk)
     grows = np.stack([np.asarray(gold.outputs[p], dtype=np.int64) for p in outputs], axis=1)
     diff = np.flatnonzero(np.any(rows[:, :len(outputs)] != grows[:n + 1], axis=1))
     first_diff = None
     if diff.size:
         k = int(diff[0])
-        first_diff = {"step": k * CHUNK, "ports": {p: [int(rows[k, i]), int(grows[k, i])]
+        first_diff = {"step": k * chunk, "ports": {p: [int(rows[k, i]), int(grows[k, i])]
                                                    for i, p in enumerate(outputs) if rows[k, i] != grows[k, i]}}
     # float simulator at the stimulus' sample times
     t_f = time.perf_counter()
@@ -93,9 +95,9 @@ def chirp_run(hdl_dir: Path, report: dict, work: Path, seconds: float = 2.0, log
         unit = iface.state(e.state).unit.replace("/", "_per_")
         accuracy[f"max_abs_{e.state}_error_{unit}"] = float(err.max())
         accuracy[f"at_t_{e.state}_s"] = float(t[int(np.argmax(err))])
-    steps = n * CHUNK
+    steps = n * chunk
     return {
-        "stimulus": f"Stimuli(input).chirp() first {seconds:g} s (1 kHz samples held per 1 us step)",
+        "stimulus": f"Stimuli(input).chirp() first {seconds:g} s ({fs:g} Hz samples held {chunk} steps of {dt:g} s)",
         "core": ports.module, "steps": steps, "simulated_s": steps * dt, "clock_cycles": steps * report["ii"],
         "build_s": round(build_s, 2), "wall_s": round(wall, 4),
         "steps_per_s": steps / wall, "cycles_per_s": steps * report["ii"] / wall, "real_time_factor": steps * dt / wall,

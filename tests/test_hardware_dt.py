@@ -166,3 +166,29 @@ def test_an_operating_point_a_converter_cannot_read_is_one_line(tmp_path, capsys
     path.write_text(RC, encoding="utf-8")
     rc, out, err = run_cli(capsys, "plant", "check", str(path))
     assert rc == 0 and "note: " not in out, out
+
+
+def test_make_sim_runs_a_core_that_steps_a_millisecond(tmp_path):
+    """Round J (F4): `make sim MODEL=...` refused a CSTR with [hardware] dt = 1 ms (and 0.1 ms,
+    10 us): the testbench sampled its stimuli as if every core stepped 1 us (a 1 MHz multisine, a
+    long run's input held 1000 steps). They are now sampled at the core's own step: a sample a
+    millisecond, every step at 1 ms."""
+    import re
+    import shutil
+    import subprocess
+    from pathlib import Path
+
+    if shutil.which("make") is None or shutil.which("iverilog") is None:
+        pytest.skip("no make or no Icarus")
+    repo = Path(__file__).resolve().parents[1]
+    slow = tmp_path / "rc_slow.toml"           # a 50 ms RC filter: Euler at 1 ms is stable
+    slow.write_text(RC.replace("tau = 1e-4", "tau = 0.05").replace(f"dt = {DT!r}", "dt = 0.001"), encoding="utf-8")
+    assert "dt = 0.001" in slow.read_text()
+    done = subprocess.run(["make", "sim", f"MODEL={slow}", "SIM=icarus", "TB_ARGS=--suite core"], cwd=repo,
+                          capture_output=True, text=True, timeout=900)
+    out = done.stdout + done.stderr
+    assert done.returncode == 0, out[-3000:]
+    found = re.search(r"\[icarus\] core: (\d+)/(\d+) passed", out)
+    assert found and found.group(1) == found.group(2) and int(found.group(1)) >= 12, out[-3000:]
+    assert "every-step windows of 999 steps" in out          # a 2 s multisine at a sample a step
+    shutil.rmtree(repo / "sim_build" / "rc_slow", ignore_errors=True)

@@ -237,7 +237,8 @@ def tb_modules():
     import golden_vectors
     import overflow_runs
     import resumed_runs
-    return SimpleNamespace(gv=golden_vectors, ov=overflow_runs, rr=resumed_runs)
+    import tbconfig
+    return SimpleNamespace(gv=golden_vectors, ov=overflow_runs, rr=resumed_runs, cfg=tbconfig)
 
 
 def _scenario(build, tb):
@@ -246,7 +247,7 @@ def _scenario(build, tb):
     graph = build.graph
     return tb.ov.golden_overflow(GoldenModel(graph, build.options.dt), graph, require_interface(graph),
                                     tb.rr.ports_of(graph), [n.name for n in tb.rr.state_nodes(graph)],
-                                    build.options.dt)
+                                    build.options.dt, *tb.cfg.sampling(build.options.dt))
 
 
 def _iface(build):
