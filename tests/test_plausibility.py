@@ -73,3 +73,42 @@ def test_a_file_pendc_wrote_is_in_seconds(tmp_path, capsys):
     line = _error(err)
     assert rc == 2 and "(pendc wrote it: seconds)" in line and "looks like milliseconds" not in line
     assert "so give it an input sampled at 33.84 kHz or more (pendc stimulus --rate 34000)" in line
+
+
+def test_a_lone_outlier_in_a_position_of_any_unit_is_named(tmp_path, capsys):
+    """Round J: one row of a user plant's position at 1e6 (a CSTR's temperature in K, a robot's
+    pitch in rad) was blamed on the simulation ('diverged') or accepted without a word: the
+    outlier checks knew metres and periodic angles only. A sample that leaves both neighbours by
+    ten times the column's own span is now an outlier, whatever the unit."""
+    model, data = write_buck(tmp_path, every=2)
+    lines = Path(data).read_text().splitlines()
+    head = next(k for k, ln in enumerate(lines) if ln.startswith("t,"))
+    k = head + 500
+    cells = lines[k].split(",")
+    cells[3] = "1000000.0"                                  # v_C
+    lines[k] = ",".join(cells)
+    bad = tmp_path / "outlier.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    rc, out, err = run_cli(capsys, "compare", bad, "--model", model)
+    line = _error(err)
+    assert rc == 2 and re.search(rf"line {k + 1}: v_C = 1e\+06 is an outlier \(it jumps more than [\d.]+ V away", line)
+    rc, out, err = run_cli(capsys, "compare", data, "--model", model)       # the clean record passes
+    assert rc == 0, err
+
+
+def test_a_still_column_with_one_count_of_flicker_is_no_outlier():
+    """A held position that reads one code off for a sample: its span is that code, not zero."""
+    from pendc.sim.plausibility import check_lone_spikes
+    from pendc.sim.table import Table
+
+    values = np.full(2000, 0.25)
+    values[700] += 0.0048828125                             # one 12-bit code of a 20 V converter
+    lsb = 20.0 / 4096
+    check_lone_spikes(Table(columns={}, meta={}, source="held.csv"), "v", values, "V", lsb)
+    values[700] = 30.0                                      # far beyond: still an outlier
+    try:
+        check_lone_spikes(Table(columns={}, meta={}, source="held.csv"), "v", values, "V", lsb)
+    except Exception as exc:
+        assert "row 701: v = 30 is an outlier" in str(exc)
+    else:
+        raise AssertionError("30 V among 0.25 V readings passed")

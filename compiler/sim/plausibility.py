@@ -42,6 +42,7 @@ POSITION_SPAN = {"m": 0.75}     # per unit: the longest travel (a 750 mm track)
 INPUT_MARGIN = 10.0             # x full scale: beyond it, a unit mistake or an outlier
 U_LIMIT = 100.0                 # V: INPUT_MARGIN x a 10 V input (the simulate command's check)
 ANGLE_SPIKE = 1.0               # rad
+LONE_SPIKE = 10.0               # x a position's own span: a sample that far from both neighbours is an outlier
 MAX_RAD_RATE = 60.0             # rad/s; a bench rig's angle stays below ~8π ≈ 25 rad/s
 MIN_RATE = 10.0                 # Hz
 RATE_LIMIT = {"m/s": 10.0,      # a bench rig's carriage moves well below 1 m/s
@@ -174,6 +175,19 @@ def check_spikes(table: Table, name: str, values: np.ndarray, limit: float, unit
             spike = (jump > limit) & (np.abs(v[2:] - v[:-2]) < 0.5 * jump)
         if spike.any():
             _spike_error(table, name, values, start + int(np.argmax(spike)) + 1, limit, unit)
+
+
+def check_lone_spikes(table: Table, name: str, values: np.ndarray, unit: str, resolution: float | None) -> None:
+    """A sample that leaves both neighbours, which agree, by more than ``LONE_SPIKE`` times the
+    column's own span (its 0.5th to 99.5th percentile, so a few wild rows do not widen it) or
+    than ``LONE_SPIKE`` steps of its sensor (``resolution``: a still position's one-code flicker):
+    an outlier in a position of any unit (a temperature of 1e6 K among 350 K ones, a wheel angle
+    of 1e30 rad). The positions whose unit a rig's limits know are checked by those limits too."""
+    if len(values) < 3 or not np.all(np.isfinite(values)):
+        return
+    low, high = np.percentile(values, [0.5, 99.5])
+    scale = max(float(high - low), resolution or 0.0, float(np.max(np.abs([low, high]))) * 1e-6, 1e-300)
+    check_spikes(table, name, values, LONE_SPIKE * scale, unit)
 
 
 def _spike_error(table: Table, name: str, values: np.ndarray, k: int, limit: float, unit: str) -> None:

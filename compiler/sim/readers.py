@@ -319,7 +319,8 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
     sig = options.signals
     t = columns[TIME]
     plaus.check_time(table, t)
-    angles = [a for a in sig.periodic if a in columns and sig.unit(a) == "rad"]
+    # every position in radians, periodic or not (a robot's wheel angle, a link's)
+    angles = [a for a in sig.positions if a in columns and sig.unit(a) == "rad"]
     for name in [p for p in sig.periodic if p in columns]:
         # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
         unwrapped, wraps = plaus.unwrap_if_wrapped(columns[name], sig.period(name))
@@ -331,6 +332,8 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
             plaus.check_spikes(table, name, columns[name], plaus.ANGLE_SPIKE, "rad")
     if options.plausible:
         _check_limits(table, columns, options)
+        for name in [p for p in sig.positions if p in columns and p not in sig.periodic]:
+            plaus.check_lone_spikes(table, name, columns[name], sig.unit(name), sig.resolution(name))
     for name in angles:
         if name not in options.units:     # a unit given for the column is taken at its word
             plaus.check_radians(table, t, columns[name], False, name, declared_rate(sig, sig.rate(name)))
