@@ -192,3 +192,6 @@ def test_a_json_key_ends_with_no_dimensionless_unit(unit):
 
     assert unit_key("max_abs_x", unit) == "max_abs_x"
     assert unit_key("max_abs_x", "m") == "max_abs_x_m" and unit_key("hold_w", "rad/s") == "hold_w_rad_per_s"
+    # round J: a key kept the '^' of mol/m^3
+    assert unit_key("max_abs_C_A", "mol/m^3") == "max_abs_C_A_mol_per_m3"
+    assert unit_key("hold_q", "W/(m^2*K)") == "hold_q_W_per_m2_K"

@@ -291,10 +291,14 @@ def unit_name(unit: str) -> str:
 
 
 def unit_key(name: str, unit: str) -> str:
-    """``name`` and ``unit`` as one JSON key, '/' as "_per_" (``max_abs_x_m``,
-    ``hold_w_rad_per_s``); ``name`` alone for a dimensionless unit (``max_abs_d``, not
-    ``max_abs_d_-``)."""
-    return name if is_dimensionless(unit) else f"{name}_{unit.strip().replace('/', '_per_')}"
+    """``name`` and ``unit`` as one JSON key of word characters: '/' as "_per_", '*' as '_', a
+    power's '^' dropped and brackets left out (``max_abs_x_m``, ``hold_w_rad_per_s``,
+    ``max_abs_C_A_mol_per_m3``, ``hold_T_W_per_m2_K``); ``name`` alone for a dimensionless unit
+    (``max_abs_d``, not ``max_abs_d_-``)."""
+    if is_dimensionless(unit):
+        return name
+    spelled = unit.strip().replace("/", "_per_").replace("*", "_").replace("^", "")
+    return f"{name}_{''.join(c for c in spelled if c not in '() ')}"
 
 
 def graph_interface(graph) -> PlantInterface | None:
