@@ -319,8 +319,7 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
     sig = options.signals
     t = columns[TIME]
     plaus.check_time(table, t)
-    # every position in radians, periodic or not (a robot's wheel angle, a link's)
-    angles = [a for a in sig.positions if a in columns and sig.unit(a) == "rad"]
+    angles = [a for a in sig.positions if a in columns and sig.unit(a) == "rad"]   # periodic or not
     for name in [p for p in sig.periodic if p in columns]:
         # unwrap first: a wrapped angle balancing at +-pi jumps a turn and back
         unwrapped, wraps = plaus.unwrap_if_wrapped(columns[name], sig.period(name))
@@ -332,8 +331,6 @@ def _check(table: Table, columns: dict, options: ReadOptions, notes: list) -> No
             plaus.check_spikes(table, name, columns[name], plaus.ANGLE_SPIKE, "rad")
     if options.plausible:
         _check_limits(table, columns, options)
-        for name in [p for p in sig.positions if p in columns and p not in sig.periodic]:
-            plaus.check_lone_spikes(table, name, columns[name], sig.unit(name), sig.resolution(name))
     for name in angles:
         if name not in options.units:     # a unit given for the column is taken at its word
             plaus.check_radians(table, t, columns[name], False, name, declared_rate(sig, sig.rate(name)))
@@ -346,8 +343,8 @@ def _unit_hint(options: ReadOptions, name: str, suggestion: str) -> str:
 
 
 def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
-    """The input, the positions and the rates within a rig's limits (by unit): a few rows beyond
-    are outliers, many a unit mistake."""
+    """The input, positions and rates within a rig's limits (by unit; a few rows beyond are
+    outliers, many a unit mistake), and a lone spike in a position of any unit."""
     sig = options.signals
     spec = sig.interface.input
     if spec.name in columns:
@@ -374,6 +371,8 @@ def _check_limits(table: Table, columns: dict, options: ReadOptions) -> None:
         plaus.check_bounded(table, name, values, limit, unit,
                             f"the {sig.label(name)} spans {with_unit(f'{span:g}', unit)} at most",
                             (_spelled(guess), _unit_hint(options, name, guess)))
+    for name in [p for p in sig.positions if p in columns and p not in sig.periodic]:
+        plaus.check_lone_spikes(table, name, columns[name], sig.unit(name), sig.resolution(name))
     for name in [r for r in sig.rates if r in columns and sig.unit(r) in plaus.RATE_LIMIT]:
         limit = max(plaus.RATE_LIMIT[sig.unit(name)], plaus.DECLARED_MARGIN * declared_rate(sig, name))
         plaus.check_bounded(table, name, columns[name], limit, "per s",
