@@ -14,7 +14,8 @@ from pendc.ir.nodes import Kind
 from pendc.ir.qformat import QFormat
 from pendc.ir.verify import verify
 from pendc.model.modelfile import default_model_path, parse_model
-from pendc.passes.pipeline import BuildOptions, compile_model, options_from_model, training_stimuli
+from pendc.passes.pipeline import (BuildOptions, check_hardware_names, compile_model, options_from_model,
+                                   training_stimuli)
 from pendc.passes.resources import estimate_resources
 from plants import DEFAULT
 
@@ -177,6 +178,10 @@ def test_a_name_the_hardware_table_gets_wrong_names_the_file(table, says):
     plant file that did not name the file."""
     with pytest.raises(PendcError, match=rf"^hw\.toml: \[hardware\] {re.escape(says)}"):
         compile_model(with_hardware(table))
+    # plant check says it before any build (round J, N6): it passed such a file
+    with pytest.raises(PendcError, match=rf"^hw\.toml: \[hardware\] {re.escape(says)}"):
+        check_hardware_names(with_hardware(table))
+    check_hardware_names(with_hardware("[hardware.ranges]\nx = 0.5\n[hardware.budget]\nx = 1e-4\n"))
 
 
 def test_unknown_keyword_override_is_rejected(model):

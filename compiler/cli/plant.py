@@ -177,7 +177,7 @@ def cmd_plant_check(args) -> int:
     from ..model.interface import unit_name
     from ..model.modelfile import load_model
     from ..model.modes import euler_note
-    from ..passes.pipeline import options_from_model
+    from ..passes.pipeline import check_hardware_names, options_from_model
 
     model = load_model(args.file)
     d, eq, iface = model.definition, model.equations, model.interface
@@ -207,7 +207,10 @@ def cmd_plant_check(args) -> int:
         out.append(f"  {ddt}{show(state)} = {show(derivative)}")
     if eq.velocity_bound is not None:
         out.append(f"  after each step: |rate| <= {show(eq.velocity_bound)}")
-    out.append(euler_note(model, options_from_model(model).dt))
+    options = options_from_model(model)
+    if options.budget or options.ranges or options.qformats:    # the names a build would refuse
+        check_hardware_names(model, options)
+    out.append(euler_note(model, options.dt))
     out += _unreadable_states(model)
     sys.stdout.write("\n".join(out) + "\n")
     return 0

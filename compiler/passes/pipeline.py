@@ -249,15 +249,35 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
         raise
 
 
-def _compile(model: PlantModel, opt: BuildOptions) -> BuildResult:
-    budgets = opt.budgets_for(model.interface)
+def check_hardware_names(model: PlantModel, opt: BuildOptions | None = None) -> Graph:
+    """The untyped graph the passes start from, after checking that the states and nodes the
+    options name (budgets, range and Q-format overrides) are the plant's: ``pendc plant check``
+    says so before a build, in one line naming the file."""
+    opt = opt or options_from_model(model)
+    try:
+        opt.budgets_for(model.interface)
+        graph = _untyped(model, opt)
+        _require_nodes(graph, opt.ranges, "range")
+        _require_nodes(graph, opt.qformats, "Q-format")
+    except PendcError as exc:
+        if model.source and str(exc).startswith("[hardware"):
+            raise PendcError(f"{model.source}: {exc}") from None
+        raise
+    return graph
+
+
+def _untyped(model: PlantModel, opt: BuildOptions) -> Graph:
     short = opt.short_chain
     graph = _checked(lower_model(model, dt=opt.dt, fold_dt=short, turns_phase=short, deep_last=short,
                                  narrow_abs=short, lookahead=short, clamp_on_increment=short,
                                  sum_into_mux=short), "lower_model")
     graph = _checked(fold_constants(graph), "fold_constants")
-    graph = _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
-    untyped = graph
+    return _checked(eliminate_common_subexpressions(graph), "eliminate_common_subexpressions")
+
+
+def _compile(model: PlantModel, opt: BuildOptions) -> BuildResult:
+    budgets = opt.budgets_for(model.interface)
+    graph = untyped = _untyped(model, opt)
     _require_nodes(graph, opt.ranges, "range")
     _require_nodes(graph, opt.qformats, "Q-format")
     ranges = analyze_ranges(graph, training_stimuli(model.interface.input, opt.training_scale), opt.dt, overrides=opt.ranges,
