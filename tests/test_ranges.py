@@ -332,3 +332,56 @@ def test_a_held_input_parts_slow_coupled_states():
     assert t.tolist() == [0.0, 60.0] and u.tolist() == [100.0, 100.0]
     g, (t, u) = runs["envelope:hold_low"]
     assert (g["T1"].param("reset"), g["T2"].param("reset")) == (380.0, 380.0) and u.tolist() == [0.0, 0.0]
+
+
+RUNAWAY = """
+[plant]
+name = "runaway"
+core = "runaway_core"
+summary = "a state that grows on its own once it is high (an exothermic reactor's temperature)"
+k = 5.0
+
+[constants]
+k = { unit = "1/s", meaning = "growth rate", bounds = [0.1, 10.0] }
+
+[states.x]
+unit = "1"
+meaning = "normalised temperature"
+derivative = "k*(x*x - x/5 + u)"
+initial = 0.0
+range = [0.0, 1.0]
+
+[inputs.u]
+unit = "1"
+meaning = "heating"
+range = [0.0, 0.1]
+neutral = 0.0
+
+[sensors.adc_x]
+kind = "adc"
+state = "x"
+bits = 12
+range = [0.0, 1.0]
+
+[hardware]
+dt = 1e-4
+hold_seconds = 10.0
+"""
+
+
+def test_a_run_from_the_top_of_a_declared_range_counts_until_the_plant_leaves_it():
+    """Round J: a CSTR started at the top of its declared 300-420 K ran away to 628 K in the range
+    analysis' runs from the ranges' ends, and its Arrhenius table, sized for that, was 6 % wrong at
+    350 K. Those runs (and the held ones) now count until a ranged state leaves its range by a
+    tenth of it: here x' = 5 (x^2 - x/5 + u) blows up from x = 1 within a second."""
+    from pendc.model.modelfile import parse_model
+    from pendc.passes.pipeline import check_hardware_names, options_from_model, training_stimuli
+    from pendc.passes.ranges import RANGE_SLACK, analyze_ranges
+
+    model = parse_model(RUNAWAY, source="runaway.toml")
+    opt = options_from_model(model)
+    graph = check_hardware_names(model, opt)
+    ranges = analyze_ranges(graph, training_stimuli(model.interface.input, opt.training_scale), opt.dt,
+                            hold=opt.hold_seconds)
+    assert "envelope:range_high" in ranges.sources and "envelope:hold_high" in ranges.sources
+    assert 1.0 < ranges["x"] <= 1.0 + RANGE_SLACK + 0.01        # the step that left it, and no further

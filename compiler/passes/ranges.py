@@ -138,16 +138,31 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
         runs += envelope_runs(graph, hold)
     port = input_port(graph)
 
-    def training_run(runner, t, u):
+    def training_run(runner, t, u, every=None):
         def run():
             steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
             # the kernel keeps each node's extremes; recording the outputs or the LUT inputs at every
             # step of the training runs (tens of millions) took gigabytes: one row is recorded
-            return runner.run({port: steps}, track_max=True, every=max(1, len(steps)))
+            return runner.run({port: steps}, track_max=True, every=every or max(1, len(steps)))
         return run
 
-    calls = [training_run(_runner(g, engine), t, u) for _, g, (t, u) in runs]
+    ranged = _ranged_ports(graph)
+    held = [name.startswith(("envelope:hold_", "envelope:range_")) and bool(ranged) for name, _, _ in runs]
+    calls = [training_run(_runner(g, engine), t, u, _every(t, dt) if hold_run else None)
+             for (_, g, (t, u)), hold_run in zip(runs, held)]
     traces = run_side_by_side(calls) if engine == "compiled" else [call() for call in calls]
+    for k, ((_, g, (t, u)), hold_run) in enumerate(zip(runs, held)):
+        # a run from the ranges' ends, or a held input, drives a plant that runs away (an exothermic
+        # reactor from the top of its temperature range) far beyond the range its file declares it
+        # works in: the run counts until a ranged state leaves that range by a tenth of it (beyond,
+        # in operation, the core's overflow flag says so)
+        out = _range_exit(traces[k], ranged) if hold_run else None
+        if out is not None:
+            steps = per_step(np.asarray(u, float), np.asarray(t, float), dt)
+            end = _exit_step(lambda n, every, g=g: _runner(g, engine).run({port: steps[:n]}, track_max=True,
+                                                                          every=every),
+                             out * _every(t, dt), _every(t, dt), ranged)
+            traces[k] = _runner(g, engine).run({port: steps[:max(end, 1)]}, track_max=True, every=max(end, 1))
     for trace in traces:
         for node, value in trace.max_abs.items():
             max_abs[node] = max(max_abs[node], float(value))
@@ -168,6 +183,53 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     max_abs.update({k: float(v) for k, v in overrides.items()})
     return Ranges(max_abs=max_abs, lo=lo, hi=hi, sources=tuple(name for name, _, _ in runs),
                   overridden=tuple(sorted(overrides)))
+
+
+RANGE_SLACK = 0.1       # of a declared range: how far a held run may leave it and still count
+HOLD_ROWS = 4096        # rows a held run records of its ranged states, to find where it leaves them
+
+
+def _ranged_ports(graph: Graph) -> dict:
+    """``{output port: (low, high)}`` of the reported states whose plant file declares a range,
+    widened by :data:`RANGE_SLACK` of it."""
+    iface = graph_interface(graph)
+    spans = {s.name: s.working_range for s in (iface.states if iface else ()) if s.working_range is not None}
+    out = {}
+    for port, node in graph.outputs:
+        if node in spans:
+            low, high = spans[node]
+            slack = RANGE_SLACK * (high - low)
+            out[port] = (low - slack, high + slack)
+    return out
+
+
+def _every(t, dt: float) -> int:
+    """Steps between the recorded rows of a held run (about HOLD_ROWS rows)."""
+    return max(1, int(round((float(t[-1]) - float(t[0])) / dt)) // HOLD_ROWS)
+
+
+def _exit_step(run, n: int, every: int, ranged: dict) -> int:
+    """The first step after which a ranged state lies outside its widened range, given that it
+    does after ``n`` steps (a row recorded ``every`` steps): ``run(n, every)`` runs the first
+    ``n`` steps recording every ``every``-th; the recording grows finer, HOLD_ROWS rows at a time."""
+    while every > 1 and n > 1:
+        every = max(1, n // HOLD_ROWS)
+        row = _range_exit(run(n, every), ranged)
+        if row is None:            # not within those steps after all (rounding): keep them all
+            return n
+        n = row * every
+    return n
+
+
+def _range_exit(trace, ranged: dict) -> int | None:
+    """The first recorded row at which a ranged state lies outside its widened range, else None."""
+    first = None
+    for port, (low, high) in ranged.items():
+        values = np.asarray(trace.outputs.get(port, ()), dtype=float)
+        outside = np.flatnonzero((values < low) | (values > high))
+        if outside.size:
+            first = int(outside[0]) if first is None else min(first, int(outside[0]))
+    return first
 
 
 def _runner(graph: Graph, engine: str):
