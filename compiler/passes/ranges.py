@@ -121,7 +121,9 @@ def analyze_ranges(graph: Graph, stimuli: dict, dt: float, overrides: dict | Non
     """Record each node's max |value| over ``stimuli`` (name -> (t, u)) in float semantics.
 
     ``engine`` is "compiled" (numba kernel, for real runs) or "interpreter" (slow,
-    for tiny tests). ``overrides`` (node -> max |value|) replace what was measured.
+    for tiny tests). ``overrides`` (node -> max |value|) replace what was measured. The envelope's
+    runs from the declared ranges' ends and its held runs count only until a ranged state leaves
+    its range by :data:`RANGE_SLACK` of it (a plant that runs away from there).
     ``envelope`` adds the runs of :func:`envelope_runs` (full-scale input, track ends, a
     spinning pendulum), so a controller's worst case stays in range; their names are listed
     in ``sources`` as ``envelope:...``. By default (None) they run for graphs lowered from a
