@@ -295,3 +295,19 @@ def test_levels_widen_one_side_then_both(build, tabulated):
     assert g1[g1[mul].inputs[0]].qformat.width > 18 and g1[g1[mul].inputs[1]].qformat.width <= 18
     g2 = assign(build, tabulated, shape=(18, 18), levels={gain: 2})
     assert g2[gain] == assign(build, tabulated)[gain]                         # the 32-bit rule again
+
+
+def test_an_overridden_operand_goes_into_its_multiplier_whole():
+    """Round J: a CSTR's rate table overridden to FIX32_20 was cut back to the 18-bit DSP word
+    (FIX18_6, coarser than before) in front of its product: the override did nothing. An operand
+    whose format the file sets goes in whole up to a multiplier's 32 bits."""
+    nodes = [make("a", Kind.INPUT, port="u"), make("b", Kind.INPUT, port="w"), make("p", Kind.MUL, ["a", "b"]),
+             make("r", Kind.REGISTER, ["q"], reset=0.0), make("q", Kind.ADD, ["r", "p"])]
+    g = Graph.build("h", nodes, [("q", "q")])
+    ranges = Ranges(max_abs={"a": 1000.0, "b": 3.0, "p": 3000.0, "r": 5000.0, "q": 5000.0}, lo={}, hi={},
+                    sources=("hand",))
+    plain = assign_qformats(g, ranges, width=32, shape=(18, 18), levels={"p": 0})
+    assert plain["p"].inputs == ("a_m18", "b_m18")
+    kept = assign_qformats(g, ranges, width=32, shape=(18, 18), levels={"p": 0}, overrides={"a": "FIX32_20"})
+    verify(kept, typed=True)
+    assert kept["p"].inputs == ("a", "b_m18") and kept["a"].qformat == Q("FIX32_20")

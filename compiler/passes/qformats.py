@@ -151,7 +151,7 @@ def assign_qformats(graph: Graph, ranges: Ranges, width: int = 32, margin_bits: 
             n = n.with_params(cfmt=thesis_format(abs(n.params.value), min(CONST_BITS, limits(n)[1])))
         return n
 
-    return _fit_aligned_sums(_narrow_multiplier_operands(graph.map_nodes(typed), limits))
+    return _fit_aligned_sums(_narrow_multiplier_operands(graph.map_nodes(typed), limits, set(overrides)))
 
 
 INCREMENT_GUARD_BITS = 8
@@ -205,9 +205,12 @@ def accumulator_chain(graph: Graph, register: str) -> list:
     return chain
 
 
-def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
+def _narrow_multiplier_operands(graph: Graph, limits, keep: set = frozenset()) -> Graph:
     """Insert a CAST in front of every multiplier operand wider than its limit (dropping
-    fraction bits), and in front of a table input whose interpolation fraction would be.
+    fraction bits), and in front of a table input whose interpolation fraction would be. An
+    operand whose Q-format the file sets (``keep``: [hardware.qformats]) goes in whole up to a
+    multiplier's 32 bits, the multiplier as wide as it (a CSTR's rate table set to FIX32_20 was
+    cut back to the DSP word, FIX18_6).
 
     The plant's input is held for a control period, so rounding it once is an offset over the
     hold that the integrators turn into a drift (issue 23: a held step parted x from its float
@@ -220,6 +223,8 @@ def _narrow_multiplier_operands(graph: Graph, limits) -> Graph:
 
     def narrowed(i: str, bits: int) -> str:
         fmt = graph[i].qformat
+        if i in keep:                 # as wide as a multiplier takes (32 bits), not the DSP word
+            bits = max(bits, MULT_OPERAND_BITS)
         if fmt.width <= bits:
             return i
         key = (i, bits)
