@@ -52,6 +52,4 @@ def sampling(dt: float) -> tuple[int, float]:
     at the default 1 us step, CHUNK steps at exactly 1000 Hz; a core slower than 1 ms a step
     (a [hardware] dt of 2 ms, 10 ms) gets a sample every step."""
     chunk = max(1, int(round(1e-3 / dt)))
-    if chunk == CHUNK and abs(chunk * dt - 1e-3) <= 1e-15:
-        return chunk, 1000.0
-    return chunk, 1.0 / (chunk * dt)
+    return chunk, 1.0 / (chunk * dt)        # exactly 1000.0 at 1 us (and 0.25, 0.5, 10, 100 us, 1 ms)

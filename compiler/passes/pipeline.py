@@ -240,12 +240,10 @@ def compile_model(model: PlantModel, options: BuildOptions | None = None) -> Bui
     opt = validate_options(options) if options is not None else options_from_model(model)
     try:
         return _compile(model, opt)
-    except PendcError as exc:
+    except PendcError:
         words = euler_instability(model, opt.dt)
         if words:
             raise PendcError(f"{model.source or model.name}: [hardware] dt: {words}") from None
-        if model.source and str(exc).startswith("[hardware"):      # a node or state the file names
-            raise PendcError(f"{model.source}: {exc}") from None
         raise
 
 
@@ -276,10 +274,8 @@ def _untyped(model: PlantModel, opt: BuildOptions) -> Graph:
 
 
 def _compile(model: PlantModel, opt: BuildOptions) -> BuildResult:
+    graph = untyped = check_hardware_names(model, opt)
     budgets = opt.budgets_for(model.interface)
-    graph = untyped = _untyped(model, opt)
-    _require_nodes(graph, opt.ranges, "range")
-    _require_nodes(graph, opt.qformats, "Q-format")
     ranges = analyze_ranges(graph, training_stimuli(model.interface.input, opt.training_scale), opt.dt, overrides=opt.ranges,
                             engine=opt.engine, hold=opt.hold_seconds)
     graph = _checked(tabulate_luts(graph, ranges, margin=opt.lut_margin, addr_bits=opt.lut_addr_bits),
